@@ -1,0 +1,13 @@
+"""fluids-bench: imitation-learning environments centred on the FLUIDS driving simulator.
+
+Importing the package registers every environment id with Gymnasium, so
+``gym.make("FLUIDS-v0")`` works after ``import fluids_bench``.
+"""
+
+from fluids_bench.envs.registration import register_envs
+
+__version__ = "0.1.0"
+
+register_envs()
+
+__all__ = ["__version__", "register_envs"]

@@ -1,0 +1,1 @@
+"""Imitation-learning algorithms: one readable module each."""

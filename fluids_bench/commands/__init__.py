@@ -1,0 +1,1 @@
+"""Subcommands of the ``fluids-bench`` command line (see :mod:`fluids_bench.cli`)."""

@@ -1,0 +1,1 @@
+"""The FLUIDS simulator: numpy and shapely only (no gymnasium import)."""

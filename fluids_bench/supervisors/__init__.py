@@ -1,0 +1,1 @@
+"""Algorithmic supervisors: one per task, all honouring :mod:`fluids_bench.supervisors.base`."""

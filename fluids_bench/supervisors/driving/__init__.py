@@ -1,0 +1,1 @@
+"""FLUIDS' four-level supervisor: behaviour, nominal trajectory, velocity, control."""
