@@ -67,6 +67,23 @@ def _signal_lights(arm_angles, phase_of, green, yellow, all_red, crosswalk_light
     return lights
 
 
+def _corner_arc(src: float, dst: float, offset: float, corner: float, left: bool):
+    """A turn concentric with the kerb between arms ``src`` and ``dst``: it starts where the kerb
+    starts curving (``corner`` m from the centre), ``offset`` m from the road's centre line, so
+    the car keeps its lane's distance from the kerb all the way round."""
+    centre = corner * (_unit(src) + _unit(dst))
+    start = corner * _unit(src) + offset * _right(src + 180)
+    end = corner * _unit(dst) + offset * _right(dst)
+    a0 = math.atan2(*(start - centre)[::-1])
+    a1 = math.atan2(*(end - centre)[::-1])
+    if left:
+        a1 += 2 * math.pi if a1 <= a0 else 0.0
+    else:
+        a1 -= 2 * math.pi if a1 >= a0 else 0.0
+    radius = float(np.hypot(*(start - centre)))
+    return tuple(_pt(p) for p in arc(centre, radius, a0, a1, 0.5))
+
+
 def _arms(arm_angles, lanes, lane_width, lane_length, curb_radius, crosswalk_width, speed_limit,
           lights_on, core, turn_via=None):
     """Lanes, routes, crosswalks and walks for arms at ``arm_angles`` (degrees)."""
@@ -108,7 +125,12 @@ def _arms(arm_angles, lanes, lane_width, lane_length, curb_radius, crosswalk_wid
                 if lanes > 1 and ((turn == 90 and i != 0) or (turn == 270 and i != lanes - 1)):
                     continue  # left turns from the inner lane, right turns from the outer
                 j = 0 if turn == 90 else lanes - 1 if turn == 270 else i
-                via = turn_via(deg, target, i, j) if turn_via else ()
+                if turn_via is not None:
+                    via = turn_via(deg, target, i, j)
+                elif turn == 0:
+                    via = ()
+                else:
+                    via = _corner_arc(deg, target, (i + 0.5) * lane_width, hw + curb_radius, turn == 90)
                 routes.append(CarRoute(f"{ARM_NAMES[deg]}_in_{i}", f"{ARM_NAMES[target]}_out_{j}", via))
     return lane_objs, routes, crosswalks, walks, roads, far
 
@@ -121,7 +143,7 @@ def _junction(kind: str, arm_angles, lanes, lights, pedestrians, lane_length, la
     _check_range("speed_limit", speed_limit, 1.0, 40.0)
     for name, v in (("green", green), ("yellow", yellow), ("all_red", all_red)):
         _check_range(name, v, 0.5, 300.0)
-    curb, cw_width = 3.0, 3.0
+    curb, cw_width = 6.0, 3.0
     hw = lanes * lane_width
     core = hw if core is None else core
     lane_objs, routes, crosswalks, walks, roads, far = _arms(

@@ -25,9 +25,10 @@ CAR, PEDESTRIAN = 0, 1
 class RouteTable:
     """All paths of a layout, cars first then walks, padded to a common length.
 
-    ``stop_s`` is where the agent must wait when its light says stop (a lane's stop line, or the
-    kerb before a crosswalk); ``clear_s`` is where it has left the shared zone (an exit lane's
-    start, the far kerb). Arc lengths are metres along the path; ``inf`` when absent.
+    ``enter_s`` is where the shared zone begins (a lane's end, the kerb before a crosswalk);
+    ``stop_s`` is the same place when a light governs it (else ``inf``); ``clear_s`` is where the
+    agent has left the shared zone (an exit lane's start, the far kerb). Arc lengths are metres
+    along the path; ``inf`` when absent.
     """
 
     names: tuple[str, ...]
@@ -37,6 +38,7 @@ class RouteTable:
     curvature: np.ndarray  # (R, M) 1/m
     speed_limit: np.ndarray  # (R, M) m/s (inf for walks)
     length: np.ndarray  # (R,) m
+    enter_s: np.ndarray  # (R,)
     stop_s: np.ndarray  # (R,)
     clear_s: np.ndarray  # (R,)
     light: np.ndarray  # (R,) index into Layout.lights, -1 if none
@@ -62,6 +64,15 @@ class Layout:
     terrain: shapely.Geometry
     routes: RouteTable
     entry_lanes: tuple[str, ...]
+
+    @functools.cached_property
+    def drivable_tolerant(self) -> shapely.Geometry:
+        """The drivable area grown by the off-road tolerance, prepared for fast predicates."""
+        from fluids_bench.sim.collision import OFFROAD_TOLERANCE
+
+        g = self.drivable.buffer(OFFROAD_TOLERANCE)
+        shapely.prepare(g)
+        return g
 
     @property
     def name(self) -> str:
@@ -147,7 +158,7 @@ def compile_layout(spec: LayoutSpec) -> Layout:
 
     light_index = {light.name: i for i, light in enumerate(spec.lights)}
     entry_lanes = spec.entry_lanes
-    paths, names, kinds, stops, clears, lights, entries, limits = [], [], [], [], [], [], [], []
+    paths, names, kinds, enters, stops, clears, lights, entries, limits = ([] for _ in range(9))
     for route in spec.routes:
         path, stop_s, clear_s = _car_path(spec, route)
         entry, exit_ = spec.lane(route.entry), spec.lane(route.exit)
@@ -156,6 +167,7 @@ def compile_layout(spec: LayoutSpec) -> Layout:
         paths.append(path)
         names.append(route.name)
         kinds.append(CAR)
+        enters.append(stop_s)
         stops.append(stop_s if entry.light is not None else np.inf)
         clears.append(clear_s)
         lights.append(light_index[entry.light] if entry.light is not None else -1)
@@ -166,7 +178,8 @@ def compile_layout(spec: LayoutSpec) -> Layout:
         paths.append(path)
         names.append(walk.name)
         kinds.append(PEDESTRIAN)
-        stops.append(stop_s)
+        enters.append(stop_s)
+        stops.append(stop_s if light >= 0 else np.inf)
         clears.append(clear_s)
         lights.append(light)
         entries.append(-1)
@@ -180,12 +193,13 @@ def compile_layout(spec: LayoutSpec) -> Layout:
         curvature=_pad([curvature(p) for p in paths], width),
         speed_limit=_pad(limits, width),
         length=np.asarray([(len(p) - 1) * PATH_SPACING for p in paths]),
+        enter_s=np.asarray(enters, dtype=float),
         stop_s=np.asarray(stops, dtype=float),
         clear_s=np.asarray(clears, dtype=float),
         light=np.asarray(lights, dtype=np.int64),
         entry=np.asarray(entries, dtype=np.int64),
     )
     for arr in (table.kind, table.path, table.heading, table.curvature, table.speed_limit,
-                table.length, table.stop_s, table.clear_s, table.light, table.entry):
+                table.length, table.enter_s, table.stop_s, table.clear_s, table.light, table.entry):
         arr.setflags(write=False)  # shared by every world on this layout
     return Layout(spec, drivable, sidewalks, crosswalks, terrain, table, entry_lanes)

@@ -127,6 +127,12 @@ class CarRoute:
     exit: str
     via: tuple[Point, ...] = ()  # intermediate points (e.g. around a roundabout), else a Bézier
 
+    def __post_init__(self) -> None:
+        via = _check_points(f"route '{self.name}'", "via", self.via, 0)
+        if len(via) == 1:
+            _fail(f"route '{self.name}'", "via", self.via, "no points, or at least 2")
+        object.__setattr__(self, "via", via)
+
     @property
     def name(self) -> str:
         return f"{self.entry}->{self.exit}"

@@ -1,0 +1,168 @@
+"""The FLUIDS world: struct-of-arrays state of every agent, one vectorised ``step``.
+
+Agent 0 is always the ego car; cars come first, pedestrians after. Each agent follows its own
+copy of a path (its route's, or a recovery path planned back to it), stored resampled every
+``PATH_SPACING`` metres so that progress ``s`` (m along the path) indexes it directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fluids_bench.sim.collision import find_collisions, footprint_corners
+from fluids_bench.sim.config import SceneConfig
+from fluids_bench.sim.dynamics import integrate
+from fluids_bench.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
+from fluids_bench.sim.layout.geometry import PATH_SPACING
+from fluids_bench.sim.lights import LightProgram
+
+GOAL_TOLERANCE = 0.5  # m between an arriving agent's front and the end of its path
+RECOVERY_ROOM = 160  # extra path samples per agent, for recovery paths longer than the route
+
+
+@dataclass(frozen=True)
+class Collision:
+    step: int
+    a: int
+    b: int  # -1 for offroad
+    kind: str
+
+    def as_dict(self) -> dict:
+        return {"step": self.step, "a": self.a, "b": self.b, "kind": self.kind}
+
+
+class World:
+    """All agents of one scene on one compiled layout. Mutated only by :meth:`step` and the
+    placement methods; readers (sensors, renderers, supervisors) must not write to its arrays."""
+
+    def __init__(self, scene: SceneConfig, layout: Layout | None = None) -> None:
+        self.scene = scene
+        self.layout = layout if layout is not None else compile_layout(scene.layout_spec())
+        self.dt = scene.dt
+        n_cars, n_peds = scene.num_cars, scene.num_pedestrians
+        n = n_cars + n_peds
+        self.n = n
+        self.kind = np.array([CAR] * n_cars + [PEDESTRIAN] * n_peds, dtype=np.int8)
+        self.is_car = self.kind == CAR
+        car, ped = scene.car, scene.pedestrian
+        self.length = np.where(self.is_car, car.length, 2 * ped.radius)
+        self.width = np.where(self.is_car, car.width, 2 * ped.radius)
+        self.max_speed = np.where(self.is_car, car.max_speed, ped.max_speed)
+        # dynamics parameters [mass, l_f, l_r, max_speed]; pedestrians ignore the first three
+        self.params = np.column_stack([np.where(self.is_car, car.mass, 1.0), np.full(n, car.lf),
+                                       np.full(n, car.lr), self.max_speed])
+        self.lights = LightProgram(self.layout.spec.lights)
+        width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
+        self.path = np.zeros((n, width, 2))
+        self.path_heading = np.zeros((n, width))
+        self.path_len = np.zeros(n)
+        self.state = np.zeros((n, 4))  # x, y, θ, v
+        self.route = np.full(n, -1, dtype=np.int64)
+        self.s = np.zeros(n)
+        self.offset = np.zeros(n)  # route arc length minus path arc length (recovery paths)
+        self.active = np.zeros(n, dtype=bool)
+        self.reached = np.zeros(n, dtype=bool)
+        self.collided = np.zeros(n, dtype=bool)
+        self.recovering = np.zeros(n, dtype=bool)  # following a planned path back to the route
+        self.time = 0.0
+        self.steps = 0
+        self.log: list[Collision] = []
+        self.light_state = self.lights.states(0.0)
+
+    # ----------------------------------------------------------------------------- placement
+    def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
+        """Put ``agent`` on ``route`` at arc length ``s`` (m), heading along it."""
+        table = self.layout.routes
+        if table.kind[route] != self.kind[agent]:
+            raise ValueError(f"agent {agent} is a {'car' if self.is_car[agent] else 'pedestrian'}; "
+                             f"route '{table.names[route]}' is not")
+        self.route[agent] = route
+        self.set_path(agent, table.path[route], table.heading[route], float(table.length[route]))
+        k = int(round(s / PATH_SPACING))
+        self.state[agent] = [*table.path[route, k], table.heading[route, k], speed]
+        self.s[agent] = k * PATH_SPACING
+        self.offset[agent] = 0.0
+        self.active[agent] = True
+        self.reached[agent] = self.collided[agent] = self.recovering[agent] = False
+
+    def set_path(self, agent: int, path: np.ndarray, heading: np.ndarray, length: float) -> None:
+        """Give ``agent`` a new path to follow (its route's, or a recovery path)."""
+        m = min(len(path), self.path.shape[1])
+        self.path[agent, :m] = path[:m]
+        self.path[agent, m:] = path[m - 1]
+        self.path_heading[agent, :m] = heading[:m]
+        self.path_heading[agent, m:] = heading[m - 1]
+        self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
+
+    # ----------------------------------------------------------------------------- queries
+    @property
+    def route_s(self) -> np.ndarray:
+        """Progress (m) in the coordinates of each agent's route (for stop lines and zones)."""
+        return self.s + self.offset
+
+    def corners(self, idx: np.ndarray | None = None) -> np.ndarray:
+        """Footprint corners (len(idx), 4, 2) of the given agents (all by default)."""
+        idx = np.arange(self.n) if idx is None else idx
+        x, y, th, _ = self.state[idx].T
+        return footprint_corners(x, y, th, self.length[idx], self.width[idx])
+
+    def path_points(self, s: np.ndarray, agents: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
+        """Points and headings at arc lengths ``s`` (shape (n,) or (n, ...)) on each agent's path."""
+        agents = np.arange(self.n) if agents is None else agents
+        k = np.clip(np.rint(s / PATH_SPACING).astype(np.int64), 0, self.path.shape[1] - 1)
+        rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
+        return self.path[rows, k], self.path_heading[rows, k]
+
+    def tracking_error(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral offset (m) and heading error (rad) of every agent from its path at ``s``."""
+        p, h = self.path_points(self.s)
+        d = self.state[:, :2] - p
+        lateral = -d[:, 0] * np.sin(h) + d[:, 1] * np.cos(h)
+        herr = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
+        return lateral, herr
+
+    # ----------------------------------------------------------------------------- stepping
+    def step(self, controls: np.ndarray) -> list[Collision]:
+        """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
+        act = self.active
+        new = integrate(self.state, controls, self.is_car, self.params, self.dt)
+        self.state[act] = new[act]
+        self.time = round(self.time + self.dt, 9)
+        self.steps += 1
+        self.light_state = self.lights.states(self.time)
+        self._update_progress()
+        arrived = act & (self.s >= self.path_len - self.length / 2 - GOAL_TOLERANCE)
+        self.reached |= arrived
+        self.active &= ~arrived
+        events = self._collisions()
+        self.log.extend(events)
+        return events
+
+    def _update_progress(self) -> None:
+        """Project each agent onto its path near its previous progress (a local window)."""
+        window = np.arange(-4, 13)
+        k0 = np.rint(self.s / PATH_SPACING).astype(np.int64)
+        k = np.clip(k0[:, None] + window[None, :], 0, self.path.shape[1] - 1)
+        pts = self.path[np.arange(self.n)[:, None], k]
+        d2 = ((pts - self.state[:, None, :2]) ** 2).sum(-1)
+        best = k[np.arange(self.n), d2.argmin(axis=1)]
+        h = self.path_heading[np.arange(self.n), best]
+        along = ((self.state[:, :2] - self.path[np.arange(self.n), best])
+                 * np.column_stack([np.cos(h), np.sin(h)])).sum(-1)
+        s = best * PATH_SPACING + np.clip(along, -PATH_SPACING / 2, PATH_SPACING / 2)
+        self.s = np.where(self.active, np.minimum(s, self.path_len), self.s)
+
+    def _collisions(self) -> list[Collision]:
+        idx = np.flatnonzero(self.active)
+        found = find_collisions(self.corners(idx), self.is_car[idx], self.layout.drivable_tolerant)
+        out = []
+        for a, b, kind in found:
+            ga = int(idx[a])
+            gb = int(idx[b]) if b >= 0 else -1
+            self.collided[ga] = True
+            if gb >= 0:
+                self.collided[gb] = True
+            out.append(Collision(self.steps, ga, gb, kind))
+        return out
