@@ -1,0 +1,227 @@
+"""FLUIDS-v0: one ego car at a signalised urban intersection, everyone else supervised."""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
+from fluids_bench.sim.sensors.explicit import ExplicitSensor
+from fluids_bench.sim.spawn import spawn
+from fluids_bench.sim.world import World
+from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
+from fluids_bench.supervisors.driving.behavior import choose_movement, movement_count
+from fluids_bench.supervisors.driving.control import PIDConfig
+from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
+from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
+
+OBS_TYPES = ("explicit",)
+COLLISION_PENALTY = 1.0
+OBS_BOUND = 1000.0  # observations are clipped to ±this (noise could otherwise leave the space)
+
+
+class FluidsEnv(gym.Env):
+    """
+    ## Description
+    FLUIDS (ch. 7 of the source dissertation): a first-order, multi-agent urban-intersection
+    driving simulator. The learner drives the ego car through an intersection with traffic and
+    crosswalk lights; background cars and pedestrians are driven by FLUIDS' four-level
+    supervisor (behaviour → nominal trajectory → CSP velocity planner → PID control), which also
+    labels every state the ego visits, at the level the learner acts at.
+
+    ## Action Space
+    Set by ``action_level``; the supervisor fills the levels below it for the ego:
+
+    * ``"behavior"``: ``Discrete(n)``: which movement (target lane) to take from the ego's entry
+      lane, in counter-clockwise order of the exits (right, straight, left on a four-way); taken
+      modulo the lane's count; ignored once the ego has reached the junction.
+    * ``"trajectory"``: ``Box(-50, 50, (2K,))``: the next ``K = waypoints`` path points in the
+      ego's frame (m, x forward, y left, flattened); the ego steers toward them.
+    * ``"velocity"``: ``Box(0, v_max, (1,))``: the ego's target speed (m/s).
+    * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
+      rad; force × max_force when ≥ 0, × max_brake_force when < 0).
+
+    Box actions out of bounds are clipped; NaN or infinite actions raise ``ValueError``.
+
+    ## Observation Space
+    ``obs_type="explicit"``: ``Box(-1000, 1000, (13 + 7k,), float32)`` with ``k = k_nearest``: the
+    ego's state and goal, the k nearest agents in the ego's frame with a presence mask, and the
+    ego's light (see :mod:`fluids_bench.sim.sensors.explicit`). ``obs_noise`` adds zero-mean
+    Gaussian noise of that variance.
+
+    ## Rewards
+    Progress: the metres of route gained this step divided by the route's length from the start
+    (an episode that reaches the goal earns 1 in total), minus 1 when the ego is in a collision.
+
+    ## Starting State
+    Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
+    other approaches (p(l_t | l_g) = 1/(K−1)); slots never overlap. Pedestrians start on their
+    walks' first legs. The light cycle starts at t = 0.
+
+    ## Episode End
+    Terminated when the ego reaches its goal or is in a collision (with a car, a pedestrian, or
+    leaving the road). Truncated by ``TimeLimit`` (400 steps = 40 s by default). At the end,
+    ``info["is_success"]`` is True iff the ego arrived and no collision happened in the episode.
+
+    ## Info
+    ``supervisor_action`` (the supervisor's label for the ego at ``action_level`` in the new
+    state), ``collisions`` (this step's, as dicts), ``ego_arrived``, ``route``, ``lights``.
+
+    ## Arguments
+    * ``layout``: ``"four_way"`` (default), ``"t_junction"`` or ``"roundabout"``.
+    * ``lanes``: 1 or 2 lanes per direction (four-way, T-junction).
+    * ``lights``: traffic and crosswalk lights on (default) or off.
+    * ``num_cars``: background cars besides the ego (default 3).
+    * ``num_pedestrians``: default 2.
+    * ``action_level``: ``"behavior"``, ``"trajectory"``, ``"velocity"`` or ``"control"`` (default).
+    * ``obs_type``: ``"explicit"``.
+    * ``obs_noise``: variance of the observation noise (default 0).
+    * ``k_nearest``: other agents in the observation (default 8).
+    * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
+    * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
+    * ``planner_period``: steps between velocity-planner runs (default 1).
+    * ``dt``: seconds per step (default 0.1).
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 10}
+
+    def __init__(self, layout: str = "four_way", lanes: int = 1, lights: bool = True,
+                 num_cars: int = 3, num_pedestrians: int = 2, action_level: str = "control",
+                 obs_type: str = "explicit", obs_noise: float = 0.0, k_nearest: int = 8,
+                 waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
+                 planner_period: int = 1, dt: float = 0.1, render_mode: str | None = None) -> None:
+        if action_level not in LEVELS:
+            raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
+        if obs_type not in OBS_TYPES:
+            raise ValueError(f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: {list(OBS_TYPES)}")
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
+                             f"allowed: {self.metadata['render_modes']} or None")
+        check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
+        check_range("FluidsEnv", "obs_noise", obs_noise, 0.0, 100.0)
+        check_range("FluidsEnv", "k_nearest", k_nearest, 0, 64, integer=True)
+        self.scene = SceneConfig(layout=layout, lanes=lanes, lights=lights, num_cars=num_cars + 1,
+                                 num_pedestrians=num_pedestrians, dt=dt,
+                                 car=CarConfig(mass=car_mass), pedestrian=PedestrianConfig())
+        self.supervisor_config = SupervisorConfig(
+            velocity=VelocityPlannerConfig(period=planner_period),
+            pid=PIDConfig(assumed_mass=CarConfig().mass),
+            waypoints=waypoints, waypoint_spacing=waypoint_spacing,
+        )
+        self.action_level = action_level
+        self.render_mode = render_mode
+        self.world = World(self.scene)
+        self.sensor = ExplicitSensor(k_nearest, obs_noise)
+        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
+        car = self.scene.car
+        if action_level == "behavior":
+            self.action_space = spaces.Discrete(movement_count(self.world))
+        elif action_level == "trajectory":
+            self.action_space = spaces.Box(-50.0, 50.0, (2 * waypoints,), np.float32)
+        elif action_level == "velocity":
+            self.action_space = spaces.Box(0.0, car.max_speed, (1,), np.float32)
+        else:
+            self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self._route_length = 1.0
+        self._last_s = 0.0
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        self.world = World(self.scene, self.world.layout)
+        spawn(self.world, self.np_random)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.supervisor.prepare(self.world)
+        self._last_s = float(self.world.route_s[0])
+        self._route_length = float(self.world.path_len[0]) - self._last_s
+        return self._observe(), self._info([])
+
+    def step(self, action):
+        w, sup = self.world, self.supervisor
+        if not w.active[0]:
+            raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
+        action = self._validate(action)
+        controls, memory = sup.proposed, None
+        if self.action_level == "behavior":
+            if choose_movement(w, 0, int(action)):
+                self._route_length = float(w.path_len[0]) - self._last_s
+                sup.prepare(w)
+            controls = sup.proposed
+        elif self.action_level == "velocity":
+            targets = sup.targets.copy()
+            targets[0] = float(action[0])
+            controls, memory = sup.pid.controls(w, targets)
+        elif self.action_level == "trajectory":
+            aim = sup.pid.lookahead_points(w)
+            aim[0] = self._aim_from_waypoints(action)
+            controls, memory = sup.pid.controls(w, sup.targets, aim)
+        else:
+            controls = sup.proposed.copy()
+            controls[0] = sup.denormalise(w, action)
+        events = sup.execute(w, controls, memory)
+        ego_hit = any(e.a == 0 or e.b == 0 for e in events)
+        arrived = bool(w.reached[0])
+        s_now = float(w.path_len[0]) + float(w.offset[0]) if arrived else float(w.route_s[0])
+        reward = (s_now - self._last_s) / self._route_length - (COLLISION_PENALTY if ego_hit else 0.0)
+        self._last_s = s_now
+        terminated = arrived or ego_hit
+        if not terminated:
+            sup.prepare(w)
+        info = self._info(events)
+        if terminated:
+            info["is_success"] = arrived and not w.log
+        return self._observe(), float(reward), terminated, False, info
+
+    # ------------------------------------------------------------------ supervisor protocol
+    def supervisor_action(self):
+        """The supervisor's action for the ego at ``action_level`` in the current state."""
+        label = self.supervisor.label(self.world, self.action_level, 0)
+        if self.action_level == "behavior":
+            return int(label)
+        if self.action_level == "velocity":
+            return np.array([label], dtype=np.float32)
+        return np.asarray(label, dtype=np.float32)
+
+    # ------------------------------------------------------------------ helpers
+    def _validate(self, action):
+        if self.action_level == "behavior":
+            a = np.asarray(action)
+            if a.shape not in ((), (1,)) or not np.issubdtype(a.dtype, np.integer) or not self.action_space.contains(int(a.reshape(()))):
+                raise ValueError(f"FluidsEnv: behavior action is {action!r}; allowed: an integer in [0, {self.action_space.n})")
+            return int(a.reshape(()))
+        a = np.asarray(action, dtype=np.float64).reshape(-1)
+        if a.shape != self.action_space.shape:
+            raise ValueError(f"FluidsEnv: {self.action_level} action has shape {a.shape}; allowed: {self.action_space.shape}")
+        if not np.isfinite(a).all():
+            raise ValueError(f"FluidsEnv: {self.action_level} action {a.tolist()} is not finite; allowed: finite numbers")
+        return np.clip(a, self.action_space.low, self.action_space.high)
+
+    def _aim_from_waypoints(self, action: np.ndarray) -> np.ndarray:
+        pts = action.reshape(-1, 2)
+        ahead = max(self.supervisor.config.pid.lookahead_min,
+                    self.supervisor.config.pid.lookahead_time * self.world.state[0, 3])
+        far = np.flatnonzero(np.hypot(*pts.T) >= ahead)
+        px, py = pts[far[0] if len(far) else -1]
+        x, y, th, _ = self.world.state[0]
+        return np.array([x + math.cos(th) * px - math.sin(th) * py, y + math.sin(th) * px + math.cos(th) * py])
+
+    def _observe(self) -> np.ndarray:
+        return np.clip(self.sensor.observe(self.world, self.np_random), -OBS_BOUND, OBS_BOUND)
+
+    def _info(self, events) -> dict[str, Any]:
+        w = self.world
+        return {
+            SUPERVISOR_ACTION_KEY: self.supervisor_action(),
+            "collisions": [e.as_dict() for e in events],
+            "ego_arrived": bool(w.reached[0]),
+            "route": w.layout.routes.names[w.route[0]],
+            "lights": w.lights.describe(w.time),
+        }
