@@ -10,7 +10,7 @@ import numpy as np
 from gymnasium import spaces
 
 from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
-from fluids_bench.sim.sensors.explicit import ExplicitSensor
+from fluids_bench.envs.observations import ObservationConfig, Observer
 from fluids_bench.sim.spawn import spawn
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
@@ -19,9 +19,7 @@ from fluids_bench.supervisors.driving.control import PIDConfig
 from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
 from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
 
-OBS_TYPES = ("explicit",)
 COLLISION_PENALTY = 1.0
-OBS_BOUND = 1000.0  # observations are clipped to ±this (noise could otherwise leave the space)
 
 
 class FluidsEnv(gym.Env):
@@ -94,19 +92,16 @@ class FluidsEnv(gym.Env):
 
     def __init__(self, layout: str = "four_way", lanes: int = 1, lights: bool = True,
                  num_cars: int = 3, num_pedestrians: int = 2, action_level: str = "control",
-                 obs_type: str = "explicit", obs_noise: float = 0.0, k_nearest: int = 8,
+                 obs_type: str | list[str] = "explicit", obs_noise: float = 0.0, k_nearest: int = 8,
                  waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
                  planner_period: int = 1, dt: float = 0.1, render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
             raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
-        if obs_type not in OBS_TYPES:
-            raise ValueError(f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: {list(OBS_TYPES)}")
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                              f"allowed: {self.metadata['render_modes']} or None")
         check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
-        check_range("FluidsEnv", "obs_noise", obs_noise, 0.0, 100.0)
-        check_range("FluidsEnv", "k_nearest", k_nearest, 0, 64, integer=True)
+        obs_config = ObservationConfig(obs_type=obs_type, obs_noise=obs_noise, k_nearest=k_nearest)
         self.scene = SceneConfig(layout=layout, lanes=lanes, lights=lights, num_cars=num_cars + 1,
                                  num_pedestrians=num_pedestrians, dt=dt,
                                  car=CarConfig(mass=car_mass), pedestrian=PedestrianConfig())
@@ -118,8 +113,8 @@ class FluidsEnv(gym.Env):
         self.action_level = action_level
         self.render_mode = render_mode
         self.world = World(self.scene)
-        self.sensor = ExplicitSensor(k_nearest, obs_noise)
-        self.observation_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
+        self.observer = Observer(obs_config, self.world)
+        self.observation_space = self.observer.space
         car = self.scene.car
         if action_level == "behavior":
             self.action_space = spaces.Discrete(movement_count(self.world))
@@ -214,7 +209,7 @@ class FluidsEnv(gym.Env):
         return np.array([x + math.cos(th) * px - math.sin(th) * py, y + math.sin(th) * px + math.cos(th) * py])
 
     def _observe(self) -> np.ndarray:
-        return np.clip(self.sensor.observe(self.world, self.np_random), -OBS_BOUND, OBS_BOUND)
+        return self.observer.observe(self.world, self.np_random)
 
     def _info(self, events) -> dict[str, Any]:
         w = self.world
