@@ -45,7 +45,9 @@ def expected_return(mu: float, policy: str) -> float:
     def walk(level: int, index: int) -> float:
         if level == DEPTH:
             return 0.0
-        action = greedy_action(level, index) if policy == "supervisor" else ACTION_NAMES.index(policy)
+        action = (
+            greedy_action(level, index) if policy == "supervisor" else ACTION_NAMES.index(policy)
+        )
         outcomes = [(1.0, action)]
         if level == 0 and action == L:
             outcomes = [(1.0 - mu, L), (mu, R)]  # the root's slip
@@ -55,4 +57,3 @@ def expected_return(mu: float, policy: str) -> float:
         )
 
     return float(walk(0, 0))
-

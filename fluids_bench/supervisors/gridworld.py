@@ -15,6 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy import sparse
 
 # Q-values this close to the best count as ties (floating-point noise of the iteration).
 TIE_TOLERANCE = 1e-9
@@ -31,7 +32,7 @@ class ValueIterationResult:
 
 
 def value_iteration(
-    transitions: np.ndarray,
+    transitions: sparse.sparray | np.ndarray,
     rewards: np.ndarray,
     discount: float,
     tol: float = 1e-10,
@@ -39,26 +40,33 @@ def value_iteration(
 ) -> ValueIterationResult:
     """Solve ``V(s) = max_a sum_s' P(s'|s,a) (r(s') + discount V(s'))``.
 
-    ``transitions[s, a, s']`` is ``P(s'|s,a)``; ``rewards[s']`` is paid on entering ``s'``.
-    Stops when the largest change of ``V`` in one sweep is below ``tol``.
+    ``transitions`` is the table ``P`` with one row per state–action pair: row ``s * A + a``
+    holds ``P(. | s, a)`` (a scipy sparse matrix or a dense array of shape ``(S * A, S)``).
+    ``rewards[s']`` is paid on entering ``s'``. Stops when the largest change of ``V`` in one
+    sweep is below ``tol``.
     """
     if not 0.0 < discount < 1.0:
         raise ValueError(f"value_iteration: field 'discount' is {discount!r}; allowed: (0, 1)")
-    n_states = transitions.shape[0]
-    if transitions.shape != (n_states, transitions.shape[1], n_states):
-        raise ValueError(f"value_iteration: transitions must be (S, A, S), got {transitions.shape}")
+    n_states = len(rewards)
+    n_rows, n_cols = transitions.shape
+    if n_cols != n_states or n_rows % n_states:
+        raise ValueError(
+            f"value_iteration: transitions of shape {transitions.shape} for {n_states} states; "
+            "allowed: (S * A, S)"
+        )
+    n_actions = n_rows // n_states
     values = np.zeros(n_states)
-    for iteration in range(1, max_iterations + 1):
-        q_values = transitions @ (rewards + discount * values)
+    sweeps, delta = 0, np.inf
+    while delta >= tol:
+        if sweeps == max_iterations:
+            raise RuntimeError(f"value_iteration did not converge in {max_iterations} sweeps")
+        q_values = (transitions @ (rewards + discount * values)).reshape(n_states, n_actions)
         new_values = q_values.max(axis=1)
         delta = float(np.max(np.abs(new_values - values)))
         values = new_values
-        if delta < tol:
-            break
-    else:
-        raise RuntimeError(f"value_iteration did not converge in {max_iterations} sweeps")
-    q_values = transitions @ (rewards + discount * values)
-    return ValueIterationResult(values, q_values, greedy_policy(q_values), iteration)
+        sweeps += 1
+    q_values = (transitions @ (rewards + discount * values)).reshape(n_states, n_actions)
+    return ValueIterationResult(values, q_values, greedy_policy(q_values), sweeps)
 
 
 def greedy_policy(q_values: np.ndarray) -> np.ndarray:

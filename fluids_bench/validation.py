@@ -1,0 +1,58 @@
+"""Small checks for typed configs and env kwargs.
+
+Every failure raises ``ValueError`` naming where it happened, the field, the value and what is
+allowed, in the same shape across the suite: ``"<where>: field 'x' is 3; allowed: [0, 1]"``.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable
+from typing import Any
+
+
+def fail(where: str, name: str, value: Any, allowed: str) -> None:
+    """Raise the suite's standard config error."""
+    raise ValueError(f"{where}: field '{name}' is {value!r}; allowed: {allowed}")
+
+
+def check_int(where: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
+    """``value`` must be an int (not a bool) in ``[lo, hi]`` (``hi=None``: no upper bound)."""
+    allowed = f"an integer in [{lo}, {'inf' if hi is None else hi}]"
+    if isinstance(value, bool) or not isinstance(value, int):
+        fail(where, name, value, allowed)
+    if value < lo or (hi is not None and value > hi):
+        fail(where, name, value, allowed)
+    return value
+
+
+def check_float(
+    where: str,
+    name: str,
+    value: Any,
+    lo: float = -math.inf,
+    hi: float = math.inf,
+    *,
+    lo_open: bool = False,
+    hi_open: bool = False,
+) -> float:
+    """``value`` must be a finite real number in the given interval (open or closed ends)."""
+    left = "(" if lo_open else "["
+    right = ")" if hi_open else "]"
+    allowed = f"a finite number in {left}{lo}, {hi}{right}"
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        fail(where, name, value, allowed)
+    v = float(value)
+    if not math.isfinite(v):
+        fail(where, name, value, allowed)
+    if v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi):
+        fail(where, name, value, allowed)
+    return v
+
+
+def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> Any:
+    """``value`` must be one of ``choices``."""
+    options = list(choices)
+    if value not in options:
+        fail(where, name, value, f"one of {options}")
+    return value
