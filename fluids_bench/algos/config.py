@@ -1,0 +1,71 @@
+"""The settings every algorithm shares; each algorithm's config extends :class:`RunConfig`."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import asdict, dataclass, field
+from typing import Any
+
+from fluids_bench.algos.policies import PolicySpec
+from fluids_bench.validation import check_float, check_int, fail
+
+
+@dataclass(frozen=True, kw_only=True)
+class RunConfig:
+    """Environment, learner, data budget, evaluation and seed of one run.
+
+    ``iterations`` counts data-collection rounds after any initial demonstrations, each round
+    collecting ``demos_per_iteration`` rollouts. ``samples_per_demo`` is the ch. 3 protocol:
+    keep that many state–label pairs of each rollout for training (None: all of them). The
+    learner is evaluated every ``eval_every`` iterations and at the last one, over
+    ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
+    normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
+    """
+
+    env_id: str = "GridWorld-v0"
+    env_kwargs: Mapping[str, Any] = field(default_factory=dict)
+    policy: PolicySpec = field(default_factory=PolicySpec)
+    iterations: int = 10
+    demos_per_iteration: int = 1
+    samples_per_demo: int | None = 50
+    eval_episodes: int = 10
+    eval_every: int = 1
+    max_steps: int | None = None
+    return_floor: float = 0.0
+    seed: int = 0
+
+    def __post_init__(self) -> None:
+        where = type(self).__name__
+        if not isinstance(self.env_id, str) or not self.env_id:
+            fail(where, "env_id", self.env_id, "a registered Gymnasium id")
+        if not isinstance(self.env_kwargs, Mapping):
+            fail(where, "env_kwargs", self.env_kwargs, "a mapping of keyword arguments")
+        if not isinstance(self.policy, PolicySpec):
+            fail(where, "policy", self.policy, "a PolicySpec")
+        check_int(where, "iterations", self.iterations, 1)
+        check_int(where, "demos_per_iteration", self.demos_per_iteration, 1)
+        if self.samples_per_demo is not None:
+            check_int(where, "samples_per_demo", self.samples_per_demo, 1)
+        check_int(where, "eval_episodes", self.eval_episodes, 1)
+        check_int(where, "eval_every", self.eval_every, 1)
+        if self.max_steps is not None:
+            check_int(where, "max_steps", self.max_steps, 1)
+        check_float(where, "return_floor", self.return_floor)
+        check_int(where, "seed", self.seed, 0, 2**32 - 1)
+
+    def to_dict(self) -> dict[str, Any]:
+        """JSON-friendly copy (tuples become lists when serialised)."""
+        data = asdict(self)
+        data["env_kwargs"] = dict(self.env_kwargs)
+        return data
+
+
+def check_iterations(where: str, name: str, values: tuple[int, ...]) -> tuple[int, ...]:
+    """A schedule of iteration numbers: a tuple of distinct ints >= 1, in increasing order."""
+    if not isinstance(values, tuple) or any(
+        isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in values
+    ):
+        fail(where, name, values, "a tuple of iteration numbers >= 1")
+    if list(values) != sorted(set(values)):
+        fail(where, name, values, "distinct iteration numbers in increasing order")
+    return values

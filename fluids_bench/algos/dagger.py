@@ -1,0 +1,79 @@
+"""DAgger and DAgger-B (ch. 2, "On-Policy Sampling"; ch. 3 experiments).
+
+DAgger is Follow-The-Leader on the aggregate of on-policy data (Ross et al., 2011):
+
+    theta^{k+1} = argmin_theta sum_{i=1}^{k} E_{p(xi | theta^i)} J(theta, theta* | xi)
+
+At iteration ``k`` the executed policy is the mixture ``pi_k = beta_k pi* + (1 - beta_k) pi_theta^k``
+(drawn every step), every visited state is labelled by the supervisor, and the learner is
+refit on all data. Two common variants are built in: an initial set of supervisor
+demonstrations (``initial_demos``, the source always uses one) and a beta schedule:
+
+- ``constant``: ``beta_k = beta`` (``beta = 0`` is pure on-policy, the source's Theorem 1 case;
+  ``beta = 1`` collects exactly what Behavior Cloning collects);
+- ``exponential``: ``beta_k = beta^k`` (Ross et al.'s ``p^{k-1}`` decay, shifted because the
+  initial demonstrations already play the role of ``beta_1 = 1``).
+
+DAgger-B (ch. 3) refits the learner only after the iterations listed in ``retrain_at`` (and
+after the initial demonstrations), trading performance for compute.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+from fluids_bench.algos.actors import SUPERVISOR, LearnerActor, MixtureActor
+from fluids_bench.algos.config import RunConfig, check_iterations
+from fluids_bench.algos.harness import Harness, ProgressCallback
+from fluids_bench.algos.results import RunResult
+from fluids_bench.validation import check_choice, check_float, check_int
+
+BETA_SCHEDULES = ("constant", "exponential")
+
+
+@dataclass(frozen=True, kw_only=True)
+class DAggerConfig(RunConfig):
+    """``retrain_at=None`` refits every iteration (DAgger); a tuple gives DAgger-B."""
+
+    beta: float = 0.0
+    beta_schedule: str = "constant"
+    initial_demos: int = 1
+    retrain_at: tuple[int, ...] | None = None
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        where = type(self).__name__
+        check_float(where, "beta", self.beta, 0.0, 1.0)
+        check_choice(where, "beta_schedule", self.beta_schedule, BETA_SCHEDULES)
+        check_int(where, "initial_demos", self.initial_demos, 1)
+        if self.retrain_at is not None:
+            check_iterations(where, "retrain_at", self.retrain_at)
+
+
+def beta_at(config: DAggerConfig, iteration: int) -> float:
+    """The probability of executing the supervisor's action at ``iteration`` (>= 1)."""
+    if config.beta_schedule == "exponential":
+        return config.beta**iteration
+    return config.beta
+
+
+def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunResult:
+    algo = "dagger" if config.retrain_at is None else "dagger_b"
+    with Harness(algo, config, progress) as harness:
+        # iteration 0: supervisor demonstrations initialise the aggregate dataset
+        demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
+        for demo in demos:
+            harness.aggregate(demo)
+        policy = harness.fit()
+        harness.record(0, demos, config.iterations, beta=1.0)
+
+        for iteration in range(1, config.iterations + 1):
+            beta = beta_at(config, iteration)
+            actor = MixtureActor(beta, LearnerActor(policy))
+            rollouts = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
+            for trajectory in rollouts:
+                harness.aggregate(trajectory)  # the supervisor labels every visited state
+            if config.retrain_at is None or iteration in config.retrain_at:
+                policy = harness.fit()
+            harness.record(iteration, rollouts, config.iterations, beta=beta)
+        return harness.result()

@@ -1,0 +1,106 @@
+"""SHIV: SVM-based reduction in Human InterVention (ch. 6).
+
+DAgger with stream-based active learning. Each iteration:
+
+1. Step 1 (Eq. 9): fit ``theta_k = argmin_theta sum_n l(pi_theta(x_n), u_n)`` on the aggregate
+   data ``D_k`` (initially the supervisor's demonstrations);
+2. fit the risk model on ``D_k`` and ``theta_k`` (Eq. 7–8, :class:`~fluids_bench.algos.query.ShivSelector`);
+3. Step 2: roll out ``pi_theta_k`` (the learner always acts; the supervisor never takes over)
+   and ask the supervisor only about the risky visited states:
+   ``D_{k+1} = D_k ∪ {(x_t, u*_t) : g(x_t) = -1}``.
+
+The risk model stays fixed during a rollout, so deciding after the rollout is the same as
+deciding state by state. ``selector`` swaps in one of the ch. 6 baselines (novelty only,
+confidence, query-by-committee, MMD) to compare query selection methods under one loop.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+from gymnasium import spaces
+
+from fluids_bench.algos.actors import SUPERVISOR, LearnerActor
+from fluids_bench.algos.config import RunConfig
+from fluids_bench.algos.harness import Harness, ProgressCallback
+from fluids_bench.algos.query import (
+    SELECTORS,
+    CommitteeSelector,
+    ConfidenceSelector,
+    MMDSelector,
+    NoveltySelector,
+    QuerySelector,
+    ShivSelector,
+)
+from fluids_bench.algos.results import RunResult
+from fluids_bench.validation import check_choice, check_float, check_int
+
+
+@dataclass(frozen=True, kw_only=True)
+class SHIVConfig(RunConfig):
+    """``(nu, sigma)``: the well-predicted level set; ``(nu_r, sigma_r)``: the mispredicted one;
+    ``epsilon``: allowed squared-L2 loss for Box actions (None: the median training loss)."""
+
+    selector: str = "shiv"
+    nu: float = 0.1
+    sigma: float = 1.0
+    nu_r: float = 0.1
+    sigma_r: float = 1.0
+    epsilon: float | None = None
+    initial_demos: int = 1
+
+    def __post_init__(self) -> None:
+        super().__post_init__()
+        where = type(self).__name__
+        check_choice(where, "selector", self.selector, SELECTORS)
+        check_float(where, "nu", self.nu, 0.0, 1.0, lo_open=True)
+        check_float(where, "sigma", self.sigma, 0.0, lo_open=True)
+        check_float(where, "nu_r", self.nu_r, 0.0, 1.0, lo_open=True)
+        check_float(where, "sigma_r", self.sigma_r, 0.0, lo_open=True)
+        if self.epsilon is not None:
+            check_float(where, "epsilon", self.epsilon, 0.0)
+        check_int(where, "initial_demos", self.initial_demos, 1)
+
+
+def make_selector(
+    config: SHIVConfig, action_space: spaces.Space[Any], rng: np.random.Generator
+) -> QuerySelector:
+    discrete = isinstance(action_space, spaces.Discrete)
+    if config.selector == "shiv":
+        return ShivSelector(
+            discrete, config.nu, config.sigma, config.nu_r, config.sigma_r, config.epsilon
+        )
+    if config.selector == "novelty":
+        return NoveltySelector(config.nu, config.sigma)
+    if config.selector == "confidence":
+        return ConfidenceSelector(action_space, rng)
+    if config.selector == "qbc":
+        return CommitteeSelector(action_space, rng)
+    return MMDSelector(config.nu, config.sigma)
+
+
+def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResult:
+    with Harness("shiv", config, progress) as harness:
+        selector = make_selector(config, harness.action_space, harness.rng)
+        demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
+        for demo in demos:
+            harness.aggregate(demo)
+        policy = harness.fit()
+        harness.record(0, demos, config.iterations)
+
+        for iteration in range(1, config.iterations + 1):
+            with harness.training():  # the risk model is part of SHIV's compute
+                selector.fit(*harness.train.arrays(), policy)
+            rollouts = [
+                harness.collect(LearnerActor(policy)) for _ in range(config.demos_per_iteration)
+            ]
+            visited = queried = 0
+            for trajectory in rollouts:
+                risky = np.flatnonzero(selector.risky(trajectory.states))
+                queried += len(harness.aggregate(trajectory, risky)[0])
+                visited += len(trajectory)
+            policy = harness.fit()
+            harness.record(iteration, rollouts, config.iterations, queried=queried, visited=visited)
+        return harness.result()
