@@ -1,0 +1,163 @@
+"""``fluids-bench train``: run one imitation-learning algorithm on one env, save JSON and a PNG.
+
+Example::
+
+    fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
+        --env-kwarg world_seed=3 --iterations 20 --out out/train
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import json
+from pathlib import Path
+from typing import Any
+
+# option -> (config field, type, help); the field decides which algorithms accept it
+ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
+    "--beta": ("beta", float, "dagger: probability of executing the supervisor's action"),
+    "--beta-schedule": ("beta_schedule", str, "dagger: constant or exponential (beta^k)"),
+    "--initial-demos": ("initial_demos", int, "on-policy algorithms: supervisor demos first"),
+    "--retrain-at": ("retrain_at", int, "dagger_b: iterations after which to refit (list)"),
+    "--noise-std": ("noise_std", float, "noise: Gaussian std for Box actions"),
+    "--epsilon": (
+        "epsilon",
+        float,
+        "noise: chance of another action (Discrete); shiv: allowed squared-L2 loss (Box)",
+    ),
+    "--alpha": ("alpha", float, "dart: target trace of the noise covariance (Box)"),
+    "--update-at": ("update_at", int, "dart: iterations after which to refit the noise (list)"),
+    "--heldout-fraction": ("heldout_fraction", float, "dart: share of each demo held out"),
+    "--initial-noise-std": ("initial_noise_std", float, "dart: noise of the first demos (Box)"),
+    "--initial-epsilon": ("initial_epsilon", float, "dart: noise of the first demos (Discrete)"),
+    "--selector": ("selector", str, "shiv: shiv, novelty, confidence, qbc or mmd"),
+    "--nu": ("nu", float, "shiv: One-Class SVM nu of the well-predicted states"),
+    "--sigma": ("sigma", float, "shiv: kernel bandwidth of the well-predicted states"),
+    "--nu-r": ("nu_r", float, "shiv: One-Class SVM nu of the mispredicted states"),
+    "--sigma-r": ("sigma_r", float, "shiv: kernel bandwidth of the mispredicted states"),
+    "--learning-rate": ("learning_rate", float, "ogd: gradient step size eta"),
+    "--steps-per-iteration": ("steps_per_iteration", int, "ogd: gradient steps per iteration"),
+}
+LIST_FIELDS = {"retrain_at", "update_at"}
+
+
+def _key_value(text: str) -> tuple[str, Any]:
+    """``KEY=VALUE`` with VALUE parsed as JSON when it is JSON (numbers, bools, lists)."""
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
+def _samples(text: str) -> int | None:
+    return None if text == "all" else int(text)
+
+
+def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
+    parser = subparsers.add_parser(
+        "train",
+        help="run an imitation-learning algorithm on an env; write JSON results and a PNG",
+        description=__doc__,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--env", required=True, help="env id, e.g. GridWorld-v0, DAG-v0")
+    parser.add_argument(
+        "--algo", required=True, help="bc, dagger, dagger_b, noise, dart, shiv, ogd"
+    )
+    parser.add_argument("--env-kwarg", action="append", type=_key_value, default=[], metavar="K=V")
+    parser.add_argument("--policy", default="tree", help="learner family (see algos.policies)")
+    parser.add_argument(
+        "--policy-param", action="append", type=_key_value, default=[], metavar="K=V"
+    )
+    parser.add_argument("--iterations", type=int, default=10)
+    parser.add_argument("--demos-per-iteration", type=int, default=1)
+    parser.add_argument("--samples-per-demo", type=_samples, default=50, help="int or 'all'")
+    parser.add_argument("--eval-episodes", type=int, default=10)
+    parser.add_argument("--eval-every", type=int, default=1)
+    parser.add_argument("--max-steps", type=int, default=None)
+    parser.add_argument("--return-floor", type=float, default=0.0)
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--out", type=Path, default=Path("out/train"), help="output folder")
+    parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    group = parser.add_argument_group("algorithm options (only for the algorithms named)")
+    for option, (dest, kind, text) in ALGO_OPTIONS.items():
+        nargs = "+" if dest in LIST_FIELDS else None
+        group.add_argument(option, dest=dest, type=kind, nargs=nargs, default=None, help=text)
+    parser.set_defaults(func=main)
+
+
+def build_config(args: argparse.Namespace) -> tuple[str, Any]:
+    """The algorithm's name and validated config from parsed arguments."""
+    from fluids_bench.algos.policies import PolicySpec
+    from fluids_bench.algos.registry import ALGORITHMS, get_algorithm
+
+    algorithm = get_algorithm(args.algo)
+    fields = {f.name for f in dataclasses.fields(algorithm.config_class)}
+    settings: dict[str, Any] = dict(algorithm.presets)
+    for option, (dest, _, _) in ALGO_OPTIONS.items():
+        value = getattr(args, dest)
+        if value is None:
+            continue
+        if dest not in fields:
+            takers = sorted(
+                name
+                for name, algo in ALGORITHMS.items()
+                if dest in {f.name for f in dataclasses.fields(algo.config_class)}
+            )
+            raise ValueError(
+                f"option {option} does not apply to --algo {args.algo}; it applies to: {takers}"
+            )
+        settings[dest] = tuple(value) if dest in LIST_FIELDS else value
+    config = algorithm.config_class(
+        **settings,
+        env_id=args.env,
+        env_kwargs=dict(args.env_kwarg),
+        policy=PolicySpec(args.policy, dict(args.policy_param)),
+        iterations=args.iterations,
+        demos_per_iteration=args.demos_per_iteration,
+        samples_per_demo=args.samples_per_demo,
+        eval_episodes=args.eval_episodes,
+        eval_every=args.eval_every,
+        max_steps=args.max_steps,
+        return_floor=args.return_floor,
+        seed=args.seed,
+    )
+    return args.algo, config
+
+
+def main(args: argparse.Namespace) -> int:
+    from tqdm import tqdm
+
+    from fluids_bench.algos.harness import make_env
+    from fluids_bench.algos.plots import plot_learning_curves
+    from fluids_bench.algos.registry import get_algorithm
+    from fluids_bench.algos.results import write_json_atomic
+
+    name, config = build_config(args)
+    make_env(config.env_id, dict(config.env_kwargs)).close()  # fail before the progress bar
+    total = config.iterations + (1 if hasattr(config, "initial_demos") else 0)
+    with tqdm(total=total, desc=f"{name} on {config.env_id}", disable=args.no_progress) as bar:
+
+        def progress(record: Any) -> None:
+            bar.update(1)
+            if record.normalised_performance is not None:
+                bar.set_postfix(
+                    perf=f"{record.normalised_performance:.3f}", labels=record.labels_requested
+                )
+
+        result = get_algorithm(name).run(config, progress)
+    stem = f"{name}_{config.env_id}_seed{config.seed}"
+    json_path, png_path = args.out / f"{stem}.json", args.out / f"{stem}.png"
+    write_json_atomic(json_path, result.to_dict())
+    plot_learning_curves([result], png_path)
+    final = result.final
+    print(
+        f"{name} on {config.env_id}: normalised performance {final.normalised_performance}, "
+        f"{final.labels_requested} labels, {final.train_seconds:.3f} s training"
+    )
+    print(f"wrote {json_path} and {png_path}")
+    return 0
