@@ -51,6 +51,25 @@ class FluidsEnv(gym.Env):
     ego's light (see :mod:`fluids_bench.sim.sensors.explicit`). ``obs_noise`` adds zero-mean
     Gaussian noise of that variance.
 
+    ``obs_type="birdseye"``: ``Box(0, 255, (S, S, 3), uint8)`` with ``S = birdseye_size``: a
+    top-down RGB image of the lanes, sidewalks, crosswalks, terrain, the light colours (a bar at
+    each signalised stop line and crosswalk end), cars (blue), pedestrians (orange), the ego
+    (magenta) and the ego's route (pink line). ``birdseye_frame="ego"`` centres a north-up square
+    of side ``birdseye_fov`` m on the ego, ``"ego_rotated"`` also turns it so the ego faces up,
+    ``"global"`` shows the whole layout (``birdseye_fov`` unused). ``pixel_noise`` (λ_p) adds
+    zero-mean Gaussian noise of that variance to every pixel value, clipped to [0, 255].
+
+    ``obs_type="qlidar"``: ``Box((m, 4), float32)`` with ``m = lidar_rays``: ray ``k`` leaves the
+    ego's centre at angle ``2πk/m`` from its heading (counter-clockwise) and reads
+    ``[d, label, ψ_r, v_r]``: the distance (m, ``lidar_range`` when nothing is hit), the label of
+    what it hit (0 nothing, 1 car, 2 pedestrian, 3 road edge), that object's heading relative to
+    the ego's (rad, in [-π, π]; a road edge's direction, in [-π/2, π/2)) and its speed minus the
+    ego's (m/s, in ±2·v_max). ``lidar_noise`` (λ_l) adds zero-mean Gaussian noise of that
+    variance to d, ψ_r and v_r; with probability ``lidar_dropout`` (ε) a ray reads as empty
+    ``[lidar_range, 0, 0, 0]``. See :mod:`fluids_bench.sim.sensors.qlidar`.
+
+    A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
+
     ## Rewards
     Progress: the metres of route gained this step divided by the route's length from the start
     (an episode that reaches the goal earns 1 in total), minus 1 when the ego is in a collision.
@@ -76,9 +95,20 @@ class FluidsEnv(gym.Env):
     * ``num_cars``: background cars besides the ego (default 3).
     * ``num_pedestrians``: default 2.
     * ``action_level``: ``"behavior"``, ``"trajectory"``, ``"velocity"`` or ``"control"`` (default).
-    * ``obs_type``: ``"explicit"``.
-    * ``obs_noise``: variance of the observation noise (default 0).
-    * ``k_nearest``: other agents in the observation (default 8).
+    * ``obs_type``: ``"explicit"`` (default), ``"birdseye"``, ``"qlidar"`` or a list of them.
+    * ``obs_noise``: variance of the explicit observation's noise (default 0).
+    * ``k_nearest``: other agents in the explicit observation (default 8).
+    * ``birdseye_size``: image side in pixels, 16 to 1024 (default 84).
+    * ``birdseye_fov``: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
+    * ``birdseye_frame``: ``"ego"`` (default), ``"ego_rotated"`` or ``"global"``.
+    * ``pixel_noise``: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
+    * ``lidar_rays``: m, 1 to 4096 (default 64).
+    * ``lidar_range``: metres, 1 to 1000 (default 30).
+    * ``lidar_noise``: λ_l, noise variance on distance, angle and velocity, 0 to 100 (default 0).
+    * ``lidar_dropout``: ε, per-ray dropout probability, 0 to 1 (default 0).
+    * ``render_mode``: ``None``, ``"rgb_array"`` (a global view: routes, light states, this
+      step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
+      window; needs ``pip install "fluids-bench[human]"``).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
     * ``planner_period``: steps between velocity-planner runs (default 1).
@@ -88,11 +118,14 @@ class FluidsEnv(gym.Env):
     * v0: initial release.
     """
 
-    metadata = {"render_modes": [], "render_fps": 10}
+    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
 
     def __init__(self, layout: str = "four_way", lanes: int = 1, lights: bool = True,
                  num_cars: int = 3, num_pedestrians: int = 2, action_level: str = "control",
                  obs_type: str | list[str] = "explicit", obs_noise: float = 0.0, k_nearest: int = 8,
+                 birdseye_size: int = 84, birdseye_fov: float = 40.0, birdseye_frame: str = "ego",
+                 pixel_noise: float = 0.0, lidar_rays: int = 64, lidar_range: float = 30.0,
+                 lidar_noise: float = 0.0, lidar_dropout: float = 0.0,
                  waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
                  planner_period: int = 1, dt: float = 0.1, render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
@@ -101,7 +134,16 @@ class FluidsEnv(gym.Env):
             raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                              f"allowed: {self.metadata['render_modes']} or None")
         check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
-        obs_config = ObservationConfig(obs_type=obs_type, obs_noise=obs_noise, k_nearest=k_nearest)
+        obs_config = ObservationConfig(
+            obs_type=obs_type, obs_noise=obs_noise, k_nearest=k_nearest,
+            birdseye_size=birdseye_size, birdseye_fov=birdseye_fov, birdseye_frame=birdseye_frame,
+            pixel_noise=pixel_noise, lidar_rays=lidar_rays, lidar_range=lidar_range,
+            lidar_noise=lidar_noise, lidar_dropout=lidar_dropout,
+        )
+        if render_mode == "human":
+            from fluids_bench.sim.render import require_pygame
+
+            require_pygame()
         self.scene = SceneConfig(layout=layout, lanes=lanes, lights=lights, num_cars=num_cars + 1,
                                  num_pedestrians=num_pedestrians, dt=dt,
                                  car=CarConfig(mass=car_mass), pedestrian=PedestrianConfig())
@@ -112,6 +154,7 @@ class FluidsEnv(gym.Env):
         )
         self.action_level = action_level
         self.render_mode = render_mode
+        self._renderer = self._window = None
         self.world = World(self.scene)
         self.observer = Observer(obs_config, self.world)
         self.observation_space = self.observer.space
@@ -137,6 +180,8 @@ class FluidsEnv(gym.Env):
         self.supervisor.prepare(self.world)
         self._last_s = float(self.world.route_s[0])
         self._route_length = float(self.world.path_len[0]) - self._last_s
+        if self.render_mode == "human":
+            self.render()
         return self._observe(), self._info([])
 
     def step(self, action):
@@ -173,7 +218,33 @@ class FluidsEnv(gym.Env):
         info = self._info(events)
         if terminated:
             info["is_success"] = arrived and not w.log
+        if self.render_mode == "human":
+            self.render()
         return self._observe(), float(reward), terminated, False, info
+
+    def render(self):
+        """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in
+        ``"rgb_array"`` mode; in ``"human"`` mode the frame goes to a window (returns None)."""
+        if self.render_mode is None:
+            gym.logger.warn("FluidsEnv.render() called without a render_mode; pass "
+                            'render_mode="rgb_array" or "human" to gym.make')
+            return None
+        from fluids_bench.sim.render import HumanWindow, Renderer
+
+        if self._renderer is None or self._renderer.layout is not self.world.layout:
+            self._renderer = Renderer(self.world.layout)
+        frame = self._renderer.render(self.world)
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._window is None:
+            self._window = HumanWindow("FLUIDS", self.metadata["render_fps"])
+        self._window.show(frame)
+        return None
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+        self._renderer = self._window = None
 
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self):
