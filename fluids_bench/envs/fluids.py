@@ -289,5 +289,5 @@ class FluidsEnv(gym.Env):
             "collisions": [e.as_dict() for e in events],
             "ego_arrived": bool(w.reached[0]),
             "route": w.layout.routes.names[w.route[0]],
-            "lights": w.lights.describe(w.time),
+            "lights": w.lights.describe_states(w.light_state),
         }

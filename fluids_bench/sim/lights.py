@@ -25,6 +25,7 @@ class LightProgram:
         self.codes = np.full((len(lights), width), STOP, dtype=np.int8)
         self.cycle = np.ones(len(lights))
         self.offset = np.zeros(len(lights))
+        self._described: dict[bytes, dict[str, str]] = {}
         for i, light in enumerate(lights):
             durations = [d for _, d in light.phases]
             self.ends[i, : len(durations)] = np.cumsum(durations)
@@ -51,4 +52,12 @@ class LightProgram:
 
     def describe(self, t: float) -> dict[str, str]:
         """``{light name: colour}`` at time ``t``."""
-        return {n: STATE_NAMES[(k, int(c))] for n, k, c in zip(self.names, self.kinds, self.states(t), strict=True)}
+        return self.describe_states(self.states(t))
+
+    def describe_states(self, states: np.ndarray) -> dict[str, str]:
+        """``{light name: colour}`` for state codes ``states`` (cached: lights change rarely)."""
+        key = states.tobytes()
+        if key not in self._described:
+            self._described[key] = {n: STATE_NAMES[(k, int(c))]
+                                    for n, k, c in zip(self.names, self.kinds, states, strict=True)}
+        return dict(self._described[key])

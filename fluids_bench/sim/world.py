@@ -57,11 +57,14 @@ class World:
         width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
         self.path = np.zeros((n, width, 2))
         self.path_heading = np.zeros((n, width))
+        self.path_dir = np.zeros((n, width), dtype=complex)  # unit tangent e^{iθ} per sample
         self.path_len = np.zeros(n)
         self.state = np.zeros((n, 4))  # x, y, θ, v
         self.route = np.full(n, -1, dtype=np.int64)
         self.s = np.zeros(n)
         self.offset = np.zeros(n)  # route arc length minus path arc length (recovery paths)
+        self.lateral_error = np.zeros(n)
+        self.heading_error = np.zeros(n)
         self.active = np.zeros(n, dtype=bool)
         self.reached = np.zeros(n, dtype=bool)
         self.collided = np.zeros(n, dtype=bool)
@@ -70,6 +73,8 @@ class World:
         self.steps = 0
         self.log: list[Collision] = []
         self.light_state = self.lights.states(0.0)
+        self._window = np.arange(-3, 9)  # path samples searched around the last progress
+        self._rows = np.arange(n)[:, None]
 
     # ----------------------------------------------------------------------------- placement
     def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
@@ -83,6 +88,7 @@ class World:
         k = int(round(s / PATH_SPACING))
         self.state[agent] = [*table.path[route, k], table.heading[route, k], speed]
         self.s[agent] = k * PATH_SPACING
+        self.lateral_error[agent] = self.heading_error[agent] = 0.0
         self.offset[agent] = 0.0
         self.active[agent] = True
         self.reached[agent] = self.collided[agent] = self.recovering[agent] = False
@@ -94,6 +100,7 @@ class World:
         self.path[agent, m:] = path[m - 1]
         self.path_heading[agent, :m] = heading[:m]
         self.path_heading[agent, m:] = heading[m - 1]
+        self.path_dir[agent] = np.exp(1j * self.path_heading[agent])
         self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
 
     # ----------------------------------------------------------------------------- queries
@@ -115,13 +122,22 @@ class World:
         rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
         return self.path[rows, k], self.path_heading[rows, k]
 
+    @property
+    def path_c(self) -> np.ndarray:
+        """Paths as complex numbers x + iy, (N, M): a view, no copy."""
+        return self.path.view(complex)[..., 0]
+
+    def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Complex points and unit tangents at arc lengths ``s`` (len(agents), ...)."""
+        k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
+        np.clip(k, 0, self.path.shape[1] - 1, out=k)
+        rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
+        return self.path_c[rows, k], self.path_dir[rows, k]
+
     def tracking_error(self) -> tuple[np.ndarray, np.ndarray]:
-        """Lateral offset (m) and heading error (rad) of every agent from its path at ``s``."""
-        p, h = self.path_points(self.s)
-        d = self.state[:, :2] - p
-        lateral = -d[:, 0] * np.sin(h) + d[:, 1] * np.cos(h)
-        herr = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
-        return lateral, herr
+        """Lateral offset (m, left positive) and heading error (rad) of every agent from the
+        nearest sample of its path, as of the last progress update."""
+        return self.lateral_error, self.heading_error
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, controls: np.ndarray) -> list[Collision]:
@@ -141,22 +157,26 @@ class World:
         return events
 
     def _update_progress(self) -> None:
-        """Project each agent onto its path near its previous progress (a local window)."""
-        window = np.arange(-4, 13)
-        k0 = np.rint(self.s / PATH_SPACING).astype(np.int64)
-        k = np.clip(k0[:, None] + window[None, :], 0, self.path.shape[1] - 1)
-        pts = self.path[np.arange(self.n)[:, None], k]
-        d2 = ((pts - self.state[:, None, :2]) ** 2).sum(-1)
-        best = k[np.arange(self.n), d2.argmin(axis=1)]
-        h = self.path_heading[np.arange(self.n), best]
-        along = ((self.state[:, :2] - self.path[np.arange(self.n), best])
-                 * np.column_stack([np.cos(h), np.sin(h)])).sum(-1)
-        s = best * PATH_SPACING + np.clip(along, -PATH_SPACING / 2, PATH_SPACING / 2)
-        self.s = np.where(self.active, np.minimum(s, self.path_len), self.s)
+        """Project each agent onto its path near its previous progress (a local window: an
+        agent moves at most a few samples per step)."""
+        k = np.rint(self.s / PATH_SPACING).astype(np.int64)[:, None] + self._window
+        np.clip(k, 0, self.path.shape[1] - 1, out=k)
+        rows = self._rows
+        d = self.path[rows, k] - self.state[:, None, :2]
+        best = k[rows[:, 0], np.einsum("nkd,nkd->nk", d, d).argmin(axis=1)]
+        h = self.path_heading[rows[:, 0], best]
+        off = self.state[:, :2] - self.path[rows[:, 0], best]
+        along = np.clip(off[:, 0] * np.cos(h) + off[:, 1] * np.sin(h), -PATH_SPACING / 2, PATH_SPACING / 2)
+        s = np.minimum(best * PATH_SPACING + along, self.path_len)
+        self.s = np.where(self.active, s, self.s)
+        # by-products for the supervisor: signed lateral offset and heading error from the path
+        self.lateral_error = off[:, 1] * np.cos(h) - off[:, 0] * np.sin(h)
+        self.heading_error = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
 
     def _collisions(self) -> list[Collision]:
         idx = np.flatnonzero(self.active)
-        found = find_collisions(self.corners(idx), self.is_car[idx], self.layout.drivable_tolerant)
+        found = find_collisions(self.state[idx], self.length[idx], self.width[idx], self.is_car[idx],
+                                self.layout.drivable_tolerant)
         out = []
         for a, b, kind in found:
             ga = int(idx[a])

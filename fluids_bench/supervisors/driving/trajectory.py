@@ -140,4 +140,5 @@ class RecoveryPlanner:
         world.s[agent] = 0.0
         world.offset[agent] = k_rejoin * PATH_SPACING - bridge_len
         world.recovering[agent] = True
+        world.lateral_error[agent] = world.heading_error[agent] = 0.0
         return True

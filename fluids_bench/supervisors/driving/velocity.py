@@ -76,42 +76,50 @@ class VelocityPlanner:
     def __init__(self, config: VelocityPlannerConfig | None = None) -> None:
         self.config = config or VelocityPlannerConfig()
         self.fractions = np.asarray(self.config.fractions)
+        self._pair_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
-    def allowed_speed(self, world: World) -> np.ndarray:
-        """Speed each agent may drive at now: its maximum, the lane's limit, and the curvature
-        of the path ahead (within its braking distance plus a car length)."""
-        cfg = self.config
+    def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
+        """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
+        curvature of the next 12 m of its route."""
         routes = world.layout.routes
-        look = np.arange(0, 24)  # 12 m of path ahead
-        k = np.clip(np.rint(world.s / PATH_SPACING).astype(np.int64)[:, None] + look, 0, routes.path.shape[1] - 1)
-        r = np.maximum(world.route, 0)[:, None]
-        kappa = routes.curvature[r, k].max(axis=1)
-        limit = routes.speed_limit[r[:, 0], k[:, 0]]
-        curve = np.sqrt(cfg.lateral_accel / np.maximum(kappa, 1e-6))
-        out = np.minimum(world.max_speed, np.minimum(limit, curve))
-        return np.where(world.is_car, out, world.max_speed)
+        r = world.route[agents]
+        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
+        k = np.clip(k0[:, None] + self._look, 0, routes.path.shape[1] - 1)
+        kappa = routes.curvature[r[:, None], k].max(axis=1)
+        limit = routes.speed_limit[r, k[:, 0]]
+        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
+        out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
+        return np.where(world.is_car[agents], out, world.max_speed[agents])
 
     # ------------------------------------------------------------------ projection
-    def project(self, world: World, targets: np.ndarray) -> np.ndarray:
-        """Arc lengths (N, K, T) reached under each candidate target speed (N, K) (m/s).
+    def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Path arc lengths (A, K, T) of ``agents`` under each candidate target speed (A, K).
 
-        The speed law mirrors the PID's: v' = clip(gain · (v_target − v), −decel, accel).
+        The speed law is the PID's, in the simulator's discrete time:
+        v[n+1] = v[n] + clip(gain · (v_target − v[n]), −decel, accel) · dt. It is solved in closed
+        form: a saturated, linear phase of ``n1`` steps, then a geometric approach at rate
+        (1 − gain · dt) per step. Positions are sampled every ``sample_every`` steps.
         """
-        cfg = self.config
-        steps = int(round(cfg.horizon / world.dt))
-        v = np.repeat(world.state[:, 3:4], targets.shape[1], axis=1)
-        ds = np.empty((steps, *targets.shape))
-        for t in range(steps):
-            a = np.clip(cfg.speed_gain * (targets - v), -cfg.max_decel, cfg.max_accel)
-            v_next = np.maximum(v + a * world.dt, 0.0)
-            ds[t] = 0.5 * (v + v_next) * world.dt
-            v = v_next
-        travelled = np.cumsum(ds, axis=0)[cfg.sample_every - 1 :: cfg.sample_every]
-        return world.s[:, None, None] + np.moveaxis(travelled, 0, -1)
+        cfg, dt = self.config, world.dt
+        steps = int(round(cfg.horizon / dt))
+        n = np.arange(1, steps + 1, dtype=float)
+        v0 = world.state[agents, 3][:, None]
+        e0 = v0 - targets
+        sign = np.sign(e0)
+        lim = np.where(e0 < 0, cfg.max_accel, cfg.max_decel)
+        n1 = np.maximum(0.0, np.ceil((np.abs(e0) - lim / cfg.speed_gain) / (lim * dt)))
+        e1 = e0 - sign * lim * dt * n1
+        r = 1.0 - cfg.speed_gain * dt
+        linear = v0[..., None] - (sign * lim * dt)[..., None] * n
+        geometric = targets[..., None] + e1[..., None] * r ** (n - n1[..., None])
+        v = np.maximum(np.where(n <= n1[..., None], linear, geometric), 0.0)
+        v_prev = np.concatenate([np.broadcast_to(v0[..., None], (*targets.shape, 1)), v[..., :-1]], axis=-1)
+        travelled = np.cumsum(0.5 * (v_prev + v) * dt, axis=-1)[..., cfg.sample_every - 1 :: cfg.sample_every]
+        return world.s[agents][:, None, None] + travelled
 
     # ------------------------------------------------------------------ constraints
-    def domains(self, world: World, s_proj: np.ndarray, vmax: np.ndarray) -> np.ndarray:
-        """Unary constraints: allowed[i, k] is False where candidate k runs a stop light.
+    def domains(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
+        """Unary constraints: allowed[a, k] is False where candidate k runs a stop light.
 
         Stop (red, or "don't walk"): the agent's front may not pass its stop line within the
         horizon. Yellow: the same, unless it is too close to stop comfortably. An agent already
@@ -119,99 +127,123 @@ class VelocityPlanner:
         """
         routes = world.layout.routes
         allowed = np.ones(s_proj.shape[:2], dtype=bool)
-        r = world.route
-        light = np.where(r >= 0, routes.light[np.maximum(r, 0)], -1)
-        stop_s = routes.stop_s[np.maximum(r, 0)]
-        front = np.where(world.is_car, world.length / 2, world.width / 2)
-        gap = stop_s - (world.route_s + front)
-        governed = world.active & (light >= 0) & (gap > -0.5)
-        if not governed.any():
+        r = world.route[agents]
+        light = routes.light[r]
+        if not len(world.light_state) or (light < 0).all():
             return allowed
-        state = np.where(light >= 0, world.light_state[np.maximum(light, 0)] if len(world.light_state) else 0, 0)
-        v = world.state[:, 3]
+        stop_s = routes.stop_s[r]
+        front = self._front[agents]
+        gap = stop_s - (world.route_s[agents] + front)
+        state = world.light_state[np.maximum(light, 0)]
+        v = world.state[agents, 3]
         brake = v**2 / (2 * 0.6 * self.config.max_decel)  # comfortable braking distance
-        holds = governed & ((state == STOP) | ((state == CAUTION) & (brake < gap)))
-        crosses = (s_proj.max(axis=2) + world.offset[:, None] + front[:, None]) > stop_s[:, None]
+        holds = (light >= 0) & (gap > -0.5) & ((state == STOP) | ((state == CAUTION) & (brake < gap)))
+        if not holds.any():
+            return allowed
+        crosses = (s_proj[:, :, -1] + (world.offset[agents] + front)[:, None]) > stop_s[:, None]
         blocked = holds[:, None] & crosses
         can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
-        allowed &= ~(blocked & can_stop[:, None])
-        return allowed
+        return allowed & ~(blocked & can_stop[:, None])
 
-    def conflicts(self, world: World, s_proj: np.ndarray, vmax: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Candidate pairs (P, 2) and conflict[p, a, b] for each pair of candidates."""
-        act = np.flatnonzero(world.active)
-        if len(act) < 2:
-            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, len(self.fractions), len(self.fractions)), bool)
-        pos = world.state[:, :2]
-        reach = vmax * self.config.horizon + world.length + self.config.margin
-        ii, jj = np.triu_indices(len(act), k=1)
-        i, j = act[ii], act[jj]
-        # pedestrians step round each other: only pairs with a car constrain anyone
-        near = (np.hypot(*(pos[i] - pos[j]).T) < reach[i] + reach[j]) & (world.is_car[i] | world.is_car[j])
-        i, j = i[near], j[near]
-        if len(i) == 0:
-            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, len(self.fractions), len(self.fractions)), bool)
-        agents = np.unique(np.concatenate([i, j]))
-        offs, radius = _circle_layout(world)
-        bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
-        slot = np.zeros(world.n, dtype=np.int64)
-        slot[agents] = np.arange(len(agents))
-        ia, ja = slot[i], slot[j]
-        pts, head = world.path_points(s_proj[agents], agents)  # (A, K, T, 2), (A, K, T)
-        # broad phase: centre distances for every pair, candidate pair and time
-        dc = np.linalg.norm(pts[ia][:, :, None] - pts[ja][:, None, :], axis=-1)  # (P, K, K, T)
-        near = dc < (bound[i] + bound[j] + self.config.margin)[:, None, None, None]
-        conflict = np.zeros(dc.shape[:3], dtype=bool)
+    def conflicts(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
+
+        Positions are complex numbers (x + iy) so that offsets along a heading are one product.
+        """
+        k = len(self.fractions)
+        empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
+        if len(agents) < 2:
+            return empty
+        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex each
+        bound = self._bound[agents] + self.config.margin / 2
+        pos = world.state[agents, 0] + 1j * world.state[agents, 1]
+        # pairs whose swept boxes (every candidate, every time, and now) overlap; pedestrians
+        # step round each other, so only pairs with a car constrain anyone
+        flat = np.concatenate([pts.reshape(len(agents), -1), pos[:, None]], axis=1)
+        lo_x, hi_x = flat.real.min(1) - bound, flat.real.max(1) + bound
+        lo_y, hi_y = flat.imag.min(1) - bound, flat.imag.max(1) + bound
+        ii, jj = self._pairs(len(agents))
+        cars = world.is_car[agents]
+        keep = ((lo_x[ii] <= hi_x[jj]) & (lo_x[jj] <= hi_x[ii]) & (lo_y[ii] <= hi_y[jj])
+                & (lo_y[jj] <= hi_y[ii]) & (cars[ii] | cars[jj]))
+        ii, jj = ii[keep], jj[keep]
+        if not len(ii):
+            return empty
+        # broad phase: bounding circles, for every pair, candidate pair and time
+        diff = pts[ii][:, :, None] - pts[jj][:, None, :]  # (P, K, K, T)
+        reach = (bound[ii] + bound[jj]) ** 2
+        near = diff.real**2 + diff.imag**2 < reach[:, None, None, None]
+        conflict = np.zeros((len(ii), k, k), dtype=bool)
         p, a, b, t = np.nonzero(near)
         if len(p):
-            # narrow phase, only where the bounding circles meet: three circles per car
-            th = world.state[:, 2]
-            pos_now = world.state[:, :2]
-            now = pos_now[:, None, :] + offs[:, :, None] * np.stack([np.cos(th), np.sin(th)], -1)[:, None, :]
-            d_now = np.linalg.norm(now[i][:, :, None] - now[j][:, None, :], axis=-1).min(axis=(1, 2))
-            thresh = np.minimum(radius[i] + radius[j] + self.config.margin, d_now - 0.05)
-            hi, hj = head[ia[p], a, t], head[ja[p], b, t]
-            ci = pts[ia[p], a, t][:, None, :] + offs[i[p]][:, :, None] * np.stack([np.cos(hi), np.sin(hi)], -1)[:, None, :]
-            cj = pts[ja[p], b, t][:, None, :] + offs[j[p]][:, :, None] * np.stack([np.cos(hj), np.sin(hj)], -1)[:, None, :]
-            d = np.linalg.norm(ci[:, :, None] - cj[:, None, :], axis=-1).min(axis=(1, 2))
-            hit = d < thresh[p]
+            # narrow phase where bounding circles meet: three circles along each car
+            offs, radius = self._offs[agents], self._radius[agents]
+            th = world.state[agents, 2]
+            now = pos[:, None] + offs * np.exp(1j * th)[:, None]  # (A, 3)
+            d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
+            thresh = np.minimum(radius[ii] + radius[jj] + self.config.margin, d_now - 0.05)
+            pi, pj = ii[p], jj[p]
+            ci = pts[pi, a, t][:, None] + offs[pi] * dirs[pi, a, t][:, None]  # (M, 3)
+            cj = pts[pj, b, t][:, None] + offs[pj] * dirs[pj, b, t][:, None]
+            dd = ci[:, :, None] - cj[:, None, :]
+            d2 = (dd.real**2 + dd.imag**2).min(axis=(1, 2))
+            th_p = np.maximum(thresh[p], 0.0)
+            hit = d2 < th_p * th_p
             conflict[p[hit], a[hit], b[hit]] = True
         conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
         keep = conflict.any(axis=(1, 2))
-        return np.column_stack([i, j])[keep], conflict[keep]
+        return np.column_stack([ii, jj])[keep], conflict[keep]
 
-    def priority(self, world: World) -> list[int]:
-        """Agents in the order the solver assigns them (highest right of way first)."""
-        routes = world.layout.routes
-        enter = routes.enter_s[np.maximum(world.route, 0)]
-        front = np.where(world.is_car, world.length / 2, world.width / 2)
-        rs = world.route_s
-        inside = rs + front >= enter
-        key_inside = np.where(inside, -(rs - enter), np.inf)
-        key_out = np.where(inside, -np.inf, enter - rs)
-        order = np.lexsort((np.arange(world.n), key_out, key_inside, ~inside))
-        return [int(a) for a in order if world.active[a]]
+    def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if n not in self._pair_cache:
+            self._pair_cache[n] = np.triu_indices(n, k=1)
+        return self._pair_cache[n]
+
+    def priority(self, world: World, agents: np.ndarray) -> list[int]:
+        """Positions in ``agents`` in the order the solver assigns them (right of way first)."""
+        enter = world.layout.routes.enter_s[world.route[agents]]
+        rs = world.route_s[agents] + self._front[agents]
+        inside = rs >= enter
+        key_inside = np.where(inside, enter - rs, np.inf)  # furthest past the entry first
+        key_out = np.where(inside, -np.inf, enter - rs)  # then nearest to it
+        return np.lexsort((agents, key_out, key_inside, ~inside)).tolist()
 
     # ------------------------------------------------------------------ solve
+    def _bind(self, world: World) -> None:
+        """Per-world constants (footprint circles), computed once."""
+        if getattr(self, "_bound_world", None) is world:
+            return
+        self._bound_world = world
+        self._offs, self._radius = _circle_layout(world)
+        self._bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
+        self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
+
     def plan(self, world: World) -> np.ndarray:
         """Target velocity (m/s) of every agent; 0 for inactive ones."""
-        vmax = self.allowed_speed(world)
+        self._bind(world)
+        out = np.zeros(world.n)
+        agents = np.flatnonzero(world.active)
+        if not len(agents):
+            return out
+        vmax = self.allowed_speed(world, agents)
         targets = vmax[:, None] * self.fractions[None, :]
-        s_proj = self.project(world, targets)
-        allowed = self.domains(world, s_proj, vmax)
-        pairs, conflict = self.conflicts(world, s_proj, vmax)
-        choice = np.array([np.flatnonzero(row).max() if row.any() else 0 for row in allowed])
+        s_proj = self.project(world, agents, targets)
+        allowed = self.domains(world, agents, s_proj)
+        pairs, conflict = self.conflicts(world, agents, s_proj)
+        k = len(self.fractions)
+        choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
         if len(pairs):
-            problem = Problem(_PrioritySolver(self.priority(world)))
-            for a in np.unique(pairs):
-                problem.addVariable(int(a), [int(k) for k in np.flatnonzero(allowed[a])] or [0])
-            for (a, b), table in zip(pairs, conflict, strict=True):
+            problem = Problem(_PrioritySolver(self.priority(world, agents)))
+            for a in np.unique(pairs).tolist():
+                problem.addVariable(a, np.flatnonzero(allowed[a]).tolist())
+            for (a, b), table in zip(pairs.tolist(), conflict, strict=True):
                 ok = frozenset(zip(*np.nonzero(~table), strict=True))
-                problem.addConstraint(FunctionConstraint(lambda x, y, ok=ok: (x, y) in ok), [int(a), int(b)])
+                problem.addConstraint(FunctionConstraint(lambda x, y, ok=ok: (x, y) in ok), [a, b])
             solution = problem.getSolution()
             if solution is None:  # cannot happen (all-stop is feasible); fail loudly if it does
                 raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
-            for a, k in solution.items():
-                choice[a] = k
-        out = targets[np.arange(world.n), choice]
-        return np.where(world.active, out, 0.0)
+            for a, c in solution.items():
+                choice[a] = c
+        out[agents] = targets[np.arange(len(agents)), choice]
+        return out

@@ -1,0 +1,84 @@
+"""Simulator throughput, as JSON: steps per second of the FLUIDS scenarios of issue #2.
+
+S1: four-way with lights, 4 supervised cars + 2 pedestrians, no observation (world + supervisor).
+S2: FLUIDS-v0, ego + 10 supervised cars + 5 pedestrians, explicit observation, the supervisor's
+    label every step (the ego follows it).
+S3: 20 supervised cars + 10 pedestrians on the two-lane four-way, no observation.
+
+Episodes restart (new seed) whenever they end; resets are part of the measured time.
+Run on one core: `taskset -c 0 python scripts/bench_sim.py`.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import platform
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import fluids_bench
+from fluids_bench.sim.config import SceneConfig
+from fluids_bench.supervisors.driving.episode import make_world
+from fluids_bench.supervisors.driving.stack import DrivingSupervisor, SupervisorConfig
+from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
+
+
+def _result(done: int, episodes: int, t0: float, c0: float) -> dict:
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    # CPU time is reported too: on a shared machine it is steadier than wall time
+    return {"steps": done, "episodes": episodes, "seconds": round(wall, 3), "cpu_seconds": round(cpu, 3),
+            "steps_per_s": round(done / wall, 1), "steps_per_cpu_s": round(done / cpu, 1)}
+
+
+def bench_world(scene: SceneConfig, steps: int, period: int) -> dict:
+    done, seed, t0, c0 = 0, 0, time.perf_counter(), time.process_time()
+    cfg = SupervisorConfig(velocity=VelocityPlannerConfig(period=period))
+    while done < steps:
+        world = make_world(scene, seed)
+        sup = DrivingSupervisor(world, cfg)
+        while world.active.any() and world.steps < 1500 and done < steps:
+            sup.step(world)
+            done += 1
+        seed += 1
+    return _result(done, seed, t0, c0)
+
+
+def bench_env(kwargs: dict, steps: int) -> dict:
+    env = gym.make("FLUIDS-v0", **kwargs)
+    done, seed, t0, c0 = 0, 0, time.perf_counter(), time.process_time()
+    while done < steps:
+        _, info = env.reset(seed=seed)
+        seed += 1
+        while done < steps:
+            _, _, term, trunc, info = env.step(info["supervisor_action"])
+            done += 1
+            if term or trunc:
+                break
+    return _result(done, seed, t0, c0)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3000, help="steps per scenario")
+    parser.add_argument("--period", type=int, default=None, help="velocity-planner period (default: the env's)")
+    parser.add_argument("--only", nargs="*", default=None, help="scenario names to run (S1 S2 S3)")
+    args = parser.parse_args()
+    period = args.period
+    env_period = {} if period is None else {"planner_period": period}
+    world_period = period if period is not None else VelocityPlannerConfig().period
+    scenarios = {
+        "S1": lambda: bench_world(SceneConfig(num_cars=4, num_pedestrians=2), args.steps, world_period),
+        "S2": lambda: bench_env({"num_cars": 10, "num_pedestrians": 5, "action_level": "control", **env_period}, args.steps),
+        "S3": lambda: bench_world(SceneConfig(lanes=2, num_cars=20, num_pedestrians=10), args.steps, world_period),
+    }
+    results = {name: fn() for name, fn in scenarios.items() if not args.only or name in args.only}
+    print(json.dumps({"benchmark": "bench_sim", "fluids_bench": fluids_bench.__version__,
+                      "python": platform.python_version(), "numpy": np.__version__,
+                      "results": results}, indent=2))
+
+
+if __name__ == "__main__":
+    main()
