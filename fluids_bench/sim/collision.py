@@ -9,8 +9,10 @@ contain the footprint, so disjoint circles prove no contact) in one array expres
 pairs; only pairs whose circles meet become Shapely polygons, tested with one array call of
 ``shapely.intersects``. At the scene sizes FLUIDS runs (tens of agents) this beats building an
 STRtree every step; :func:`find_collisions_strtree` is the tree-based equivalent, used by the
-tests as a reference. Off-road is one ``contains_xy`` call on probe points of every car
-(corners and edge midpoints) against the prepared, slightly grown drivable area.
+tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
+the (slightly grown) drivable area iff its four corners do (one ``contains_xy`` call) and no
+vertex of that area's boundary lies inside the rectangle (the only way the boundary can cut in
+between inside corners).
 """
 
 from __future__ import annotations
@@ -20,20 +22,15 @@ import shapely
 
 OFFROAD_TOLERANCE = 0.25  # m a footprint may overhang the kerb (a wheel on the kerb line)
 KINDS = ("car-car", "car-pedestrian", "offroad")
-# probe points of a footprint, in units of (half length, half width)
-_PROBES = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1], [1, 0], [0, 1], [0, -1], [-1, 0]], float)
+# corners of a footprint, in units of (half length, half width)
+_CORNERS = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], float)
 
 
 def footprint_corners(x, y, theta, length, width) -> np.ndarray:
     """Corners (N, 4, 2) of rectangles centred at (x, y), ``length`` along heading ``theta``."""
-    return footprint_points(x, y, theta, length, width, _PROBES[:4])
-
-
-def footprint_points(x, y, theta, length, width, unit=_PROBES) -> np.ndarray:
-    """Points (N, P, 2) of footprints at ``unit`` offsets (half-length, half-width units)."""
     c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
-    px = unit[None, :, 0] * (length / 2)[:, None]
-    py = unit[None, :, 1] * (width / 2)[:, None]
+    px = _CORNERS[None, :, 0] * (length / 2)[:, None]
+    py = _CORNERS[None, :, 1] * (width / 2)[:, None]
     return np.stack([x[:, None] + c * px - s * py, y[:, None] + s * px + c * py], axis=-1)
 
 
@@ -43,42 +40,67 @@ def _kinds(a: np.ndarray, b: np.ndarray, is_car: np.ndarray) -> list[tuple[int, 
 
 
 def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is_car: np.ndarray,
-                    drivable_tolerant) -> list[tuple[int, int, str]]:
-    """Every colliding pair ``(i, j, kind)`` with i < j, and ``(i, -1, "offroad")`` for cars.
+                    active: np.ndarray, drivable_tolerant, boundary: np.ndarray) -> list[tuple[int, int, str]]:
+    """Every colliding pair ``(i, j, kind)`` with i < j among ``active`` agents, and
+    ``(i, -1, "offroad")`` for active cars.
 
-    ``state`` (N, 4) holds [x, y, θ, v] of the agents to check (indices refer to its rows);
-    ``drivable_tolerant`` is the prepared drivable area grown by :data:`OFFROAD_TOLERANCE`.
+    ``state`` (N, 4) holds [x, y, θ, v]; ``drivable_tolerant`` is the prepared drivable area
+    grown by :data:`OFFROAD_TOLERANCE` and ``boundary`` its boundary's vertices (complex). Works on whole arrays with masks (no subsetting), so
+    its cost hardly depends on how many agents are still driving.
     """
     n = len(state)
     out: list[tuple[int, int, str]] = []
-    if n == 0:
-        return out
-    x, y, th = state[:, 0], state[:, 1], state[:, 2]
-    if n > 1:
-        # three covering circles per agent, centred at -1/3, 0, +1/3 of the length
-        step = np.where(is_car, length / 3, 0.0)
-        radius = np.hypot(np.where(is_car, length / 6, length / 2), width / 2)
-        centre = x + 1j * y
-        circles = centre[:, None] + np.outer(step * np.exp(1j * th), (-1.0, 0.0, 1.0))
-        d = np.abs(circles[:, None, :, None] - circles[None, :, None, :]).min(axis=(2, 3))
-        near = d < radius[:, None] + radius[None, :]
-        a, b = np.nonzero(np.triu(near, k=1) & (is_car[:, None] | is_car[None, :]))
-        if len(a):
-            corners = footprint_corners(x, y, th, length, width)
-            polys = shapely.polygons(corners)
-            hit = shapely.intersects(polys[a], polys[b])
-            out.extend(_kinds(a[hit], b[hit], is_car))
-    cars = np.flatnonzero(is_car)
+    heading = np.exp(1j * state[:, 2])
+    centre = state[:, 0] + 1j * state[:, 1]
+    # three covering circles per agent, centred at -1/3, 0, +1/3 of a car's length
+    circles = centre[:, None] + (np.where(is_car, length / 3, 0.0) * heading)[:, None] * _THIRDS
+    radius = np.hypot(np.where(is_car, length / 6, length / 2), width / 2)
+    gap = circles[:, None, :, None] - circles[None, :, None, :]
+    d2 = (gap.real**2 + gap.imag**2).min(axis=(2, 3))
+    reach = radius[:, None] + radius[None, :]
+    near = (d2 < reach * reach) & _pair_mask(is_car) & active[:, None] & active[None, :]
+    a, b = near.nonzero()
+    if len(a):
+        involved = np.unique(np.concatenate([a, b]))
+        corners = footprint_corners(state[involved, 0], state[involved, 1], state[involved, 2],
+                                    length[involved], width[involved])
+        polys = np.empty(n, dtype=object)
+        polys[involved] = shapely.polygons(corners)
+        hit = shapely.intersects(polys[a], polys[b])
+        out.extend(_kinds(a[hit], b[hit], is_car))
+    cars = (is_car & active).nonzero()[0]
     if len(cars):
-        pts = footprint_points(x[cars], y[cars], th[cars], length[cars], width[cars])
-        inside = shapely.contains_xy(drivable_tolerant, pts[..., 0].ravel(), pts[..., 1].ravel())
+        hl, hw = length[cars, None] / 2, width[cars, None] / 2
+        corners = centre[cars, None] + heading[cars, None] * (_CORNERS_C.real * hl + 1j * _CORNERS_C.imag * hw)
+        inside = shapely.contains_xy(drivable_tolerant, corners.real.ravel(), corners.imag.ravel())
         off = ~inside.reshape(len(cars), -1).all(axis=1)
+        local = (boundary[None, :] - centre[cars, None]) * heading[cars, None].conj()  # car frames
+        off |= ((np.abs(local.real) < hl) & (np.abs(local.imag) < hw)).any(axis=1)
         out.extend((int(i), -1, "offroad") for i in cars[off])
     return out
 
 
-def find_collisions_strtree(state, length, width, is_car, drivable_tolerant) -> list[tuple[int, int, str]]:
-    """Reference implementation with an STRtree and exact polygon containment."""
+_THIRDS = np.array([-1.0, 0.0, 1.0])
+_CORNERS_C = _CORNERS[:, 0] + 1j * _CORNERS[:, 1]
+_PAIR_MASKS: dict[bytes, np.ndarray] = {}
+
+
+def _pair_mask(is_car: np.ndarray) -> np.ndarray:
+    """Upper-triangular pairs with at least one car (cached per agent make-up)."""
+    key = is_car.tobytes()
+    if key not in _PAIR_MASKS:
+        _PAIR_MASKS[key] = np.triu(is_car[:, None] | is_car[None, :], k=1)
+    return _PAIR_MASKS[key]
+
+
+def find_collisions_strtree(state, length, width, is_car, active, drivable_tolerant) -> list[tuple[int, int, str]]:
+    """Reference implementation with an STRtree and exact polygon containment (tests use it)."""
+    idx = active.nonzero()[0]
+    found = _strtree(state[idx], length[idx], width[idx], is_car[idx], drivable_tolerant)
+    return [(int(idx[a]), int(idx[b]) if b >= 0 else -1, kind) for a, b, kind in found]
+
+
+def _strtree(state, length, width, is_car, drivable_tolerant) -> list[tuple[int, int, str]]:
     x, y, th = state[:, 0], state[:, 1], state[:, 2]
     polys = shapely.polygons(footprint_corners(x, y, th, length, width))
     a, b = shapely.STRtree(polys).query(polys, predicate="intersects")

@@ -31,5 +31,5 @@ def integrate(state: np.ndarray, controls: np.ndarray, is_car: np.ndarray, param
     new[:, 1] = y + v * np.sin(heading) * dt
     new[:, 2] = np.where(is_car, th + v / lr * np.sin(beta) * dt, psi)
     new[:, 2] = (new[:, 2] + np.pi) % (2 * np.pi) - np.pi
-    new[:, 3] = np.clip(v + accel * dt, 0.0, vmax)
+    new[:, 3] = np.minimum(np.maximum(v + accel * dt, 0.0), vmax)
     return new

@@ -26,6 +26,8 @@ class LightProgram:
         self.cycle = np.ones(len(lights))
         self.offset = np.zeros(len(lights))
         self._described: dict[bytes, dict[str, str]] = {}
+        self._valid = (np.inf, -np.inf)  # time interval over which self._last holds
+        self._last = np.zeros(0, dtype=np.int8)
         for i, light in enumerate(lights):
             durations = [d for _, d in light.phases]
             self.ends[i, : len(durations)] = np.cumsum(durations)
@@ -37,12 +39,19 @@ class LightProgram:
         return len(self.names)
 
     def states(self, t: float) -> np.ndarray:
-        """State code of every light at time ``t`` (s)."""
+        """State code of every light at time ``t`` (s). Read-only; lights change rarely, so the
+        last answer is reused while ``t`` stays inside the interval it holds for."""
+        if self._valid[0] <= t < self._valid[1]:
+            return self._last
         if not len(self):
             return np.zeros(0, dtype=np.int8)
         phase_t = np.mod(t + self.offset, self.cycle)
         idx = (phase_t[:, None] >= self.ends).sum(axis=1)
-        return self.codes[np.arange(len(self)), idx]
+        self._last = self.codes[np.arange(len(self)), idx]
+        self._last.setflags(write=False)
+        start = np.where(idx > 0, self.ends[np.arange(len(self)), np.maximum(idx - 1, 0)], 0.0)
+        self._valid = (t - (phase_t - start).min(), t + self.time_to_change(t).min())
+        return self._last
 
     def time_to_change(self, t: float) -> np.ndarray:
         """Seconds until each light next changes state."""

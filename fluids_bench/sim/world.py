@@ -118,7 +118,7 @@ class World:
     def path_points(self, s: np.ndarray, agents: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Points and headings at arc lengths ``s`` (shape (n,) or (n, ...)) on each agent's path."""
         agents = np.arange(self.n) if agents is None else agents
-        k = np.clip(np.rint(s / PATH_SPACING).astype(np.int64), 0, self.path.shape[1] - 1)
+        k = np.minimum(np.maximum(np.rint(s / PATH_SPACING).astype(np.int64), 0), self.path.shape[1] - 1)
         rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
         return self.path[rows, k], self.path_heading[rows, k]
 
@@ -130,7 +130,7 @@ class World:
     def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Complex points and unit tangents at arc lengths ``s`` (len(agents), ...)."""
         k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
-        np.clip(k, 0, self.path.shape[1] - 1, out=k)
+        np.minimum(np.maximum(k, 0, out=k), self.path.shape[1] - 1, out=k)
         rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
         return self.path_c[rows, k], self.path_dir[rows, k]
 
@@ -160,29 +160,27 @@ class World:
         """Project each agent onto its path near its previous progress (a local window: an
         agent moves at most a few samples per step)."""
         k = np.rint(self.s / PATH_SPACING).astype(np.int64)[:, None] + self._window
-        np.clip(k, 0, self.path.shape[1] - 1, out=k)
+        np.minimum(np.maximum(k, 0, out=k), self.path.shape[1] - 1, out=k)
         rows = self._rows
         d = self.path[rows, k] - self.state[:, None, :2]
         best = k[rows[:, 0], np.einsum("nkd,nkd->nk", d, d).argmin(axis=1)]
         h = self.path_heading[rows[:, 0], best]
         off = self.state[:, :2] - self.path[rows[:, 0], best]
-        along = np.clip(off[:, 0] * np.cos(h) + off[:, 1] * np.sin(h), -PATH_SPACING / 2, PATH_SPACING / 2)
+        ch, sh = np.cos(h), np.sin(h)
+        along = np.minimum(np.maximum(off[:, 0] * ch + off[:, 1] * sh, -PATH_SPACING / 2), PATH_SPACING / 2)
         s = np.minimum(best * PATH_SPACING + along, self.path_len)
         self.s = np.where(self.active, s, self.s)
         # by-products for the supervisor: signed lateral offset and heading error from the path
-        self.lateral_error = off[:, 1] * np.cos(h) - off[:, 0] * np.sin(h)
+        self.lateral_error = off[:, 1] * ch - off[:, 0] * sh
         self.heading_error = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
 
     def _collisions(self) -> list[Collision]:
-        idx = np.flatnonzero(self.active)
-        found = find_collisions(self.state[idx], self.length[idx], self.width[idx], self.is_car[idx],
-                                self.layout.drivable_tolerant)
+        found = find_collisions(self.state, self.length, self.width, self.is_car, self.active,
+                                self.layout.drivable_tolerant, self.layout.tolerant_boundary_vertices)
         out = []
         for a, b, kind in found:
-            ga = int(idx[a])
-            gb = int(idx[b]) if b >= 0 else -1
-            self.collided[ga] = True
-            if gb >= 0:
-                self.collided[gb] = True
-            out.append(Collision(self.steps, ga, gb, kind))
+            self.collided[a] = True
+            if b >= 0:
+                self.collided[b] = True
+            out.append(Collision(self.steps, a, b, kind))
         return out

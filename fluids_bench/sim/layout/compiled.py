@@ -74,6 +74,12 @@ class Layout:
         shapely.prepare(g)
         return g
 
+    @functools.cached_property
+    def tolerant_boundary_vertices(self) -> np.ndarray:
+        """Vertices of the grown drivable area's boundary, as complex numbers x + iy."""
+        xy = shapely.get_coordinates(self.drivable_tolerant.boundary)
+        return xy[:, 0] + 1j * xy[:, 1]
+
     @property
     def name(self) -> str:
         return self.spec.name

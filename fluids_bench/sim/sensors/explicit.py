@@ -51,16 +51,21 @@ class ExplicitSensor:
         goal = world.path[ego, int(round(world.path_len[ego] / 0.5))]
         d = goal - (x, y)
         out[EGO : EGO + GOAL] = (c * d[0] + s * d[1], -s * d[0] + c * d[1], world.path_len[ego] - world.s[ego])
-        others = np.flatnonzero(world.active)
+        others = world.active.nonzero()[0]
         others = others[others != ego]
         if len(others):
             rel = world.state[others, :2] - (x, y)
             order = np.argsort(np.hypot(*rel.T), kind="stable")[: self.k]
             idx, rel = others[order], rel[order]
             dth = world.state[idx, 2] - th
-            rows = np.column_stack([c * rel[:, 0] + s * rel[:, 1], -s * rel[:, 0] + c * rel[:, 1],
-                                    np.cos(dth), np.sin(dth), world.state[idx, 3],
-                                    world.kind[idx] == PEDESTRIAN, np.ones(len(idx))])
+            rows = np.empty((len(idx), PER_AGENT))
+            rows[:, 0] = c * rel[:, 0] + s * rel[:, 1]
+            rows[:, 1] = -s * rel[:, 0] + c * rel[:, 1]
+            rows[:, 2] = np.cos(dth)
+            rows[:, 3] = np.sin(dth)
+            rows[:, 4] = world.state[idx, 3]
+            rows[:, 5] = world.kind[idx] == PEDESTRIAN
+            rows[:, 6] = 1.0
             base = EGO + GOAL
             out[base : base + rows.size] = rows.ravel()
         base = EGO + GOAL + PER_AGENT * self.k

@@ -29,9 +29,12 @@ class PIDConfig:
     assumed_mass: float | None = None  # kg the controller believes cars weigh (None: the truth)
 
     def __post_init__(self) -> None:
-        for name in ("steer_kp", "steer_kd", "speed_kp"):
+        for name in ("steer_kp", "steer_ki", "steer_kd", "speed_kp", "speed_ki"):
             check_range("PIDConfig", name, getattr(self, name), 0.0, 100.0)
+        check_range("PIDConfig", "max_accel", self.max_accel, 0.1, 50.0)
+        check_range("PIDConfig", "max_decel", self.max_decel, 0.1, 50.0)
         check_range("PIDConfig", "lookahead_min", self.lookahead_min, 0.1, 50.0)
+        check_range("PIDConfig", "lookahead_time", self.lookahead_time, 0.0, 10.0)
         if self.assumed_mass is not None:
             check_range("PIDConfig", "assumed_mass", self.assumed_mass, 1.0, 1e5)
 
@@ -41,21 +44,26 @@ def wrap(a: np.ndarray) -> np.ndarray:
 
 
 class PIDController:
-    """Per-agent PID state (integrators, last errors) for one world."""
+    """Per-agent PID state (last steering error, integrators) for one world."""
 
     def __init__(self, world: World, config: PIDConfig | None = None) -> None:
         self.config = config or PIDConfig()
-        self.reset(world)
-
-    def reset(self, world: World) -> None:
+        cfg, car, ped = self.config, world.scene.car, world.scene.pedestrian
+        self.is_car = world.is_car
+        # per-agent limits, so one expression serves cars (force, N) and pedestrians (m/s²)
+        mass = cfg.assumed_mass if cfg.assumed_mass is not None else car.mass
+        self.gain = np.where(world.is_car, mass, 1.0)  # acceleration → actuator units
+        self.low = np.where(world.is_car, -car.max_brake_force, -ped.max_accel)
+        self.high = np.where(world.is_car, car.max_force, ped.max_accel)
+        self.max_steer = car.max_steer
+        self.min_ahead = np.where(world.is_car, cfg.lookahead_min, 0.8)
+        self.ahead_time = np.where(world.is_car, cfg.lookahead_time, 0.0)
         self.steer_int = np.zeros(world.n)
         self.steer_prev = np.zeros(world.n)
         self.speed_int = np.zeros(world.n)
 
     def lookahead_points(self, world: World) -> np.ndarray:
-        cfg = self.config
-        ahead = np.maximum(cfg.lookahead_min, cfg.lookahead_time * world.state[:, 3])
-        ahead = np.where(world.is_car, ahead, 0.8)
+        ahead = np.maximum(self.min_ahead, self.ahead_time * world.state[:, 3])
         pts, _ = world.path_points(np.minimum(world.s + ahead, world.path_len))
         return pts
 
@@ -66,21 +74,23 @@ class PIDController:
         overrides the look-ahead points (N, 2)."""
         cfg = self.config
         aim = self.lookahead_points(world) if aim is None else aim
-        x, y, th, v = world.state.T
-        desired = np.arctan2(aim[:, 1] - y, aim[:, 0] - x)
-        err = wrap(desired - th)
-        d_err = (err - self.steer_prev) / world.dt
+        state = world.state
+        desired = np.arctan2(aim[:, 1] - state[:, 1], aim[:, 0] - state[:, 0])
+        err = wrap(desired - state[:, 2])
         integ = self.steer_int + err * world.dt
-        max_steer = world.scene.car.max_steer
-        steer = np.clip(cfg.steer_kp * err + cfg.steer_ki * integ + cfg.steer_kd * d_err, -max_steer, max_steer)
-        v_err = target_speed - v
+        steer = cfg.steer_kp * err + cfg.steer_kd / world.dt * (err - self.steer_prev)
+        if cfg.steer_ki:
+            steer += cfg.steer_ki * integ
+        v_err = target_speed - state[:, 3]
         v_int = self.speed_int + v_err * world.dt
-        accel = np.clip(cfg.speed_kp * v_err + cfg.speed_ki * v_int, -cfg.max_decel, cfg.max_accel)
-        car = world.scene.car
-        mass = cfg.assumed_mass if cfg.assumed_mass is not None else car.mass
-        force = np.clip(accel * mass, -car.max_brake_force, car.max_force)
-        ped_accel = np.clip(accel, -world.scene.pedestrian.max_accel, world.scene.pedestrian.max_accel)
-        out = np.column_stack([np.where(world.is_car, steer, desired), np.where(world.is_car, force, ped_accel)])
+        accel = cfg.speed_kp * v_err
+        if cfg.speed_ki:
+            accel += cfg.speed_ki * v_int
+        out = np.empty((world.n, 2))
+        np.minimum(np.maximum(steer, -self.max_steer), self.max_steer, out=out[:, 0])
+        np.copyto(out[:, 0], desired, where=~self.is_car)
+        accel = np.minimum(np.maximum(accel, -cfg.max_decel), cfg.max_accel)
+        np.minimum(np.maximum(accel * self.gain, self.low), self.high, out=out[:, 1])
         return out, (err, integ, v_int)
 
     def commit(self, memory: tuple) -> None:

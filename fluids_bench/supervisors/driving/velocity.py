@@ -84,7 +84,7 @@ class VelocityPlanner:
         routes = world.layout.routes
         r = world.route[agents]
         k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
-        k = np.clip(k0[:, None] + self._look, 0, routes.path.shape[1] - 1)
+        k = np.minimum(np.maximum(k0[:, None] + self._look, 0), routes.path.shape[1] - 1)
         kappa = routes.curvature[r[:, None], k].max(axis=1)
         limit = routes.speed_limit[r, k[:, 0]]
         curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
@@ -223,7 +223,7 @@ class VelocityPlanner:
         """Target velocity (m/s) of every agent; 0 for inactive ones."""
         self._bind(world)
         out = np.zeros(world.n)
-        agents = np.flatnonzero(world.active)
+        agents = world.active.nonzero()[0]
         if not len(agents):
             return out
         vmax = self.allowed_speed(world, agents)
@@ -236,7 +236,7 @@ class VelocityPlanner:
         if len(pairs):
             problem = Problem(_PrioritySolver(self.priority(world, agents)))
             for a in np.unique(pairs).tolist():
-                problem.addVariable(a, np.flatnonzero(allowed[a]).tolist())
+                problem.addVariable(a, allowed[a].nonzero()[0].tolist())
             for (a, b), table in zip(pairs.tolist(), conflict, strict=True):
                 ok = frozenset(zip(*np.nonzero(~table), strict=True))
                 problem.addConstraint(FunctionConstraint(lambda x, y, ok=ok: (x, y) in ok), [a, b])
