@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+from importlib.util import find_spec
 from typing import Any
 
 import gymnasium as gym
@@ -108,7 +109,8 @@ class FluidsEnv(gym.Env):
     * ``lidar_dropout``: ε, per-ray dropout probability, 0 to 1 (default 0).
     * ``render_mode``: ``None``, ``"rgb_array"`` (a global view: routes, light states, this
       step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
-      window; needs ``pip install "fluids-bench[human]"``).
+      window; needs ``pip install "fluids-bench[human]"``, and is listed in
+      ``metadata["render_modes"]`` only where pygame is installed).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
     * ``planner_period``: steps between velocity-planner runs (default 1).
@@ -118,7 +120,9 @@ class FluidsEnv(gym.Env):
     * v0: initial release.
     """
 
-    metadata = {"render_modes": ["human", "rgb_array"], "render_fps": 10}
+    # "human" is offered only where pygame (the ``human`` extra) is installed
+    metadata = {"render_modes": ["rgb_array"] + (["human"] if find_spec("pygame") else []),
+                "render_fps": 10}
 
     def __init__(self, layout: str = "four_way", lanes: int = 1, lights: bool = True,
                  num_cars: int = 3, num_pedestrians: int = 2, action_level: str = "control",
@@ -130,6 +134,10 @@ class FluidsEnv(gym.Env):
                  planner_period: int = 1, dt: float = 0.1, render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
             raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
+        if render_mode == "human":
+            from fluids_bench.sim.render import require_pygame
+
+            require_pygame()
         if render_mode is not None and render_mode not in self.metadata["render_modes"]:
             raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                              f"allowed: {self.metadata['render_modes']} or None")
@@ -140,10 +148,6 @@ class FluidsEnv(gym.Env):
             pixel_noise=pixel_noise, lidar_rays=lidar_rays, lidar_range=lidar_range,
             lidar_noise=lidar_noise, lidar_dropout=lidar_dropout,
         )
-        if render_mode == "human":
-            from fluids_bench.sim.render import require_pygame
-
-            require_pygame()
         self.scene = SceneConfig(layout=layout, lanes=lanes, lights=lights, num_cars=num_cars + 1,
                                  num_pedestrians=num_pedestrians, dt=dt,
                                  car=CarConfig(mass=car_mass), pedestrian=PedestrianConfig())

@@ -49,16 +49,20 @@ class ObservationConfig:
         obs_type = self.obs_type
         kinds = (obs_type,) if isinstance(obs_type, str) else tuple(obs_type)
         if not kinds or any(k not in OBS_TYPES for k in kinds) or len(set(kinds)) != len(kinds):
-            raise ValueError(f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: one of "
-                             f"{list(OBS_TYPES)} or a list of distinct ones")
+            raise ValueError(
+                f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: one of "
+                f"{list(OBS_TYPES)} or a list of distinct ones"
+            )
         object.__setattr__(self, "obs_type", obs_type if isinstance(obs_type, str) else kinds)
         check_range("FluidsEnv", "obs_noise", self.obs_noise, 0.0, 100.0)
         check_range("FluidsEnv", "k_nearest", self.k_nearest, 0, 64, integer=True)
         check_range("FluidsEnv", "birdseye_size", self.birdseye_size, 16, 1024, integer=True)
         check_range("FluidsEnv", "birdseye_fov", self.birdseye_fov, 5.0, 1000.0)
         if self.birdseye_frame not in BIRDSEYE_FRAMES:
-            raise ValueError(f"FluidsEnv: field 'birdseye_frame' is {self.birdseye_frame!r}; "
-                             f"allowed: {list(BIRDSEYE_FRAMES)}")
+            raise ValueError(
+                f"FluidsEnv: field 'birdseye_frame' is {self.birdseye_frame!r}; "
+                f"allowed: {list(BIRDSEYE_FRAMES)}"
+            )
         check_range("FluidsEnv", "pixel_noise", self.pixel_noise, 0.0, 10000.0)
         check_range("FluidsEnv", "lidar_rays", self.lidar_rays, 1, 4096, integer=True)
         check_range("FluidsEnv", "lidar_range", self.lidar_range, 1.0, 1000.0)
@@ -83,8 +87,9 @@ class _BirdsEye:
     def __init__(self, cfg: ObservationConfig, world: World) -> None:
         from fluids_bench.sim.sensors.birdseye import BirdsEyeSensor
 
-        self.sensor = BirdsEyeSensor(world.layout, cfg.birdseye_size, cfg.birdseye_fov,
-                                     cfg.birdseye_frame, cfg.pixel_noise)
+        self.sensor = BirdsEyeSensor(
+            world.layout, cfg.birdseye_size, cfg.birdseye_fov, cfg.birdseye_frame, cfg.pixel_noise
+        )
         self.space = spaces.Box(0, 255, self.sensor.shape, np.uint8)
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
@@ -95,8 +100,14 @@ class _QLidar:
     def __init__(self, cfg: ObservationConfig, world: World) -> None:
         from fluids_bench.sim.sensors.qlidar import QLidarSensor
 
-        self.sensor = QLidarSensor(world.layout, cfg.lidar_rays, cfg.lidar_range, cfg.lidar_noise,
-                                   cfg.lidar_dropout, max_speed=float(world.max_speed.max()))
+        self.sensor = QLidarSensor(
+            world.layout,
+            cfg.lidar_rays,
+            cfg.lidar_range,
+            cfg.lidar_noise,
+            cfg.lidar_dropout,
+            max_speed=float(world.max_speed.max()),
+        )
         low, high = self.sensor.bounds
         self.space = spaces.Box(low, high, dtype=np.float32)
 
@@ -114,8 +125,11 @@ class Observer:
         self.config = cfg
         self.parts = {kind: _FACTORIES[kind](cfg, world) for kind in cfg.kinds}
         self.single = isinstance(cfg.obs_type, str)
-        self.space = (next(iter(self.parts.values())).space if self.single
-                      else spaces.Dict({k: p.space for k, p in self.parts.items()}))
+        self.space = (
+            next(iter(self.parts.values())).space
+            if self.single
+            else spaces.Dict({k: p.space for k, p in self.parts.items()})
+        )
 
     def observe(self, world: World, rng: np.random.Generator):
         if self.single:
