@@ -14,6 +14,7 @@ import sys
 # subcommand modules, in the order --help lists them
 COMMAND_MODULES = (
     "fluids_bench.commands.demo",
+    "fluids_bench.commands.render_layout",
     "fluids_bench.commands.train",
 )
 
