@@ -113,7 +113,8 @@ class FluidsEnv(gym.Env):
       ``metadata["render_modes"]`` only where pygame is installed).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
-    * ``planner_period``: steps between velocity-planner runs (default 1).
+    * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
+      the velocity-level label, is held in between.
     * ``dt``: seconds per step (default 0.1).
 
     ## Version History
@@ -131,7 +132,7 @@ class FluidsEnv(gym.Env):
                  pixel_noise: float = 0.0, lidar_rays: int = 64, lidar_range: float = 30.0,
                  lidar_noise: float = 0.0, lidar_dropout: float = 0.0,
                  waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
-                 planner_period: int = 1, dt: float = 0.1, render_mode: str | None = None) -> None:
+                 planner_period: int = 5, dt: float = 0.1, render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
             raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
         if render_mode == "human":

@@ -49,6 +49,11 @@ class DrivingSupervisor:
         self._memory: tuple = ()
         self.recoveries = 0
 
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_recovery"] = None  # OMPL objects do not pickle; rebuilt on first need
+        return state
+
     def recovery_planner(self, world: World) -> RecoveryPlanner:
         if self._recovery is None:  # OMPL set-up only when first needed
             self._recovery = RecoveryPlanner(world)

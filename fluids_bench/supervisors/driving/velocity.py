@@ -38,7 +38,7 @@ class VelocityPlannerConfig:
     speed_gain: float = 2.0  # 1/s, the controller's speed loop gain (projection mirrors it)
     max_accel: float = 2.5  # m/s² the controller asks for at most
     max_decel: float = 5.0  # m/s² the controller brakes at most
-    period: int = 1  # plan every this many steps; hold the plan in between
+    period: int = 5  # plan every this many steps (0.5 s at dt = 0.1); hold the plan in between
 
     def __post_init__(self) -> None:
         check_range("VelocityPlannerConfig", "horizon", self.horizon, 0.5, 20.0)
