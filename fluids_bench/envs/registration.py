@@ -6,6 +6,7 @@ rebuilds the same env. Bump the version suffix whenever an id's behaviour change
 
 from __future__ import annotations
 
+import importlib
 from typing import Any
 
 import gymnasium as gym
@@ -23,6 +24,23 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "GridWorld-v0": ("fluids_bench.envs.gridworld:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.envs.dag:DAGEnv", 3, {}),
 }
+
+# PettingZoo ParallelEnv ids (not Gymnasium envs, so not registered with gym):
+# id -> (factory "module:function", default kwargs); build with make_parallel_env(id, **kwargs)
+PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
+    "FLUIDS-MultiAgent-v0": ("fluids_bench.envs.multi_agent:parallel_env", {}),
+}
+
+
+def make_parallel_env(env_id: str, **kwargs: Any):
+    """Build the PettingZoo ParallelEnv ``env_id`` of :data:`PARALLEL_ENV_SPECS`."""
+    if env_id not in PARALLEL_ENV_SPECS:
+        raise ValueError(
+            f"unknown parallel env id {env_id!r}; allowed: {sorted(PARALLEL_ENV_SPECS)}"
+        )
+    factory, defaults = PARALLEL_ENV_SPECS[env_id]
+    module, _, name = factory.partition(":")
+    return getattr(importlib.import_module(module), name)(**{**defaults, **kwargs})
 
 
 def register_envs() -> None:
