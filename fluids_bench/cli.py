@@ -16,6 +16,7 @@ COMMAND_MODULES = (
     "fluids_bench.commands.demo",
     "fluids_bench.commands.render_layout",
     "fluids_bench.commands.train",
+    "fluids_bench.commands.collect",
 )
 
 

@@ -1,0 +1,226 @@
+"""Supervisor-labelled episodes as Minari datasets (the Farama standard for offline data).
+
+In an exported dataset:
+
+* ``actions`` are the supervisor's labels: ``actions[t]`` is what the supervisor does in the
+  state of ``observations[t]``, whoever acted there;
+* ``infos["executed_action"]`` and ``infos["provenance"]`` say what was actually executed and
+  who chose it (``"supervisor"``, ``"noise"`` or ``"learner"``). Infos follow Minari's layout,
+  ``T + 1`` rows with the reset's first, so the action executed at step ``t`` is row ``t + 1``
+  (``infos["executed_action"][1:]`` lines up with ``actions``); row 0 holds a zero action with
+  provenance ``"reset"``;
+* ``terminations`` / ``truncations``: the last step is terminated when the env said so and
+  truncated otherwise (time limit, or cut short by the collector's ``max_steps``);
+* the env spec (id, JSON-friendly kwargs, time limit) is stored, so
+  ``dataset.recover_environment()`` rebuilds the same env; each episode's seed is in its
+  metadata.
+
+Writing is atomic: the dataset is built under a hidden staging folder in the datasets root
+(``MINARI_DATASETS_PATH``), which Minari does not list, then renamed into place; an
+interrupted export leaves no dataset behind. An existing id is refused unless ``overwrite``.
+Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import shutil
+import uuid
+import warnings
+from collections.abc import Iterator, Sequence
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import minari
+import numpy as np
+from gymnasium import spaces
+from minari.data_collector.episode_buffer import EpisodeBuffer
+from minari.dataset.minari_dataset import DATASET_ID_RE
+from minari.namespace import create_namespace, list_local_namespaces
+from minari.storage.datasets_root_dir import get_dataset_path
+
+from fluids_bench import __version__
+from fluids_bench.algos.dataset import Trajectory
+from fluids_bench.data.collect import PROVENANCES
+
+EXECUTED_KEY = "executed_action"
+PROVENANCE_KEY = "provenance"
+RESET_PROVENANCE = "reset"
+STAGING_DIR = ".fluids-bench-staging"  # hidden: Minari skips dot-folders when listing
+DATA_FORMATS = ("arrow", "hdf5")
+# Minari reminds about unset optional fields; an export without them is deliberate
+_OPTIONAL_FIELD_WARNINGS = r"`(author|author_email|code_permalink)` is set to None"
+
+
+def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
+    """``(namespace, name, version)`` of a Minari id ``[NAMESPACE/]NAME-vK``, or ValueError."""
+    match = DATASET_ID_RE.fullmatch(dataset_id) if isinstance(dataset_id, str) else None
+    if match is None or match.group("version") is None:
+        raise ValueError(
+            f"dataset id is {dataset_id!r}; allowed: NAMESPACE/NAME-vK (letters, "
+            "digits, '-', '_'; a namespace has at least two characters)"
+        )
+    return match.group("namespace"), match.group("dataset"), int(match.group("version"))
+
+
+def _actions(space: spaces.Space, values: Any) -> Any:
+    if isinstance(space, spaces.Discrete):
+        return np.asarray(values, dtype=space.dtype).reshape(-1)
+    return np.asarray(values, dtype=space.dtype).reshape((-1, *space.shape))
+
+
+def episode_buffer(
+    index: int,
+    trajectory: Trajectory,
+    provenance: str,
+    observation_space: spaces.Space,
+    action_space: spaces.Space,
+) -> EpisodeBuffer:
+    """One Minari episode from a trajectory (see the module docstring for the layout)."""
+    if provenance not in PROVENANCES:
+        raise ValueError(f"provenance is {provenance!r}; allowed: {list(PROVENANCES)}")
+    steps = len(trajectory)
+    if steps == 0:
+        raise ValueError(f"episode {index} has no steps; Minari episodes need at least one")
+    executed = _actions(action_space, trajectory.actions)
+    reset_row = np.zeros_like(executed[:1])
+    executed = np.concatenate([reset_row, executed])
+    if isinstance(action_space, spaces.Discrete):
+        # a list: Minari 0.5.4's Arrow storage cannot read back 1-D array infos
+        executed = [int(a) for a in executed]
+    terminations = np.zeros(steps, dtype=bool)
+    truncations = np.zeros(steps, dtype=bool)
+    terminations[-1] = trajectory.terminated
+    truncations[-1] = not trajectory.terminated
+    return EpisodeBuffer(
+        id=index,
+        seed=int(trajectory.seed),
+        observations=np.asarray(trajectory.observations, dtype=observation_space.dtype),
+        actions=_actions(action_space, trajectory.labels),
+        rewards=np.asarray(trajectory.rewards, dtype=np.float64),
+        terminations=terminations,
+        truncations=truncations,
+        infos={EXECUTED_KEY: executed, PROVENANCE_KEY: [RESET_PROVENANCE] + [provenance] * steps},
+    )
+
+
+@contextlib.contextmanager
+def _datasets_root(path: Path) -> Iterator[None]:
+    """Point Minari at ``path`` for the duration (Minari reads the variable on every call)."""
+    before = os.environ.get("MINARI_DATASETS_PATH")
+    os.environ["MINARI_DATASETS_PATH"] = str(path)
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["MINARI_DATASETS_PATH"]
+        else:
+            os.environ["MINARI_DATASETS_PATH"] = before
+
+
+def export_minari(
+    dataset_id: str,
+    trajectories: Sequence[Trajectory],
+    *,
+    env_id: str,
+    env_kwargs: dict[str, Any] | None = None,
+    provenance: str = "supervisor",
+    algorithm_name: str | None = None,
+    description: str | None = None,
+    author: str | None = "fluids-bench",
+    author_email: str | None = None,
+    code_permalink: str | None = None,
+    ref_min_score: float | None = None,
+    ref_max_score: float | None = None,
+    overwrite: bool = False,
+    data_format: str = "arrow",
+) -> minari.MinariDataset:
+    """Write ``trajectories`` of ``gym.make(env_id, **env_kwargs)`` as Minari dataset
+    ``dataset_id`` and return it loaded from disk.
+
+    Reference scores are stored only when both are given (Minari would otherwise run 100
+    random episodes to estimate the missing minimum). Raises ``FileExistsError`` when the id
+    exists and ``overwrite`` is False, ``ValueError`` for a malformed id, an empty list, a
+    half-given reference pair or env kwargs that are not JSON-friendly.
+    """
+    namespace, _, _ = check_dataset_id(dataset_id)
+    if not trajectories:
+        raise ValueError("export_minari: no trajectories to export")
+    if (ref_min_score is None) != (ref_max_score is None):
+        raise ValueError("export_minari: pass both ref_min_score and ref_max_score, or neither")
+    if data_format not in DATA_FORMATS:
+        raise ValueError(
+            f"export_minari: data_format is {data_format!r}; allowed: {list(DATA_FORMATS)}"
+        )
+    root = Path(get_dataset_path())
+    final = root / dataset_id
+    if final.exists() and not overwrite:
+        raise FileExistsError(
+            f"dataset {dataset_id!r} already exists at {final}; "
+            "pass --overwrite (overwrite=True) to replace it"
+        )
+    env = gym.make(env_id, **dict(env_kwargs or {}))
+    spec, observation_space, action_space = env.spec, env.observation_space, env.action_space
+    env.close()
+    try:
+        spec.to_json()
+    except (TypeError, ValueError) as exc:
+        raise ValueError(
+            f"export_minari: the env spec of {env_id!r} cannot be stored ({exc}); "
+            "env kwargs must be JSON-friendly"
+        ) from exc
+    buffers = [
+        episode_buffer(i, t, provenance, observation_space, action_space)
+        for i, t in enumerate(trajectories)
+    ]
+
+    staging = root / STAGING_DIR / uuid.uuid4().hex
+    try:
+        with _datasets_root(staging), warnings.catch_warnings():
+            warnings.filterwarnings("ignore", message=_OPTIONAL_FIELD_WARNINGS)
+            minari.create_dataset_from_buffers(
+                dataset_id,
+                buffers,
+                env=spec,
+                eval_env=spec,
+                algorithm_name=algorithm_name,
+                author=author,
+                author_email=author_email,
+                code_permalink=code_permalink,
+                observation_space=observation_space,
+                action_space=action_space,
+                ref_min_score=ref_min_score,
+                ref_max_score=ref_max_score,
+                description=description,
+                data_format=data_format,
+                requirements=[f"fluids-bench>={__version__}"],
+            )
+        if namespace is not None and namespace not in list_local_namespaces():
+            create_namespace(namespace)
+        final.parent.mkdir(parents=True, exist_ok=True)
+        _move_into_place(staging / dataset_id, final, staging.with_name(staging.name + "-old"))
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)
+        with contextlib.suppress(OSError):
+            (root / STAGING_DIR).rmdir()  # only when no other export is staging
+    return minari.load_dataset(dataset_id)
+
+
+def _move_into_place(built: Path, final: Path, aside: Path) -> None:
+    """Rename ``built`` to ``final``; an existing ``final`` is set aside first and removed
+    after, or put back if the rename fails."""
+    replaced = final.exists()
+    if replaced:
+        os.rename(final, aside)
+    try:
+        os.rename(built, final)
+    except OSError as exc:
+        if replaced:
+            os.rename(aside, final)
+        elif final.exists():
+            raise FileExistsError(f"dataset at {final} appeared during the export") from exc
+        raise
+    if replaced:
+        shutil.rmtree(aside)
