@@ -13,6 +13,7 @@ from collections.abc import Callable
 from dataclasses import fields
 from typing import Any
 
+import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 from gymnasium.utils import seeding
@@ -181,7 +182,8 @@ class FluidsParallelEnv(ParallelEnv):
       the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
       ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``, ``dt``:
       as ``FLUIDS-v0``.
-    * ``render_mode``: only ``None`` for now.
+    * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
+      agent highlighted).
 
     ## Version History
     * v0: initial release.
@@ -189,7 +191,7 @@ class FluidsParallelEnv(ParallelEnv):
 
     metadata = {
         "name": "fluids_multi_v0",
-        "render_modes": [],
+        "render_modes": ["rgb_array"],
         "render_fps": 10,
         "is_parallelizable": True,
     }
@@ -217,8 +219,11 @@ class FluidsParallelEnv(ParallelEnv):
             raise ValueError(
                 f"{WHERE}: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}"
             )
-        if render_mode is not None:
-            raise ValueError(f"{WHERE}: field 'render_mode' is {render_mode!r}; allowed: None")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(
+                f"{WHERE}: field 'render_mode' is {render_mode!r}; allowed: "
+                f"{self.metadata['render_modes']} or None"
+            )
         unknown = sorted(set(sensor_options) - set(SENSOR_OPTIONS))
         if unknown:
             raise ValueError(
@@ -265,6 +270,7 @@ class FluidsParallelEnv(ParallelEnv):
         )
         self.action_level = action_level
         self.render_mode = render_mode
+        self._renderer = None
         self.max_cycles = max_cycles
         self.world = World(self.scene, probe.layout)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
@@ -400,11 +406,22 @@ class FluidsParallelEnv(ParallelEnv):
         flat = np.concatenate([per_agent.ravel(), lights.ravel()]).astype(np.float32)
         return np.clip(flat, self.state_space.low, self.state_space.high)
 
-    def render(self) -> None:
-        return None
+    def render(self) -> np.ndarray | None:
+        """``"rgb_array"``: the global view (H, W, 3) uint8, the first live agent highlighted."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                f'{WHERE}.render() called without a render_mode; pass render_mode="rgb_array"'
+            )
+            return None
+        from fluids_bench.sim.render import Renderer
+
+        if self._renderer is None or self._renderer.layout is not self.world.layout:
+            self._renderer = Renderer(self.world.layout)
+        highlight = self._index[self.agents[0]] if self.agents else 0
+        return self._renderer.render(self.world, ego=highlight)
 
     def close(self) -> None:
-        pass
+        self._renderer = None
 
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self, agent: str):

@@ -231,3 +231,12 @@ def test_a_family_without_ego_is_refused_for_several_agents():
 
     observers, ego_only = agent_observers(Fake())
     assert ego_only == ["legacy"] and observers["legacy"](None, None, 0).shape == (1,)
+
+
+def test_rgb_array_render():
+    env = parallel_env(controlled_cars=2, render_mode="rgb_array")
+    env.reset(seed=0)
+    frame = env.render()
+    assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
+    with pytest.raises(ValueError, match="render_mode"):
+        parallel_env(render_mode="human")
