@@ -22,8 +22,8 @@ from fluids_bench.sim.sensors.birdseye import (
     COLOURS,
     LIGHT_COLOURS,
     SHIFT,
+    AgentPainter,
     agent_boxes,
-    draw_agents,
     draw_lights,
     draw_route,
     remaining_path,
@@ -96,6 +96,7 @@ class Renderer:
         self.ppm, x0, y1 = square_view(layout, self.size, margin=1.0)
         self.layer = static_layer(layout, self.ppm, x0, y1, self.size, self.size)
         self.affine = self.layer.to_pixels
+        self.painter = AgentPainter(self.ppm, MIN_PX)
         self.scale = 0.5 * self.size / RENDER_SIZE
         self.base = self._base(LEGEND)
 
@@ -122,7 +123,7 @@ class Renderer:
         self._routes(img, [remaining_path(world, i) for i in others], OTHER_ROUTE, 1)
         draw_route(img, a, ppm, remaining_path(world, ego), COLOURS["route"], 0.6)
         draw_lights(img, a, self.layer, world.light_state)
-        draw_agents(img, a, ppm, world, idx, ego, min_px=MIN_PX)
+        self.painter.draw(img, a, world, idx, ego)
         events = [e for e in world.log if e.step == world.steps]
         hit = sorted({i for e in events for i in (e.a, e.b) if i >= 0})
         if hit:
