@@ -71,7 +71,7 @@ def _text(img, text: str, org, scale: float, colour=(255, 255, 255)) -> None:
     cv2.putText(img, text, org, _FONT, scale, colour, 1, _AA)
 
 
-def _legend(img, items, corner: str, scale: float) -> None:
+def draw_legend(img, items, corner: str, scale: float) -> None:
     """A boxed legend of coloured swatches in the ``corner`` ("bl" or "br") of ``img``."""
     h, w = img.shape[:2]
     line = int(22 * scale / 0.5)
@@ -90,22 +90,24 @@ def _legend(img, items, corner: str, scale: float) -> None:
 class Renderer:
     """Global RGB view of worlds on ``layout``: ``size`` × ``size`` pixels, the whole layout."""
 
-    def __init__(self, layout: Layout, size: int = RENDER_SIZE) -> None:
+    def __init__(self, layout: Layout, size: int = RENDER_SIZE, legend: bool = True) -> None:
         self.layout = layout
         self.size = int(size)
         self.ppm, x0, y1 = square_view(layout, self.size, margin=1.0)
         self.layer = static_layer(layout, self.ppm, x0, y1, self.size, self.size)
         self.affine = self.layer.to_pixels
         self.painter = AgentPainter(self.ppm, MIN_PX)
+        self.legend = legend
         self.scale = 0.5 * self.size / RENDER_SIZE
-        self.base = self._base(LEGEND)
+        self.base = self._base(LEGEND if legend else ())
 
     def _base(self, legend) -> np.ndarray:
         """The static raster with the legends burnt in (read-only)."""
         base = self.layer.image.copy()
-        _legend(base, legend, "bl", self.scale)
-        if len(self.layout.spec.lights):
-            _legend(base, LIGHT_LEGEND, "br", self.scale)
+        if legend:
+            draw_legend(base, legend, "bl", self.scale)
+        if legend and len(self.layout.spec.lights):
+            draw_legend(base, LIGHT_LEGEND, "br", self.scale)
         base.setflags(write=False)
         return base
 
@@ -138,7 +140,7 @@ class Renderer:
 
     def render_layout(self, t: float = 0.0) -> np.ndarray:
         """A preview of the bare layout: every car route and walk, the lights as at time ``t``."""
-        img = self._base(LAYOUT_LEGEND).copy()
+        img = self._base(LAYOUT_LEGEND if self.legend else ()).copy()
         routes = self.layout.routes
         lengths = np.rint(routes.length / 0.5).astype(int)
         step = 4
@@ -156,6 +158,40 @@ class Renderer:
         )
         _text(img, title, (10, int(24 * self.scale / 0.5)), self.scale)
         return img
+
+
+RAY_COLOURS = {
+    0: (235, 235, 235),
+    1: (255, 40, 40),
+    2: (255, 150, 30),
+    3: (60, 220, 255),
+}  # by label
+RAY_LEGEND = (
+    ("ray: nothing", RAY_COLOURS[0]),
+    ("ray: car", RAY_COLOURS[1]),
+    ("ray: pedestrian", RAY_COLOURS[2]),
+    ("ray: road edge", RAY_COLOURS[3]),
+)
+
+
+def draw_rays(img, affine, world, offsets: np.ndarray, reading: np.ndarray, ego: int = 0) -> None:
+    """Quasi-LIDAR rays over a frame, like ch. 7's Fig. 7.5: from the ego's centre to each
+    ray's reading distance, coloured by what it hit (:data:`RAY_COLOURS`: nothing white,
+    car red, pedestrian orange, road edge cyan). ``reading`` is a (m, 4) observation."""
+    x, y, th, _ = world.state[ego]
+    ang = th + offsets
+    ends = np.column_stack([x + reading[:, 0] * np.cos(ang), y + reading[:, 0] * np.sin(ang)])
+    start = to_fixed(affine, np.array([[x, y]]))[0]
+    tips = to_fixed(affine, ends)
+    labels = reading[:, 1].astype(int)
+    for label, colour in RAY_COLOURS.items():
+        lines = [np.array([start, tip]) for tip in tips[labels == label]]
+        if lines:
+            cv2.polylines(img, lines, False, colour, 2 if label in (1, 2) else 1, _AA, SHIFT)
+    for tip, label in zip(tips, labels, strict=True):
+        if label:
+            radius = (3 if label in (1, 2) else 2) << SHIFT
+            cv2.circle(img, tuple(int(v) for v in tip), radius, RAY_COLOURS[label], -1, _AA, SHIFT)
 
 
 def require_pygame():
