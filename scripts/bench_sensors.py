@@ -4,7 +4,8 @@ sensors' own cost per call.
 Scenario S2 (as in ``bench_sim.py``): FLUIDS-v0 with an ego, 10 supervised background cars and
 5 pedestrians, the supervisor's label every step and the ego following it. It is run with the
 explicit observation (the baseline), quasi-LIDAR (64 rays), bird's-eye 84×84 and bird's-eye
-400×400; episodes restart with a new seed when they end and resets are timed too.
+400×400, with ``bench_sim.py``'s loop: episodes restart with a new seed when they end and
+resets are timed too.
 
 Sensor cost: along S2 episodes, every sensor configuration below observes the same world
 states, each call timed on its own (median and mean microseconds, wall and CPU). The renderer
@@ -22,6 +23,7 @@ import time
 
 import gymnasium as gym
 import numpy as np
+from bench_sim import bench_env  # the same S2 loop as the simulator benchmark (scripts/)
 
 import fluids_bench
 from fluids_bench.sim.render import Renderer
@@ -48,27 +50,6 @@ def sensor_table(layout) -> dict:
         "birdseye 84 pixel noise": BirdsEyeSensor(layout, 84, 40.0, "ego", noise_var=16.0),
         "birdseye 400 ego": BirdsEyeSensor(layout, 400, 40.0, "ego"),
         "render 640 (rgb_array)": Renderer(layout),
-    }
-
-
-def bench_env(kwargs: dict, steps: int) -> dict:
-    env = gym.make("FLUIDS-v0", **S2, **kwargs)
-    done, seed = 0, 0
-    t0, c0 = time.perf_counter(), time.process_time()
-    while done < steps:
-        _, info = env.reset(seed=seed)
-        seed += 1
-        while done < steps:
-            _, _, term, trunc, info = env.step(info["supervisor_action"])
-            done += 1
-            if term or trunc:
-                break
-    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
-    return {
-        "steps": done,
-        "episodes": seed,
-        "steps_per_s": round(done / wall, 1),
-        "steps_per_cpu_s": round(done / cpu, 1),
     }
 
 
@@ -119,7 +100,9 @@ def main() -> None:
     add_ns = (time.perf_counter() - t0) / 20000 * 1e9
     results = {
         "sensor_cost": bench_sensors(args.calls),
-        "env_steps": {name: bench_env(kw, args.steps) for name, kw in ENV_VARIANTS.items()},
+        "env_steps": {
+            name: bench_env({**S2, **kw}, args.steps) for name, kw in ENV_VARIANTS.items()
+        },
     }
     print(
         json.dumps(
