@@ -75,6 +75,7 @@ def run(args: argparse.Namespace) -> int:
             quality=7,
             macro_block_size=16,
             pixelformat="yuv420p",
+            ffmpeg_params=["-preset", "veryfast"],
         )
     best, snapshot = np.inf, None  # snapshot score: ego distance to centre; a collision wins
 
