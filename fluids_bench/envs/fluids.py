@@ -10,17 +10,20 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
-from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
 from fluids_bench.envs.observations import ObservationConfig, Observer
+from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
+from fluids_bench.sim.layout.compiled import compile_layout
 from fluids_bench.sim.spawn import spawn
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
 from fluids_bench.supervisors.driving.behavior import choose_movement, movement_count
 from fluids_bench.supervisors.driving.control import PIDConfig
 from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
+from fluids_bench.supervisors.driving.trajectory import ompl_layout
 from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
 
 COLLISION_PENALTY = 1.0
+TRAJECTORY_PLANNERS = ("bezier", "ompl")
 
 
 class FluidsEnv(gym.Env):
@@ -113,6 +116,8 @@ class FluidsEnv(gym.Env):
       ``metadata["render_modes"]`` only where pygame is installed).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
+    * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
+      waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
     * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
       the velocity-level label, is held in between.
     * ``dt``: seconds per step (default 0.1).
@@ -132,7 +137,8 @@ class FluidsEnv(gym.Env):
                  pixel_noise: float = 0.0, lidar_rays: int = 64, lidar_range: float = 30.0,
                  lidar_noise: float = 0.0, lidar_dropout: float = 0.0,
                  waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
-                 planner_period: int = 5, dt: float = 0.1, render_mode: str | None = None) -> None:
+                 planner_period: int = 5, trajectory_planner: str = "bezier", dt: float = 0.1,
+                 render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
             raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
         if render_mode == "human":
@@ -143,6 +149,9 @@ class FluidsEnv(gym.Env):
             raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                              f"allowed: {self.metadata['render_modes']} or None")
         check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
+        if trajectory_planner not in TRAJECTORY_PLANNERS:
+            raise ValueError(f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
+                             f"allowed: {list(TRAJECTORY_PLANNERS)}")
         obs_config = ObservationConfig(
             obs_type=obs_type, obs_noise=obs_noise, k_nearest=k_nearest,
             birdseye_size=birdseye_size, birdseye_fov=birdseye_fov, birdseye_frame=birdseye_frame,
@@ -160,7 +169,9 @@ class FluidsEnv(gym.Env):
         self.action_level = action_level
         self.render_mode = render_mode
         self._renderer = self._window = None
-        self.world = World(self.scene)
+        spec = self.scene.layout_spec()
+        layout = ompl_layout(spec, self.scene.car) if trajectory_planner == "ompl" else compile_layout(spec)
+        self.world = World(self.scene, layout)
         self.observer = Observer(obs_config, self.world)
         self.observation_space = self.observer.space
         car = self.scene.car

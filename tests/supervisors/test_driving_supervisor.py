@@ -147,3 +147,25 @@ def test_everyone_supervised_reaches_their_goal(layout, cars, peds):
                for seed in range(6)]
     failures = [r.as_dict() for r in results if not r.success]
     assert not failures
+
+
+# ---------------------------------------------------------------------------- OMPL nominal routes
+@pytest.mark.parametrize("layout", ["four_way", "t_junction", "roundabout"])
+def test_ompl_can_plan_every_route(layout):
+    from fluids_bench.sim.layout import build_layout, compile_layout
+    from fluids_bench.supervisors.driving.trajectory import ompl_layout
+
+    spec = build_layout(layout)
+    base, planned = compile_layout(spec), ompl_layout(spec, CarConfig())
+    cars = planned.routes.car_routes
+    changed = [r for r in cars if not np.array_equal(planned.routes.path[r], base.routes.path[r])]
+    assert len(changed) == len(cars)  # OMPL found a valid chain of Dubins curves for every route
+    assert np.array_equal(planned.routes.path, ompl_layout.__wrapped__(spec, CarConfig()).routes.path)
+    env = gym.make("FLUIDS-v0", layout=layout, trajectory_planner="ompl", max_episode_steps=1200)
+    for seed in range(2):
+        _, info = env.reset(seed=seed)
+        while True:
+            _, _, term, trunc, info = env.step(info["supervisor_action"])
+            if term or trunc:
+                break
+        assert info["is_success"], (layout, seed)

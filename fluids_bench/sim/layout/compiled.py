@@ -103,14 +103,26 @@ def _lane_polygon(centerline, width: float) -> Polygon:
     return LineString(centerline).buffer(width / 2.0, cap_style="flat", join_style="mitre")
 
 
-def _car_path(spec: LayoutSpec, route) -> tuple[np.ndarray, float, float]:
-    """Resampled path of a route, the stop line's arc length and the exit lane's start."""
+def route_ends(spec: LayoutSpec, route) -> tuple[np.ndarray, float, np.ndarray, float]:
+    """Where a route leaves its entry lane and joins its exit lane: (point, heading) of each."""
+    a = np.asarray(spec.lane(route.entry).centerline)
+    b = np.asarray(spec.lane(route.exit).centerline)
+    return a[-1], float(np.arctan2(*(a[-1] - a[-2])[::-1])), b[0], float(np.arctan2(*(b[1] - b[0])[::-1]))
+
+
+def _car_path(spec: LayoutSpec, route, middle: np.ndarray | None = None) -> tuple[np.ndarray, float, float]:
+    """Resampled path of a route, the stop line's arc length and the exit lane's start.
+
+    ``middle`` replaces the junction part (entry lane end to exit lane start) when given.
+    """
     entry, exit_ = spec.lane(route.entry), spec.lane(route.exit)
     a = np.asarray(entry.centerline)
     b = np.asarray(exit_.centerline)
     h_in = float(np.arctan2(*(a[-1] - a[-2])[::-1]))
     h_out = float(np.arctan2(*(b[1] - b[0])[::-1]))
-    if route.via:
+    if middle is not None:
+        middle = np.asarray(middle, float)
+    elif route.via:
         via = np.asarray(route.via)
         h_v0 = float(np.arctan2(*(via[1] - via[0])[::-1]))
         h_v1 = float(np.arctan2(*(via[-1] - via[-2])[::-1]))
@@ -161,12 +173,24 @@ def compile_layout(spec: LayoutSpec) -> Layout:
     terrain = _polygonal(bounds_box.difference(shapely.union_all([drivable, sidewalks])))
     for g in (drivable, sidewalks, terrain):
         shapely.prepare(g)
+    table = _route_table(spec, crosswalks, {})
+    return Layout(spec, drivable, sidewalks, crosswalks, terrain, table, spec.entry_lanes)
 
+
+def with_route_middles(layout: Layout, middles: dict[int, np.ndarray]) -> Layout:
+    """A copy of ``layout`` whose car routes ``middles`` (route index → polyline from the entry
+    lane's end to the exit lane's start) replace the default junction curves."""
+    table = _route_table(layout.spec, layout.crosswalks, middles)
+    return Layout(layout.spec, layout.drivable, layout.sidewalks, layout.crosswalks, layout.terrain,
+                  table, layout.entry_lanes)
+
+
+def _route_table(spec: LayoutSpec, crosswalks, middles: dict[int, np.ndarray]) -> RouteTable:
     light_index = {light.name: i for i, light in enumerate(spec.lights)}
     entry_lanes = spec.entry_lanes
     paths, names, kinds, enters, stops, clears, lights, entries, limits = ([] for _ in range(9))
-    for route in spec.routes:
-        path, stop_s, clear_s = _car_path(spec, route)
+    for r, route in enumerate(spec.routes):
+        path, stop_s, clear_s = _car_path(spec, route, middles.get(r))
         entry, exit_ = spec.lane(route.entry), spec.lane(route.exit)
         s = np.arange(len(path)) * PATH_SPACING
         limits.append(np.where(s <= stop_s, entry.speed_limit, exit_.speed_limit))
@@ -208,4 +232,4 @@ def compile_layout(spec: LayoutSpec) -> Layout:
     for arr in (table.kind, table.path, table.heading, table.curvature, table.speed_limit,
                 table.length, table.enter_s, table.stop_s, table.clear_s, table.light, table.entry):
         arr.setflags(write=False)  # shared by every world on this layout
-    return Layout(spec, drivable, sidewalks, crosswalks, terrain, table, entry_lanes)
+    return table
