@@ -5,7 +5,9 @@ observation (explicit where quasi-LIDAR is not available), the supervisor acting
 worker count, ``collect`` runs ``--episodes`` full episodes (seeds 0, 1, ...); the time
 includes starting the workers, and a second "warm" run reuses the process pool's forkserver
 (worker processes still start anew). ``raw_env_loop`` is the same episodes stepped in this
-process without the collector, the ceiling for one worker.
+process without the collector, the ceiling for one worker; its ``pairs_per_cpu_min`` (CPU time)
+is what one core gives when nothing else runs on it, and ``idle_estimate`` scales it by the
+worker count (an estimate for cores of one's own; wall-clock rates fall when others share them).
 
     python scripts/bench_collect.py --episodes 8 --workers 1 2
 """
@@ -34,7 +36,7 @@ def scenario() -> dict:
 
 def raw_loop(kwargs: dict, episodes: int) -> dict:
     env = gym.make(ENV_ID, **kwargs)
-    pairs, t0 = 0, time.perf_counter()
+    pairs, t0, cpu0 = 0, time.perf_counter(), time.process_time()
     for seed in range(episodes):
         _, info = env.reset(seed=seed)
         done = False
@@ -42,7 +44,10 @@ def raw_loop(kwargs: dict, episodes: int) -> dict:
             _, _, term, trunc, info = env.step(info["supervisor_action"])
             pairs += 1
             done = term or trunc
-    return _rate(pairs, time.perf_counter() - t0)
+    out = _rate(pairs, time.perf_counter() - t0)
+    # CPU time, unlike wall time, does not grow when other processes share the cores
+    out["pairs_per_cpu_min"] = round(pairs / (time.process_time() - cpu0) * 60.0)
+    return out
 
 
 def _rate(pairs: int, seconds: float) -> dict:
@@ -76,10 +81,13 @@ def main() -> None:
         "raw_env_loop": raw_loop(kwargs, args.episodes),
         "collect": {},
     }
+    per_core = report["raw_env_loop"]["pairs_per_cpu_min"]
     for workers in args.workers:
         cold = timed_collect(kwargs, args.episodes, workers)
         warm = timed_collect(kwargs, args.episodes, workers)
-        report["collect"][str(workers)] = {"cold": cold, "warm": warm}
+        # what the workers would give with a core each and nothing else running
+        estimate = workers * per_core
+        report["collect"][str(workers)] = {"cold": cold, "warm": warm, "idle_estimate": estimate}
     print(json.dumps(report, indent=2))
 
 
