@@ -50,14 +50,6 @@ CASES = [
 ] + [("roundabout", {"pedestrians": True}), ("roundabout", {"pedestrians": False})]
 CASE_IDS = [f"{n}-" + "-".join(f"{k}={v}" for k, v in kw.items()) for n, kw in CASES]
 
-ROUNDABOUT_BUG = (
-    "builders.roundabout joins and leaves the ring a fixed 0.55 rad from each arm, whatever the "
-    "radius, so for larger rings or narrower lanes the connectors cut the kerb between arm and "
-    "ring: the car footprint leaves the drivable area by 0.69 m (radius=20: "
-    "'east_in_0->south_out_0' at s=128 m), 1.29 m (radius=40: 'east_in_0->north_out_0' at "
-    "s=40 m), 0.37 m (radius=12, lane_width=2.5); fails past radius ~17 m at lane_width=3.5, "
-    "~11 m at 2.5"
-)
 
 
 # ---------------------------------------------------------------- helpers
@@ -288,10 +280,7 @@ def test_roundabout_valid_near_its_defaults(**kwargs):
     assert_round_trips(spec)
 
 
-@pytest.mark.xfail(strict=True, reason=ROUNDABOUT_BUG)
 def test_roundabout_valid_over_its_range():
-    # the property runs inside a plain test so that its expected failure leaves no Hypothesis
-    # patch file behind; derandomised, so that the strict xfail is stable
     @settings(max_examples=15, deadline=None, derandomize=True, phases=[Phase.generate])
     @given(radius=st.floats(8.0, 60.0), lane_width=_widths, pedestrians=st.booleans())
     def valid(**kwargs):
@@ -300,7 +289,6 @@ def test_roundabout_valid_over_its_range():
     valid()
 
 
-@pytest.mark.xfail(strict=True, reason=ROUNDABOUT_BUG)
 @pytest.mark.parametrize(
     "kwargs",
     [{"radius": 20.0}, {"radius": 40.0}, {"radius": 12.0, "lane_width": 2.5}],
@@ -460,13 +448,6 @@ def test_bad_json_names_file_and_position(tmp_path, text, where):
     assert str(path) in str(info.value) and where in str(info.value)
 
 
-@pytest.mark.xfail(
-    strict=True,
-    raises=shapely.errors.GEOSException,
-    reason="a self-intersecting 'areas'/'islands' polygon passes LayoutSpec validation, then "
-    "compile_layout fails with GEOSException 'TopologyException: side location conflict' "
-    "instead of a ValueError naming the field",
-)
 def test_self_intersecting_area_is_rejected_with_value_error():
     d = layout_to_dict(four_way())
     d["areas"][1] = [[0, 0], [10, 10], [10, 0], [0, 10]]  # a bow-tie

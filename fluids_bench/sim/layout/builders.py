@@ -15,6 +15,7 @@ from fluids_bench.sim.layout.geometry import arc
 from fluids_bench.sim.layout.spec import CarRoute, Crosswalk, Lane, LayoutSpec, Light, Walk
 
 ARM_NAMES = {0: "east", 90: "north", 180: "west", 270: "south"}
+KERB_RADIUS = 6.0  # m, rounds every corner between roads
 
 
 def _unit(deg: float) -> np.ndarray:
@@ -143,7 +144,7 @@ def _junction(kind: str, arm_angles, lanes, lights, pedestrians, lane_length, la
     _check_range("speed_limit", speed_limit, 1.0, 40.0)
     for name, v in (("green", green), ("yellow", yellow), ("all_red", all_red)):
         _check_range(name, v, 0.5, 300.0)
-    curb, cw_width = 6.0, 3.0
+    curb, cw_width = KERB_RADIUS, 3.0
     hw = lanes * lane_width
     core = hw if core is None else core
     lane_objs, routes, crosswalks, walks, roads, far = _arms(
@@ -199,13 +200,28 @@ def roundabout(radius: float = 12.0, pedestrians: bool = True, lane_length: floa
     ring = radius  # centre line of the circulating lane
     outer = ring + lane_width / 2
 
+    # entering and leaving follow the kerb between arm and ring: an arc concentric with the kerb
+    # corner F (arm frame: x out along the arm, y to its left), lane_width / 2 from the kerb
+    lw = lane_width
+    fy = lw + KERB_RADIUS
+    fx = math.sqrt((outer + KERB_RADIUS) ** 2 - fy**2)
+    bend = KERB_RADIUS + lw / 2
+    enter = arc((fx, fy), bend, -math.pi / 2, math.atan2(-fy, -fx), 0.5)  # clockwise: a right turn
+    leave = (enter * [1.0, -1.0])[::-1]  # the mirror image, driven the other way
+    touch = math.atan2(fy, fx)  # where the entry meets the ring, seen from the centre
+
+    def rotate(pts: np.ndarray, deg: float) -> np.ndarray:
+        c, s = math.cos(math.radians(deg)), math.sin(math.radians(deg))
+        return pts @ np.array([[c, s], [-s, c]])
+
     def via(src: int, dst: int, _i: int, _j: int):
-        # join the ring downstream of the entry, leave it upstream of the exit (CCW)
-        a0 = math.radians(src) + 0.55
-        a1 = math.radians(dst) - 0.55
+        a0 = math.radians(src) + touch
+        a1 = math.radians(dst) - touch
         while a1 <= a0:
             a1 += 2 * math.pi
-        return tuple(_pt(p) for p in arc((0, 0), ring, a0, a1, 1.0))
+        ring_arc = arc((0, 0), ring, a0, a1, 0.5)
+        pts = np.vstack([rotate(enter, src), ring_arc[1:-1], rotate(leave, dst)])
+        return tuple(_pt(p) for p in pts)
 
     island = tuple(_pt(p) for p in arc((0, 0), ring - lane_width / 2, 0, 2 * math.pi, 1.0)[:-1])
     return _junction("roundabout", (0, 90, 180, 270), 1, False, pedestrians, lane_length,

@@ -156,6 +156,12 @@ def _pad(arrays: list[np.ndarray], width: int) -> np.ndarray:
 def compile_layout(spec: LayoutSpec) -> Layout:
     """Derive geometry and routes from ``spec`` (cached: every world on a spec shares one)."""
     bounds_box = box(*spec.bounds)
+    for group in ("areas", "islands"):
+        for i, pts in enumerate(getattr(spec, group)):
+            poly = Polygon(pts)
+            if not shapely.is_valid(poly):
+                raise ValueError(f"layout '{spec.name}': field '{group}[{i}]' is not a valid polygon "
+                                 f"({shapely.is_valid_reason(poly)}); allowed: a simple polygon")
     roads = shapely.union_all(
         [_lane_polygon(lane.centerline, lane.width) for lane in spec.lanes]
         + [Polygon(a) for a in spec.areas]

@@ -34,7 +34,7 @@ def _check_points(where: str, name: str, pts, minimum: int) -> tuple[Point, ...]
 
 
 def _check_positive(where: str, name: str, value) -> float:
-    if not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
+    if isinstance(value, bool) or not isinstance(value, int | float) or not math.isfinite(value) or value <= 0:
         _fail(where, name, value, "a finite number > 0")
     return float(value)
 
@@ -184,12 +184,14 @@ class LayoutSpec:
                 _fail(where, group, sorted(dup), "unique names")
         lanes = {lane.name for lane in self.lanes}
         lights = {light.name: light.kind for light in self.lights}
+        traffic = sorted(n for n, k in lights.items() if k == "traffic")
+        crossing = sorted(n for n, k in lights.items() if k == "crosswalk")
         for lane in self.lanes:
             if lane.light is not None and lights.get(lane.light) != "traffic":
-                _fail(f"lane '{lane.name}'", "light", lane.light, f"a traffic light of {sorted(lights)}")
+                _fail(f"lane '{lane.name}'", "light", lane.light, f"a traffic light of {traffic}")
         for cw in self.crosswalks:
             if cw.light is not None and lights.get(cw.light) != "crosswalk":
-                _fail(f"crosswalk '{cw.name}'", "light", cw.light, f"a crosswalk light of {sorted(lights)}")
+                _fail(f"crosswalk '{cw.name}'", "light", cw.light, f"a crosswalk light of {crossing}")
         if not self.routes:
             _fail(where, "routes", self.routes, "at least one car route")
         for r in self.routes:
@@ -203,8 +205,26 @@ class LayoutSpec:
             self, "islands", tuple(_check_points(where, "islands", a, 3) for a in self.islands)
         )
         _check_positive(where, "curb_radius", self.curb_radius)
+        self._check_inside_bounds()
         if not isinstance(self.sidewalk_width, int | float) or not 0 <= self.sidewalk_width < 50:
             _fail(where, "sidewalk_width", self.sidewalk_width, "a number in [0, 50) metres")
+
+    def _check_inside_bounds(self) -> None:
+        """Every point must lie within ``bounds`` (grown by 1 km of slack for kerbs and walks):
+        a stray coordinate would otherwise make compiling allocate without limit."""
+        xmin, ymin, xmax, ymax = self.bounds
+        slack = 1000.0
+        groups = [(f"lane '{e.name}'", "centerline", e.centerline) for e in self.lanes]
+        groups += [(f"sidewalk '{e.name}'", "centerline", e.centerline) for e in self.sidewalks]
+        groups += [(f"crosswalk '{e.name}'", "start/end", (e.start, e.end)) for e in self.crosswalks]
+        groups += [(f"walk '{e.name}'", "waypoints", e.waypoints) for e in self.walks]
+        groups += [(f"route '{r.name}'", "via", r.via) for r in self.routes]
+        groups += [(f"layout '{self.name}'", f"areas[{i}]", a) for i, a in enumerate(self.areas)]
+        groups += [(f"layout '{self.name}'", f"islands[{i}]", a) for i, a in enumerate(self.islands)]
+        for where, name, pts in groups:
+            for x, y in pts:
+                if not (xmin - slack <= x <= xmax + slack and ymin - slack <= y <= ymax + slack):
+                    _fail(where, name, (x, y), f"points within bounds {self.bounds} (± {slack:g} m)")
 
     def lane(self, name: str) -> Lane:
         for lane in self.lanes:

@@ -17,7 +17,11 @@ from fluids_bench.sim.config import check_range
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.driving.behavior import current_movement
 from fluids_bench.supervisors.driving.control import PIDConfig, PIDController
-from fluids_bench.supervisors.driving.trajectory import RecoveryPlanner, off_route, waypoints_ego_frame
+from fluids_bench.supervisors.driving.trajectory import (
+    RecoveryPlanner,
+    off_route,
+    waypoints_ego_frame,
+)
 from fluids_bench.supervisors.driving.velocity import VelocityPlanner, VelocityPlannerConfig
 
 LEVELS = ("behavior", "trajectory", "velocity", "control")

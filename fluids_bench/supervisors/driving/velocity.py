@@ -233,7 +233,8 @@ class VelocityPlanner:
         pairs, conflict = self.conflicts(world, agents, s_proj)
         k = len(self.fractions)
         choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
-        if len(pairs):
+        # the CSP only matters when some constraint binds at everyone's fastest allowed speed
+        if len(pairs) and conflict[np.arange(len(pairs)), choice[pairs[:, 0]], choice[pairs[:, 1]]].any():
             problem = Problem(_PrioritySolver(self.priority(world, agents)))
             for a in np.unique(pairs).tolist():
                 problem.addVariable(a, allowed[a].nonzero()[0].tolist())
