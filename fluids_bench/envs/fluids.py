@@ -84,9 +84,12 @@ class FluidsEnv(gym.Env):
     walks' first legs. The light cycle starts at t = 0.
 
     ## Episode End
-    Terminated when the ego reaches its goal or is in a collision (with a car, a pedestrian, or
-    leaving the road). Truncated by ``TimeLimit`` (400 steps = 40 s by default). At the end,
-    ``info["is_success"]`` is True iff the ego arrived and no collision happened in the episode.
+    ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
+    (with a car, a pedestrian, or leaving the road); ``info["is_success"]`` is True iff the ego
+    arrived and no collision happened in the episode. ``done_when="all"`` (the sensitivity
+    analysis' criterion): terminated when every car has arrived or on any collision;
+    ``is_success`` iff every car arrived without one (after the ego arrives, actions are ignored
+    and rewards are 0). Truncated by ``TimeLimit`` (400 steps = 40 s by default).
 
     ## Info
     ``supervisor_action`` (the supervisor's label for the ego at ``action_level`` in the new
@@ -118,6 +121,7 @@ class FluidsEnv(gym.Env):
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
     * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
       waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
+    * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
     * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
       the velocity-level label, is held in between.
     * ``dt``: seconds per step (default 0.1).
@@ -137,8 +141,8 @@ class FluidsEnv(gym.Env):
                  pixel_noise: float = 0.0, lidar_rays: int = 64, lidar_range: float = 30.0,
                  lidar_noise: float = 0.0, lidar_dropout: float = 0.0,
                  waypoints: int = 5, waypoint_spacing: float = 2.0, car_mass: float = 1500.0,
-                 planner_period: int = 5, trajectory_planner: str = "bezier", dt: float = 0.1,
-                 render_mode: str | None = None) -> None:
+                 planner_period: int = 5, trajectory_planner: str = "bezier", done_when: str = "ego",
+                 dt: float = 0.1, render_mode: str | None = None) -> None:
         if action_level not in LEVELS:
             raise ValueError(f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}")
         if render_mode == "human":
@@ -149,6 +153,9 @@ class FluidsEnv(gym.Env):
             raise ValueError(f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                              f"allowed: {self.metadata['render_modes']} or None")
         check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
+        if done_when not in ("ego", "all"):
+            raise ValueError(f"FluidsEnv: field 'done_when' is {done_when!r}; allowed: ['ego', 'all']")
+        self.done_when = done_when
         if trajectory_planner not in TRAJECTORY_PLANNERS:
             raise ValueError(f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
                              f"allowed: {list(TRAJECTORY_PLANNERS)}")
@@ -186,6 +193,7 @@ class FluidsEnv(gym.Env):
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self._route_length = 1.0
         self._last_s = 0.0
+        self._ended = False
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -194,6 +202,7 @@ class FluidsEnv(gym.Env):
         spawn(self.world, self.np_random)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.supervisor.prepare(self.world)
+        self._ended = False
         self._last_s = float(self.world.route_s[0])
         self._route_length = float(self.world.path_len[0]) - self._last_s
         if self.render_mode == "human":
@@ -202,11 +211,13 @@ class FluidsEnv(gym.Env):
 
     def step(self, action):
         w, sup = self.world, self.supervisor
-        if not w.active[0]:
+        if self._ended:
             raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
         action = self._validate(action)
         controls, memory = sup.proposed, None
-        if self.action_level == "behavior":
+        if not w.active[0]:
+            pass  # "all" mode after the ego arrived: the others drive on, the action is ignored
+        elif self.action_level == "behavior":
             if choose_movement(w, 0, int(action)):
                 self._route_length = float(w.path_len[0]) - self._last_s
                 sup.prepare(w)
@@ -228,12 +239,19 @@ class FluidsEnv(gym.Env):
         s_now = float(w.path_len[0]) + float(w.offset[0]) if arrived else float(w.route_s[0])
         reward = (s_now - self._last_s) / self._route_length - (COLLISION_PENALTY if ego_hit else 0.0)
         self._last_s = s_now
-        terminated = arrived or ego_hit
+        if self.done_when == "ego":
+            terminated = arrived or ego_hit
+            success = arrived and not w.log
+        else:  # every car must arrive; any collision ends the episode
+            cars_done = bool(w.reached[w.is_car].all())
+            terminated = cars_done or bool(events)
+            success = cars_done and not w.log
+        self._ended = terminated
         if not terminated:
             sup.prepare(w)
         info = self._info(events)
         if terminated:
-            info["is_success"] = arrived and not w.log
+            info["is_success"] = success
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info

@@ -14,12 +14,14 @@ import gymnasium as gym
 # id -> (entry point, max_episode_steps, default kwargs)
 ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "FLUIDS-v0": ("fluids_bench.envs.fluids:FluidsEnv", 400, {}),
-    # The configuration of the source's sensitivity analysis (ch. 7): the learner picks the
-    # ego's target velocity, the supervisor fills trajectory and control.
+    # The configuration of the source's sensitivity analysis (ch. 7): the learner maps
+    # quasi-LIDAR to the ego's target velocity, the supervisor fills trajectory and control;
+    # success means every car arrived.
     "FLUIDS-Sensitivity-v0": (
         "fluids_bench.envs.fluids:FluidsEnv",
-        400,
-        {"action_level": "velocity", "num_cars": 4, "num_pedestrians": 2},
+        600,  # every car must arrive: longer than the ego alone needs
+        {"action_level": "velocity", "obs_type": "qlidar", "num_cars": 3, "num_pedestrians": 2,
+         "done_when": "all"},
     ),
     "GridWorld-v0": ("fluids_bench.envs.gridworld:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.envs.dag:DAGEnv", 3, {}),

@@ -191,3 +191,22 @@ def test_collision_terminates_with_penalty():
     assert term and not info["is_success"]
     assert any(c["kind"] == "offroad" and c["a"] == 0 for c in info["collisions"])
     assert r < 0
+
+
+def test_done_when_all_waits_for_every_car():
+    env = gym.make("FLUIDS-v0", num_cars=4, done_when="all", max_episode_steps=1500)
+    _, info = env.reset(seed=3)
+    ego_arrived_at = None
+    steps = 0
+    while True:
+        _, r, term, trunc, info = env.step(info["supervisor_action"])
+        steps += 1
+        if info["ego_arrived"] and ego_arrived_at is None:
+            ego_arrived_at = steps
+        elif ego_arrived_at is not None:
+            assert r == 0.0
+        if term or trunc:
+            break
+    assert term and info["is_success"]
+    assert env.unwrapped.world.reached[env.unwrapped.world.is_car].all()
+    assert ego_arrived_at is not None and ego_arrived_at <= steps
