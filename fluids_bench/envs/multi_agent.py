@@ -19,14 +19,17 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
+from fluids_bench.envs.fluids import TRAJECTORY_PLANNERS
 from fluids_bench.envs.observations import OBS_BOUND, ObservationConfig, Observer
 from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
+from fluids_bench.sim.layout.compiled import compile_layout
 from fluids_bench.sim.spawn import capacity, spawn
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
 from fluids_bench.supervisors.driving.behavior import choose_movement, movement_count
 from fluids_bench.supervisors.driving.control import PIDConfig
 from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
+from fluids_bench.supervisors.driving.trajectory import ompl_layout
 from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
 
 WHERE = "FluidsParallelEnv"
@@ -180,8 +183,8 @@ class FluidsParallelEnv(ParallelEnv):
     * ``max_cycles``: steps before truncation (default 400 = 40 s).
     * ``layout``, ``lanes``, ``lights``, ``num_pedestrians``, ``action_level``, ``obs_type``,
       the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
-      ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``, ``dt``:
-      as ``FLUIDS-v0``.
+      ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
+      ``trajectory_planner``, ``dt``: as ``FLUIDS-v0``.
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
@@ -211,6 +214,7 @@ class FluidsParallelEnv(ParallelEnv):
         waypoint_spacing: float = 2.0,
         car_mass: float = 1500.0,
         planner_period: int = 5,
+        trajectory_planner: str = "bezier",
         dt: float = 0.1,
         render_mode: str | None = None,
         **sensor_options: Any,
@@ -234,11 +238,18 @@ class FluidsParallelEnv(ParallelEnv):
         check_range(WHERE, "num_cars", num_cars, 0, 63, integer=True)
         check_range(WHERE, "max_cycles", max_cycles, 1, 10**9, integer=True)
         obs_config = ObservationConfig(obs_type=obs_type, **sensor_options)
-        probe = World(
-            SceneConfig(
-                layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt
+        if trajectory_planner not in TRAJECTORY_PLANNERS:
+            raise ValueError(
+                f"{WHERE}: field 'trajectory_planner' is {trajectory_planner!r}; allowed: "
+                f"{list(TRAJECTORY_PLANNERS)}"
             )
+        car = CarConfig(mass=car_mass)
+        probe_scene = SceneConfig(
+            layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt, car=car
         )
+        spec = probe_scene.layout_spec()
+        compiled = ompl_layout(spec, car) if trajectory_planner == "ompl" else compile_layout(spec)
+        probe = World(probe_scene, compiled)
         max_cars, max_peds = capacity(probe)
         if controlled_cars + num_cars > max_cars:
             raise ValueError(
@@ -259,7 +270,7 @@ class FluidsParallelEnv(ParallelEnv):
             num_cars=controlled_cars + num_cars,
             num_pedestrians=num_pedestrians,
             dt=dt,
-            car=CarConfig(mass=car_mass),
+            car=car,
             pedestrian=PedestrianConfig(),
         )
         self.supervisor_config = SupervisorConfig(

@@ -240,3 +240,10 @@ def test_rgb_array_render():
     assert frame.dtype == np.uint8 and frame.ndim == 3 and frame.shape[2] == 3
     with pytest.raises(ValueError, match="render_mode"):
         parallel_env(render_mode="human")
+
+
+def test_ompl_trajectory_planner():
+    env = parallel_env(controlled_cars=2, trajectory_planner="ompl", max_cycles=10)
+    parallel_api_test(env, num_cycles=10)
+    with pytest.raises(ValueError, match="trajectory_planner"):
+        parallel_env(trajectory_planner="rrt")
