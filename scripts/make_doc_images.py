@@ -87,6 +87,25 @@ def observations(out: Path) -> None:
     save(out, "obs_qlidar.png", crop)
 
 
+def collision(out: Path) -> None:
+    """The render of a crash: the ego floors it (supervisor's steering, full throttle)."""
+    env = gym.make("FLUIDS-v0", num_cars=8, num_pedestrians=4, render_mode="rgb_array")
+    _, info = env.reset(seed=0)
+    for _ in range(100):
+        action = np.array([info["supervisor_action"][0], 1.0], np.float32)
+        _, _, term, trunc, info = env.step(action)
+        if info["collisions"]:
+            save(
+                out,
+                "render_collision.png",
+                cv2.resize(env.render(), (512, 512), interpolation=cv2.INTER_AREA),
+            )
+            return
+        if term or trunc:
+            break
+    raise SystemExit("no collision in the chosen episode; pick another seed")
+
+
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
@@ -94,6 +113,7 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     layouts(args.out)
     observations(args.out)
+    collision(args.out)
 
 
 if __name__ == "__main__":
