@@ -19,7 +19,7 @@ from pathlib import Path
 
 from fluids_bench.sim.config import LAYOUTS
 
-VIDEO_NAME, SNAPSHOT_NAME = "fluids_demo.mp4", "fluids_demo.png"
+VIDEO_NAME, SNAPSHOT_NAME = "episode.mp4", "episode.png"
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:

@@ -159,9 +159,9 @@ def test_demo_writes_video_and_snapshot(tmp_path, capsys):
     assert main(["demo", "--steps", "12", "--seed", "1", "--out", str(out)]) == 0
     text = capsys.readouterr().out
     assert "success:" in text and "collisions:" in text and "steps/s" in text
-    frames = imageio.mimread(out / "fluids_demo.mp4")
+    frames = imageio.mimread(out / "episode.mp4")
     assert len(frames) == 13 and frames[0].shape == (RENDER_SIZE, RENDER_SIZE, 3)
-    png = imageio.imread(out / "fluids_demo.png")
+    png = imageio.imread(out / "episode.png")
     assert png.shape == (RENDER_SIZE, RENDER_SIZE, 3)
     assert (
         main(
@@ -178,7 +178,7 @@ def test_demo_writes_video_and_snapshot(tmp_path, capsys):
         )
         == 0
     )
-    assert sorted(p.name for p in (tmp_path / "nv").iterdir()) == ["fluids_demo.png"]
+    assert sorted(p.name for p in (tmp_path / "nv").iterdir()) == ["episode.png"]
 
 
 def test_render_layout_from_builder_and_file(tmp_path, capsys):
