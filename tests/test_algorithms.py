@@ -74,6 +74,14 @@ def test_normalised_performance_is_exactly_one_for_a_learner_that_copies_the_sup
     assert bc.run(config).final.normalised_performance == 1.0
 
 
+def test_evaluation_schedule_eval_at_and_eval_every() -> None:
+    at = dagger.run(dagger.DAggerConfig(**GRID, iterations=5, eval_episodes=1, eval_at=(0, 3)))
+    assert [r.iteration for r in at.evaluated()] == [0, 3, 5]  # the last one always
+    every = bc.run(bc.BCConfig(**GRID, iterations=5, eval_episodes=1, eval_every=2))
+    assert [r.iteration for r in every.evaluated()] == [2, 4, 5]
+    assert all(r.normalised_performance is None for r in every.records if r.eval_return is None)
+
+
 def test_subsampling_keeps_50_pairs_per_demonstration() -> None:
     config = bc.BCConfig(**GRID, **SMALL, policy=TREE, samples_per_demo=10)
     assert bc.run(config).final.labels_requested == 30
@@ -300,6 +308,8 @@ def test_normalised_performance_is_none_when_the_supervisor_does_not_beat_the_fl
         (bc.BCConfig, "eval_episodes", 1.5),
         (bc.BCConfig, "seed", -1),
         (bc.BCConfig, "policy", "tree"),
+        (bc.BCConfig, "eval_at", (3, 1)),
+        (bc.BCConfig, "eval_at", [1, 2]),
         (dagger.DAggerConfig, "beta", 1.2),
         (dagger.DAggerConfig, "beta_schedule", "linear"),
         (dagger.DAggerConfig, "initial_demos", 0),

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 
-from fluids_bench.algos.policies import MODELS, PolicySpec, fit_policy
+from fluids_bench.algos.policies import FAMILIES, MODELS, PolicySpec, fit_policy
 
 DISCRETE = spaces.Discrete(3)
 BOX = spaces.Box(-1.0, 1.0, (2,), np.float64)
@@ -21,7 +21,7 @@ def separable(n: int = 90) -> tuple[np.ndarray, np.ndarray]:
     return X.astype(np.float32), labels
 
 
-@pytest.mark.parametrize("name", sorted(set(MODELS) - {"constant"}))
+@pytest.mark.parametrize("name", sorted(MODELS))
 def test_every_classifier_family_learns_separable_classes(name: str) -> None:
     X, y = separable()
     policy = fit_policy(PolicySpec(name), DISCRETE, X, y, random_state=0)
@@ -31,7 +31,7 @@ def test_every_classifier_family_learns_separable_classes(name: str) -> None:
     assert policy.act(X[0]) == predicted[0]
 
 
-@pytest.mark.parametrize("name", sorted(set(MODELS) - {"constant"}))
+@pytest.mark.parametrize("name", sorted(MODELS))
 def test_every_regressor_family_fits_a_smooth_box_policy(name: str) -> None:
     rng = np.random.default_rng(1)
     X = rng.uniform(-1, 1, (120, 2))
@@ -52,7 +52,7 @@ def test_box_predictions_are_clipped_to_the_action_bounds_and_keep_the_shape() -
     assert actions.min() == -5.0 and actions.max() == 5.0
 
 
-@pytest.mark.parametrize("name", sorted(MODELS))
+@pytest.mark.parametrize("name", FAMILIES)
 def test_single_class_data_gives_that_action_everywhere(name: str) -> None:
     X = np.random.default_rng(2).normal(size=(7, 2))
     policy = fit_policy(PolicySpec(name), DISCRETE, X, np.full(7, 2), random_state=0)
@@ -65,6 +65,12 @@ def test_constant_family_is_the_majority_vote_with_ties_to_the_lowest_action() -
     assert majority.act(np.ones(2)) == 1
     tie = fit_policy(PolicySpec("constant"), spaces.Discrete(2), X, np.array([1, 1, 1, 0, 0, 0]), 0)
     assert tie.act(np.ones(2)) == 0
+    mean = fit_policy(
+        PolicySpec("constant"), BOX, X, np.array([[0.5, -1.0]] * 3 + [[0.1, 0.0]] * 3), 0
+    )
+    np.testing.assert_allclose(mean.predict(np.zeros((2, 2))), [[0.3, -0.5]] * 2)
+    with pytest.raises(ValueError, match="field 'params'"):
+        PolicySpec("constant", {"strategy": "uniform"})
 
 
 def test_knn_with_fewer_pairs_than_neighbours() -> None:

@@ -30,5 +30,5 @@ def run(config: BCConfig, progress: ProgressCallback | None = None) -> RunResult
             demos = [harness.collect(SUPERVISOR) for _ in range(config.demos_per_iteration)]
             for demo in demos:
                 harness.aggregate(demo)
-            harness.record(iteration, demos, config.iterations)
+            harness.record(iteration, demos)
         return harness.result()

@@ -17,7 +17,8 @@ class RunConfig:
     ``iterations`` counts data-collection rounds after any initial demonstrations, each round
     collecting ``demos_per_iteration`` rollouts. ``samples_per_demo`` is the ch. 3 protocol:
     keep that many state–label pairs of each rollout for training (None: all of them). The
-    learner is evaluated every ``eval_every`` iterations and at the last one, over
+    learner is evaluated at the iterations in ``eval_at`` (None: every ``eval_every``-th,
+    counting the initial demonstrations as iteration 0) and always at the last one, over
     ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
     normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
     """
@@ -30,6 +31,7 @@ class RunConfig:
     samples_per_demo: int | None = 50
     eval_episodes: int = 10
     eval_every: int = 1
+    eval_at: tuple[int, ...] | None = None
     max_steps: int | None = None
     return_floor: float = 0.0
     seed: int = 0
@@ -48,10 +50,20 @@ class RunConfig:
             check_int(where, "samples_per_demo", self.samples_per_demo, 1)
         check_int(where, "eval_episodes", self.eval_episodes, 1)
         check_int(where, "eval_every", self.eval_every, 1)
+        if self.eval_at is not None:
+            check_iterations(where, "eval_at", self.eval_at, first=0)
         if self.max_steps is not None:
             check_int(where, "max_steps", self.max_steps, 1)
         check_float(where, "return_floor", self.return_floor)
         check_int(where, "seed", self.seed, 0, 2**32 - 1)
+
+    def evaluates_at(self, iteration: int) -> bool:
+        """Whether the learner is evaluated after ``iteration``."""
+        if iteration == self.iterations:
+            return True
+        if self.eval_at is not None:
+            return iteration in self.eval_at
+        return iteration % self.eval_every == 0
 
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly copy (tuples become lists when serialised)."""
@@ -60,12 +72,14 @@ class RunConfig:
         return data
 
 
-def check_iterations(where: str, name: str, values: tuple[int, ...]) -> tuple[int, ...]:
-    """A schedule of iteration numbers: a tuple of distinct ints >= 1, in increasing order."""
+def check_iterations(
+    where: str, name: str, values: tuple[int, ...], first: int = 1
+) -> tuple[int, ...]:
+    """A schedule of iteration numbers: a tuple of distinct ints >= ``first``, increasing."""
     if not isinstance(values, tuple) or any(
-        isinstance(v, bool) or not isinstance(v, int) or v < 1 for v in values
+        isinstance(v, bool) or not isinstance(v, int) or v < first for v in values
     ):
-        fail(where, name, values, "a tuple of iteration numbers >= 1")
+        fail(where, name, values, f"a tuple of iteration numbers >= {first}")
     if list(values) != sorted(set(values)):
         fail(where, name, values, "distinct iteration numbers in increasing order")
     return values

@@ -65,7 +65,7 @@ def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunRe
         for demo in demos:
             harness.aggregate(demo)
         policy = harness.fit()
-        harness.record(0, demos, config.iterations, beta=1.0)
+        harness.record(0, demos, beta=1.0)
 
         for iteration in range(1, config.iterations + 1):
             beta = beta_at(config, iteration)
@@ -75,5 +75,5 @@ def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunRe
                 harness.aggregate(trajectory)  # the supervisor labels every visited state
             if config.retrain_at is None or iteration in config.retrain_at:
                 policy = harness.fit()
-            harness.record(iteration, rollouts, config.iterations, beta=beta)
+            harness.record(iteration, rollouts, beta=beta)
         return harness.result()

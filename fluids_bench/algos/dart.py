@@ -113,5 +113,5 @@ def run(config: DARTConfig, progress: ProgressCallback | None = None) -> RunResu
                         noise_level = float(np.trace(covariance))
                 heldout_start = len(harness.heldout)
             # noise_level: trace of Sigma (Box) or epsilon (Discrete) used for the next rollouts
-            harness.record(iteration, demos, config.iterations, noise_level=noise_level)
+            harness.record(iteration, demos, noise_level=noise_level)
         return harness.result()

@@ -179,13 +179,12 @@ class Harness:
         self,
         iteration: int,
         trajectories: Sequence[Trajectory],
-        last_iteration: int,
         **extras: float,
     ) -> IterationRecord:
         """Log an iteration; evaluate a learner trained on all data when one is due."""
         seconds = self.fit_seconds
         eval_return = normalised = None
-        if iteration % self.config.eval_every == 0 or iteration == last_iteration:
+        if self.config.evaluates_at(iteration):
             if not self._policy_is_current():
                 # a fit only the evaluation needs: it counts for this record, not later ones
                 self.policy, extra_seconds = self._fit()

@@ -54,5 +54,5 @@ def run(config: NoiseConfig, progress: ProgressCallback | None = None) -> RunRes
             demos = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
             for demo in demos:
                 harness.aggregate(demo)  # labels are the supervisor's, not the noisy actions
-            harness.record(iteration, demos, config.iterations)
+            harness.record(iteration, demos)
         return harness.result()

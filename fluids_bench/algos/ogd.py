@@ -128,7 +128,7 @@ def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResul
                 LinearPolicy.zeros(harness.action_space, observations), observations, labels, config
             )
         harness.set_policy(policy)
-        harness.record(0, demos, config.iterations)
+        harness.record(0, demos)
 
         for iteration in range(1, config.iterations + 1):
             rollouts = [
@@ -141,5 +141,5 @@ def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResul
             with harness.training():
                 policy = descend(policy, observations, labels, config)
             harness.set_policy(policy)
-            harness.record(iteration, rollouts, config.iterations)
+            harness.record(iteration, rollouts)
         return harness.result()

@@ -15,7 +15,7 @@ Model families (``PolicySpec.name``):
 - ``knn``: k nearest neighbours (k is capped at the number of training pairs);
 - ``mlp``: a small multi-layer perceptron;
 - ``constant``: the constant policy class of ch. 4 (majority label, or mean label for Box),
-  ties going to the lowest action index.
+  ties going to the lowest action index; computed directly, without an estimator.
 
 A classifier fit on a single label predicts that label everywhere: most scikit-learn
 classifiers refuse one-class data, and on-policy data often starts that way.
@@ -31,7 +31,6 @@ from typing import Any, Protocol
 import numpy as np
 from gymnasium import spaces
 from sklearn.base import BaseEstimator, ClassifierMixin
-from sklearn.dummy import DummyClassifier, DummyRegressor
 from sklearn.exceptions import ConvergenceWarning
 from sklearn.kernel_ridge import KernelRidge
 from sklearn.multioutput import MultiOutputRegressor
@@ -42,7 +41,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import LinearSVC, LinearSVR
 from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
 
-from fluids_bench.validation import check_choice
+from fluids_bench.validation import check_choice, fail
 
 # Predictions of one fitted policy are memoised per observation, up to this many entries:
 # gridworld-like envs revisit the same few hundred states thousands of times, and a single
@@ -94,11 +93,9 @@ MODELS: dict[str, tuple[Factory, Factory]] = {
         lambda p, rs: _scaled(MLPClassifier(random_state=rs, **{"max_iter": 500, **p})),
         lambda p, rs: _scaled(MLPRegressor(random_state=rs, **{"max_iter": 500, **p})),
     ),
-    "constant": (
-        lambda p, rs: DummyClassifier(strategy="most_frequent", **p),
-        lambda p, rs: DummyRegressor(strategy="mean", **p),
-    ),
 }
+# the constant class needs no estimator: fit_policy computes the majority / mean label itself
+FAMILIES = (*sorted(MODELS), "constant")
 
 
 @dataclass(frozen=True)
@@ -109,11 +106,15 @@ class PolicySpec:
     params: Mapping[str, Any] = field(default_factory=dict)
 
     def __post_init__(self) -> None:
-        check_choice("PolicySpec", "name", self.name, sorted(MODELS))
+        check_choice("PolicySpec", "name", self.name, FAMILIES)
         if not isinstance(self.params, Mapping):
             raise ValueError(
                 f"PolicySpec: field 'params' is {self.params!r}; allowed: a mapping of keywords"
             )
+        if self.name == "constant":
+            if self.params:
+                fail("PolicySpec", "params", dict(self.params), "{} for 'constant'")
+            return
         # fail now, not after the first rollout, if the estimator rejects a parameter
         for factory in MODELS[self.name]:
             try:
@@ -210,15 +211,19 @@ def fit_policy(
     X = features(observations)
     if discrete:
         y = np.asarray(labels).astype(np.int64).reshape(len(X))
-        classes = np.unique(y)
-        if len(classes) == 1:
-            return FittedPolicy(None, action_space, np.int64(classes[0]))
+        classes, counts = np.unique(y, return_counts=True)
+        if len(classes) == 1 or spec.name == "constant":
+            # the majority label; argmax takes the first (lowest) label on ties
+            return FittedPolicy(None, action_space, np.int64(classes[np.argmax(counts)]))
     else:
         y = np.asarray(labels, dtype=np.float64).reshape(len(X), -1)
+        if spec.name == "constant":
+            mean = y.mean(axis=0).reshape(action_space.shape).astype(action_space.dtype)
+            return FittedPolicy(None, action_space, mean)
     params = dict(spec.params)
     if spec.name == "knn":
         params["n_neighbors"] = min(int(params.get("n_neighbors", 5)), len(X))
-    estimator = MODELS[spec.name][0 if discrete else 1](params, random_state)
+    estimator = MODELS[spec.name][0 if discrete else 1](params, random_state)  # not constant
     with warnings.catch_warnings():
         # small imitation datasets rarely let iterative solvers converge; the benchmark reports
         # what the given budget achieves instead of printing a warning per fit

@@ -88,7 +88,7 @@ def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResu
         for demo in demos:
             harness.aggregate(demo)
         policy = harness.fit()
-        harness.record(0, demos, config.iterations)
+        harness.record(0, demos)
 
         for iteration in range(1, config.iterations + 1):
             with harness.training():  # the risk model is part of SHIV's compute
@@ -102,5 +102,5 @@ def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResu
                 queried += len(harness.aggregate(trajectory, risky)[0])
                 visited += len(trajectory)
             policy = harness.fit()
-            harness.record(iteration, rollouts, config.iterations, queried=queried, visited=visited)
+            harness.record(iteration, rollouts, queried=queried, visited=visited)
         return harness.result()

@@ -95,11 +95,11 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if not self.action_space.contains(action):
+        move = int(action)
+        if move != action or move not in (L, R):  # cheaper than Space.contains
             raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
         if self._level == DEPTH:
             raise RuntimeError(f"{WHERE}: step() after the episode ended; call reset()")
-        move = int(action)
         # draw on every step, not only at the root, so the random stream does not depend on
         # the actions taken before
         slipped = self.np_random.random() < self.mu

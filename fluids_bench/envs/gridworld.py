@@ -204,9 +204,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        if not self.action_space.contains(action):
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
         executed = int(action)
+        if executed != action or not 0 <= executed < len(MOVES):  # cheaper than Space.contains
+            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
         if self.np_random.random() < self.slip_probability:
             # one of the other moves, uniformly: shift by 1..n-1 modulo n
             shift = int(self.np_random.integers(1, len(MOVES)))
