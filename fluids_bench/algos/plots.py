@@ -20,8 +20,15 @@ def new_figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (6.0, 4
     return figure
 
 
-def save_png_atomic(figure: Figure, path: str | os.PathLike[str]) -> None:
-    """Render ``figure`` to PNG in memory, then write it atomically."""
+def save_png_atomic(
+    figure: Figure, path: str | os.PathLike[str], legend_loc: str | None = "best"
+) -> None:
+    """Add a light grid and a small legend (unless ``legend_loc`` is None) to every axes,
+    render ``figure`` to PNG in memory, then write it atomically."""
+    for axes in figure.axes:
+        axes.grid(alpha=0.3)
+        if legend_loc is not None:
+            axes.legend(loc=legend_loc, fontsize="small")
     buffer = io.BytesIO()
     figure.savefig(buffer, format="png", dpi=120)
     write_bytes_atomic(path, buffer.getvalue())
@@ -57,7 +64,4 @@ def plot_learning_curves(results: Sequence[RunResult], path: str | os.PathLike[s
     top.set_ylabel("normalised performance")
     bottom.set_ylabel("return during collection")
     bottom.set_xlabel("supervisor labels requested")
-    for axes in (top, bottom):
-        axes.grid(alpha=0.3)
-        axes.legend(loc="best", fontsize="small")
     save_png_atomic(figure, path)
