@@ -169,3 +169,21 @@ def test_ompl_can_plan_every_route(layout):
             if term or trunc:
                 break
         assert info["is_success"], (layout, seed)
+
+
+def test_pedestrian_waits_for_a_car_already_in_the_crosswalk():
+    """Crosswalk white, but a (slow) car is on the crosswalk across the walker's path: the car
+    keeps its right of way and the walker waits at the kerb."""
+    from fluids_bench.sim.lights import GO
+
+    world = World(SceneConfig(num_cars=1, num_pedestrians=1, car=CarConfig(max_speed=0.5)))
+    routes, lights = world.layout.routes, world.lights
+    walk = routes.names.index("walk_west_r")
+    white = next(t for t in np.arange(0, 60, 0.1) if lights.states(t)[lights.names.index("cw_west")] == GO)
+    world.time, world.light_state = float(white), lights.states(white)
+    world.place(0, routes.names.index("west_in_0->east_out_0"), 31.5)  # on the crosswalk
+    world.place(1, walk, routes.enter_s[walk] - 0.3)  # at the kerb, about to cross
+    plan = VelocityPlanner(VelocityPlannerConfig(period=1)).plan(world)
+    assert plan[0] > 0 and plan[1] == 0
+    world.place(0, routes.names.index("west_in_0->east_out_0"), 3.0)  # car far back: walk
+    assert VelocityPlanner(VelocityPlannerConfig(period=1)).plan(world)[1] > 0
