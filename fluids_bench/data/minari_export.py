@@ -18,6 +18,7 @@ In an exported dataset:
 Writing is atomic: the dataset is built under a hidden staging folder in the datasets root
 (``MINARI_DATASETS_PATH``), which Minari does not list, then renamed into place; an
 interrupted export leaves no dataset behind. An existing id is refused unless ``overwrite``.
+Dict observation spaces are stored as Minari's dict of arrays, and images losslessly (no JPEG).
 Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py).
 """
 
@@ -65,6 +66,15 @@ def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
     return match.group("namespace"), match.group("dataset"), int(match.group("version"))
 
 
+def _observations(space: spaces.Space, values: Any) -> Any:
+    """Rows of observations as Minari stores them: an array, or a dict of arrays for Dict
+    spaces (rollouts record Dict observations as a sequence of dicts)."""
+    if isinstance(space, spaces.Dict):
+        rows = list(values)
+        return {key: _observations(sub, [row[key] for row in rows]) for key, sub in space.items()}
+    return np.asarray(np.stack(list(values)), dtype=space.dtype)
+
+
 def _actions(space: spaces.Space, values: Any) -> Any:
     if isinstance(space, spaces.Discrete):
         return np.asarray(values, dtype=space.dtype).reshape(-1)
@@ -97,7 +107,7 @@ def episode_buffer(
     return EpisodeBuffer(
         id=index,
         seed=int(trajectory.seed),
-        observations=np.asarray(trajectory.observations, dtype=observation_space.dtype),
+        observations=_observations(observation_space, trajectory.observations),
         actions=_actions(action_space, trajectory.labels),
         rewards=np.asarray(trajectory.rewards, dtype=np.float64),
         terminations=terminations,
@@ -195,6 +205,7 @@ def export_minari(
                 ref_max_score=ref_max_score,
                 description=description,
                 data_format=data_format,
+                jpeg_encoding=False,  # images stay exact (JPEG would be lossy)
                 requirements=[f"fluids-bench>={__version__}"],
             )
         if namespace is not None and namespace not in list_local_namespaces():

@@ -56,8 +56,14 @@ def _assert_round_trip(dataset, trajectories, provenance: str) -> None:
     seeds = [m["seed"] for m in dataset.storage.get_episode_metadata(range(len(trajectories)))]
     assert seeds == [t.seed for t in trajectories]
     for episode, t in zip(episodes, trajectories, strict=True):
-        np.testing.assert_array_equal(episode.observations, t.observations)
-        assert episode.observations.dtype == t.observations.dtype
+        if isinstance(episode.observations, dict):  # Dict space: rollouts keep a list of dicts
+            for key, values in episode.observations.items():
+                expected = np.stack([row[key] for row in t.observations])
+                np.testing.assert_array_equal(values, expected)
+                assert values.dtype == expected.dtype
+        else:
+            np.testing.assert_array_equal(episode.observations, t.observations)
+            assert episode.observations.dtype == t.observations.dtype
         np.testing.assert_array_equal(episode.actions, t.labels)  # actions are the labels
         np.testing.assert_array_equal(episode.rewards, t.rewards)
         ends = np.zeros(len(t), dtype=bool)
@@ -157,6 +163,16 @@ def test_env_kwargs_are_recovered_and_reference_scores_stored():
             env_kwargs=kwargs,
             ref_max_score=1.0,
         )
+
+
+def test_dict_observations_with_images_round_trip_exactly():
+    kwargs = {"obs_type": ["explicit", "qlidar", "birdseye"], "birdseye_size": 16}
+    trajectories = collect("FLUIDS-v0", 2, env_kwargs=kwargs, max_steps=8, progress=False)
+    dataset = export_minari(
+        "fluids/dict-v0", trajectories, env_id="FLUIDS-v0", env_kwargs=kwargs, **METADATA
+    )
+    _assert_round_trip(dataset, trajectories, "supervisor")
+    assert set(dataset.observation_space.spaces) == {"explicit", "qlidar", "birdseye"}
 
 
 def test_existing_dataset_is_refused_unless_overwrite(minari_root):
