@@ -82,6 +82,18 @@ def test_evaluation_schedule_eval_at_and_eval_every() -> None:
     assert all(r.normalised_performance is None for r in every.records if r.eval_return is None)
 
 
+def test_evaluating_more_often_does_not_change_what_is_learned() -> None:
+    # DAgger-B between refits needs evaluation-only fits; they must not shift the random
+    # state of the fits that choose the next rollouts
+    mlp = PolicySpec("mlp", {"hidden_layer_sizes": [8], "max_iter": 20})  # init is random
+    common = {**GRID, "iterations": 6, "eval_episodes": 1, "policy": mlp}
+    config = dagger.DAggerConfig(**common, retrain_at=(3,), seed=1)
+    often = dagger.run(replace(config, eval_every=1))
+    rarely = dagger.run(replace(config, eval_at=()))
+    for a, b in zip(often.dataset.arrays(), rarely.dataset.arrays(), strict=True):
+        assert a.tobytes() == b.tobytes()
+
+
 def test_subsampling_keeps_50_pairs_per_demonstration() -> None:
     config = bc.BCConfig(**GRID, **SMALL, policy=TREE, samples_per_demo=10)
     assert bc.run(config).final.labels_requested == 30

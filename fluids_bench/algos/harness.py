@@ -4,7 +4,9 @@ A :class:`Harness` owns the env, the seeds, the aggregate dataset, the label cou
 timer and the evaluation protocol of one run:
 
 - seeds: one :class:`numpy.random.SeedSequence` from ``config.seed`` is split into independent
-  streams for episode seeds, evaluation seeds, subsampling and model ``random_state``s;
+  streams for episode seeds, evaluation seeds, subsampling, the algorithm's own choices and
+  model ``random_state``s (one per training-set size, so evaluating more often never changes
+  what the algorithm learns);
 - evaluation: the learner and (once, up front) the supervisor are rolled out on the same
   ``eval_episodes`` seeds; normalised performance is their ratio after ``return_floor``.
 """
@@ -74,7 +76,9 @@ class Harness:
         episode_ss, eval_ss, split_ss, model_ss, algo_ss = streams
         self._episode_rng = np.random.default_rng(episode_ss)
         self._split_rng = np.random.default_rng(split_ss)
-        self._model_rng = np.random.default_rng(model_ss)
+        # a fit's random_state depends only on the run's seed and the data size, so extra
+        # evaluation-only fits never change the random state of the algorithm's own fits
+        self._model_word = int(model_ss.generate_state(1)[0])
         # for an algorithm's own random choices (e.g. bagging a committee)
         self.rng = np.random.default_rng(algo_ss)
         self.eval_seeds = [
@@ -138,7 +142,9 @@ class Harness:
 
     def _fit(self) -> tuple[Policy, float]:
         observations, labels = self.train.arrays()
-        random_state = int(self._model_rng.integers(SEED_BOUND))
+        random_state = int(
+            np.random.default_rng([self._model_word, len(self.train)]).integers(SEED_BOUND)
+        )
         start = time.perf_counter()
         policy = fit_policy(
             self.config.policy, self.action_space, observations, labels, random_state
