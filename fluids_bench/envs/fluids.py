@@ -2,21 +2,19 @@
 
 from __future__ import annotations
 
-import math
 from importlib.util import find_spec
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
-from gymnasium import spaces
 
+from fluids_bench.envs import levels
 from fluids_bench.envs.observations import ObservationConfig, Observer
 from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
 from fluids_bench.sim.layout.compiled import compile_layout
 from fluids_bench.sim.spawn import spawn
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
-from fluids_bench.supervisors.driving.behavior import choose_movement, movement_count
 from fluids_bench.supervisors.driving.control import PIDConfig
 from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
 from fluids_bench.supervisors.driving.trajectory import ompl_layout
@@ -181,15 +179,7 @@ class FluidsEnv(gym.Env):
         self.world = World(self.scene, layout)
         self.observer = Observer(obs_config, self.world)
         self.observation_space = self.observer.space
-        car = self.scene.car
-        if action_level == "behavior":
-            self.action_space = spaces.Discrete(movement_count(self.world))
-        elif action_level == "trajectory":
-            self.action_space = spaces.Box(-50.0, 50.0, (2 * waypoints,), np.float32)
-        elif action_level == "velocity":
-            self.action_space = spaces.Box(0.0, car.max_speed, (1,), np.float32)
-        else:
-            self.action_space = spaces.Box(-1.0, 1.0, (2,), np.float32)
+        self.action_space = levels.action_space(action_level, self.world, waypoints)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self._route_length = 1.0
         self._last_s = 0.0
@@ -213,26 +203,12 @@ class FluidsEnv(gym.Env):
         w, sup = self.world, self.supervisor
         if self._ended:
             raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
-        action = self._validate(action)
-        controls, memory = sup.proposed, None
-        if not w.active[0]:
-            pass  # "all" mode after the ego arrived: the others drive on, the action is ignored
-        elif self.action_level == "behavior":
-            if choose_movement(w, 0, int(action)):
-                self._route_length = float(w.path_len[0]) - self._last_s
-                sup.prepare(w)
-            controls = sup.proposed
-        elif self.action_level == "velocity":
-            targets = sup.targets.copy()
-            targets[0] = float(action[0])
-            controls, memory = sup.pid.controls(w, targets)
-        elif self.action_level == "trajectory":
-            aim = sup.pid.lookahead_points(w)
-            aim[0] = self._aim_from_waypoints(action)
-            controls, memory = sup.pid.controls(w, sup.targets, aim)
-        else:
-            controls = sup.proposed.copy()
-            controls[0] = sup.denormalise(w, action)
+        action = levels.validate(self.action_level, self.action_space, action, "FluidsEnv")
+        # after the ego arrived ("all" mode) the others drive on and the action is ignored
+        chosen = {0: action} if w.active[0] else {}
+        controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
+        if changed:
+            self._route_length = float(w.path_len[0]) - self._last_s
         events = sup.execute(w, controls, memory)
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
@@ -283,36 +259,9 @@ class FluidsEnv(gym.Env):
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self):
         """The supervisor's action for the ego at ``action_level`` in the current state."""
-        label = self.supervisor.label(self.world, self.action_level, 0)
-        if self.action_level == "behavior":
-            return int(label)
-        if self.action_level == "velocity":
-            return np.array([label], dtype=np.float32)
-        return np.asarray(label, dtype=np.float32)
+        return levels.label(self.supervisor, self.world, self.action_level, 0)
 
     # ------------------------------------------------------------------ helpers
-    def _validate(self, action):
-        if self.action_level == "behavior":
-            a = np.asarray(action)
-            if a.shape not in ((), (1,)) or not np.issubdtype(a.dtype, np.integer) or not self.action_space.contains(int(a.reshape(()))):
-                raise ValueError(f"FluidsEnv: behavior action is {action!r}; allowed: an integer in [0, {self.action_space.n})")
-            return int(a.reshape(()))
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != self.action_space.shape:
-            raise ValueError(f"FluidsEnv: {self.action_level} action has shape {a.shape}; allowed: {self.action_space.shape}")
-        if not np.isfinite(a).all():
-            raise ValueError(f"FluidsEnv: {self.action_level} action {a.tolist()} is not finite; allowed: finite numbers")
-        return np.clip(a, self.action_space.low, self.action_space.high)
-
-    def _aim_from_waypoints(self, action: np.ndarray) -> np.ndarray:
-        pts = action.reshape(-1, 2)
-        ahead = max(self.supervisor.config.pid.lookahead_min,
-                    self.supervisor.config.pid.lookahead_time * self.world.state[0, 3])
-        far = np.flatnonzero(np.hypot(*pts.T) >= ahead)
-        px, py = pts[far[0] if len(far) else -1]
-        x, y, th, _ = self.world.state[0]
-        return np.array([x + math.cos(th) * px - math.sin(th) * py, y + math.sin(th) * px + math.cos(th) * py])
-
     def _observe(self) -> np.ndarray:
         return self.observer.observe(self.world, self.np_random)
 

@@ -8,7 +8,6 @@ from __future__ import annotations
 
 import copy
 import inspect
-import math
 from collections.abc import Callable
 from dataclasses import fields
 from typing import Any
@@ -19,6 +18,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
+from fluids_bench.envs import levels
 from fluids_bench.envs.fluids import TRAJECTORY_PLANNERS
 from fluids_bench.envs.observations import OBS_BOUND, ObservationConfig, Observer
 from fluids_bench.sim.config import CarConfig, PedestrianConfig, SceneConfig, check_range
@@ -26,7 +26,6 @@ from fluids_bench.sim.layout.compiled import compile_layout
 from fluids_bench.sim.spawn import capacity, spawn
 from fluids_bench.sim.world import World
 from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY
-from fluids_bench.supervisors.driving.behavior import choose_movement, movement_count
 from fluids_bench.supervisors.driving.control import PIDConfig
 from fluids_bench.supervisors.driving.stack import LEVELS, DrivingSupervisor, SupervisorConfig
 from fluids_bench.supervisors.driving.trajectory import ompl_layout
@@ -105,22 +104,6 @@ def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[
             out[kind] = _EgoOnly(part)
             ego_only.append(kind)
     return out, ego_only
-
-
-def waypoints_aim(
-    world: World, supervisor: DrivingSupervisor, agent: int, waypoints: np.ndarray
-) -> np.ndarray:
-    """The world-frame point car ``agent`` steers to for trajectory-level ``waypoints`` (its
-    frame, flattened): the first one at least the PID look-ahead away, else the last."""
-    pts = waypoints.reshape(-1, 2)
-    pid = supervisor.config.pid
-    ahead = max(pid.lookahead_min, pid.lookahead_time * world.state[agent, 3])
-    far = np.flatnonzero(np.hypot(*pts.T) >= ahead)
-    px, py = pts[far[0] if len(far) else -1]
-    x, y, th, _ = world.state[agent]
-    return np.array(
-        [x + math.cos(th) * px - math.sin(th) * py, y + math.sin(th) * px + math.cos(th) * py]
-    )
 
 
 class FluidsParallelEnv(ParallelEnv):
@@ -317,14 +300,7 @@ class FluidsParallelEnv(ParallelEnv):
         return self._action_spaces[agent]
 
     def _build_action_space(self) -> spaces.Space:
-        car = self.scene.car
-        if self.action_level == "behavior":
-            return spaces.Discrete(movement_count(self.world))
-        if self.action_level == "trajectory":
-            return spaces.Box(-50.0, 50.0, (2 * self.supervisor_config.waypoints,), np.float32)
-        if self.action_level == "velocity":
-            return spaces.Box(0.0, car.max_speed, (1,), np.float32)
-        return spaces.Box(-1.0, 1.0, (2,), np.float32)
+        return levels.action_space(self.action_level, self.world, self.supervisor_config.waypoints)
 
     def _build_state_space(self) -> spaces.Box:
         n, lights = self.world.n, len(self.world.lights)
@@ -440,68 +416,19 @@ class FluidsParallelEnv(ParallelEnv):
         return self._label(self._index[agent])
 
     def _label(self, i: int):
-        label = self.supervisor.label(self.world, self.action_level, i)
-        if self.action_level == "behavior":
-            return int(label)
-        if self.action_level == "velocity":
-            return np.array([label], dtype=np.float32)
-        return np.asarray(label, dtype=np.float32)
+        return levels.label(self.supervisor, self.world, self.action_level, i)
 
     # ------------------------------------------------------------------ helpers
     def _controls(self, chosen: dict[int, Any]) -> tuple[np.ndarray, tuple | None]:
         """Every agent's controls with the chosen agents' actions at ``action_level``, the rest
         supervised, and the PID memory to commit (None: the supervisor's own)."""
-        w, sup = self.world, self.supervisor
-        if not chosen:
-            return sup.proposed, None
-        if self.action_level == "behavior":
-            changed = False
-            for i, movement in chosen.items():
-                if choose_movement(w, i, movement):
-                    self._route_length[i] = float(w.path_len[i]) - self._last_s[i]
-                    changed = True
-            if changed:
-                sup.prepare(w)
-            return sup.proposed, None
-        if self.action_level == "velocity":
-            targets = sup.targets.copy()
-            for i, a in chosen.items():
-                targets[i] = float(a[0])
-            return sup.pid.controls(w, targets)
-        if self.action_level == "trajectory":
-            aim = sup.pid.lookahead_points(w)
-            for i, a in chosen.items():
-                aim[i] = waypoints_aim(w, sup, i, a)
-            return sup.pid.controls(w, sup.targets, aim)
-        controls = sup.proposed.copy()
-        for i, a in chosen.items():
-            controls[i] = sup.denormalise(w, a)
-        return controls, None
+        controls, memory, changed = levels.controls(self.action_level, self.world, self.supervisor, chosen)
+        for i in changed:
+            self._route_length[i] = float(self.world.path_len[i]) - self._last_s[i]
+        return controls, memory
 
     def _validate(self, action):
-        space = self._action_space
-        if self.action_level == "behavior":
-            a = np.asarray(action)
-            if (
-                a.shape not in ((), (1,))
-                or not np.issubdtype(a.dtype, np.integer)
-                or not space.contains(int(a.reshape(())))
-            ):
-                raise ValueError(
-                    f"{WHERE}: behavior action is {action!r}; allowed: an integer in [0, {space.n})"
-                )
-            return int(a.reshape(()))
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != space.shape:
-            raise ValueError(
-                f"{WHERE}: {self.action_level} action has shape {a.shape}; allowed: {space.shape}"
-            )
-        if not np.isfinite(a).all():
-            raise ValueError(
-                f"{WHERE}: {self.action_level} action {a.tolist()} is not finite; "
-                "allowed: finite numbers"
-            )
-        return np.clip(a, space.low, space.high)
+        return levels.validate(self.action_level, self._action_space, action, WHERE)
 
     def _observe(self, i: int):
         rng, w = self.np_random, self.world
