@@ -25,7 +25,7 @@ def test_train_writes_json_and_png(tmp_path: Path, capsys: pytest.CaptureFixture
         "--env", "GridWorld-v0", "--algo", "dagger_b", "--policy", "tree",
         "--policy-param", "max_depth=100", "--env-kwarg", "world_seed=2",
         "--iterations", "4", "--eval-episodes", "2", "--retrain-at", "1", "3",
-        "--seed", "3", "--out", str(tmp_path),
+        "--eval-at", "0", "2", "--seed", "3", "--out", str(tmp_path),
     )  # fmt: skip
     assert code == 0
     stem = tmp_path / "dagger_b_GridWorld-v0_seed3"
@@ -35,6 +35,13 @@ def test_train_writes_json_and_png(tmp_path: Path, capsys: pytest.CaptureFixture
     assert payload["config"]["env_kwargs"] == {"world_seed": 2}
     assert payload["config"]["policy"] == {"name": "tree", "params": {"max_depth": 100}}
     assert len(payload["records"]) == 5
+    assert [r["eval_return"] is not None for r in payload["records"]] == [
+        True,
+        False,
+        True,
+        False,
+        True,
+    ]
     assert stem.with_suffix(".png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
     assert not list(tmp_path.glob(".*.tmp"))  # no temporary files left behind
     assert "wrote" in capsys.readouterr().out

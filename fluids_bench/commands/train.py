@@ -78,6 +78,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--samples-per-demo", type=_samples, default=50, help="int or 'all'")
     parser.add_argument("--eval-episodes", type=int, default=10)
     parser.add_argument("--eval-every", type=int, default=1)
+    parser.add_argument(
+        "--eval-at", type=int, nargs="*", default=None, help="iterations to evaluate at (list)"
+    )
     parser.add_argument("--max-steps", type=int, default=None)
     parser.add_argument("--return-floor", type=float, default=0.0)
     parser.add_argument("--seed", type=int, default=0)
@@ -122,6 +125,7 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
         samples_per_demo=args.samples_per_demo,
         eval_episodes=args.eval_episodes,
         eval_every=args.eval_every,
+        eval_at=None if args.eval_at is None else tuple(args.eval_at),
         max_steps=args.max_steps,
         return_floor=args.return_floor,
         seed=args.seed,
