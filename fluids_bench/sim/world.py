@@ -57,7 +57,10 @@ class World:
         width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
         self.path = np.zeros((n, width, 2))
         self.path_heading = np.zeros((n, width))
-        self.path_dir = np.zeros((n, width), dtype=complex)  # unit tangent e^{iθ} per sample
+        # single-precision complex copies (x + iy, unit tangent e^{iθ}) for the planner's large
+        # pairwise arrays: they stay in cache, and centimetres need no more precision
+        self.path_c64 = np.zeros((n, width), dtype=np.complex64)
+        self.path_dir = np.zeros((n, width), dtype=np.complex64)
         self.path_len = np.zeros(n)
         self.state = np.zeros((n, 4))  # x, y, θ, v
         self.route = np.full(n, -1, dtype=np.int64)
@@ -101,6 +104,7 @@ class World:
         self.path_heading[agent, :m] = heading[:m]
         self.path_heading[agent, m:] = heading[m - 1]
         self.path_dir[agent] = np.exp(1j * self.path_heading[agent])
+        self.path_c64[agent] = self.path[agent, :, 0] + 1j * self.path[agent, :, 1]
         self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
 
     # ----------------------------------------------------------------------------- queries
@@ -122,17 +126,12 @@ class World:
         rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
         return self.path[rows, k], self.path_heading[rows, k]
 
-    @property
-    def path_c(self) -> np.ndarray:
-        """Paths as complex numbers x + iy, (N, M): a view, no copy."""
-        return self.path.view(complex)[..., 0]
-
     def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Complex points and unit tangents at arc lengths ``s`` (len(agents), ...)."""
+        """Points and unit tangents at arc lengths ``s`` (len(agents), ...), as complex64."""
         k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
         np.minimum(np.maximum(k, 0, out=k), self.path.shape[1] - 1, out=k)
         rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
-        return self.path_c[rows, k], self.path_dir[rows, k]
+        return self.path_c64[rows, k], self.path_dir[rows, k]
 
     def tracking_error(self) -> tuple[np.ndarray, np.ndarray]:
         """Lateral offset (m, left positive) and heading error (rad) of every agent from the

@@ -156,7 +156,7 @@ class VelocityPlanner:
             return empty
         pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex each
         bound = self._bound[agents] + self.config.margin / 2
-        pos = world.state[agents, 0] + 1j * world.state[agents, 1]
+        pos = (world.state[agents, 0] + 1j * world.state[agents, 1]).astype(np.complex64)
         # pairs whose swept boxes (every candidate, every time, and now) overlap; pedestrians
         # step round each other, so only pairs with a car constrain anyone
         flat = np.concatenate([pts.reshape(len(agents), -1), pos[:, None]], axis=1)
@@ -171,21 +171,19 @@ class VelocityPlanner:
             return empty
         # broad phase: bounding circles, for every pair, candidate pair and time
         diff = pts[ii][:, :, None] - pts[jj][:, None, :]  # (P, K, K, T)
-        reach = (bound[ii] + bound[jj]) ** 2
+        reach = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
         near = diff.real**2 + diff.imag**2 < reach[:, None, None, None]
         conflict = np.zeros((len(ii), k, k), dtype=bool)
         p, a, b, t = np.nonzero(near)
         if len(p):
             # narrow phase where bounding circles meet: three circles along each car
-            offs, radius = self._offs[agents], self._radius[agents]
+            offs, radius = self._offs[agents].astype(np.float32), self._radius[agents]
             th = world.state[agents, 2]
-            now = pos[:, None] + offs * np.exp(1j * th)[:, None]  # (A, 3)
+            now = pos[:, None] + offs * np.exp(1j * th).astype(np.complex64)[:, None]  # (A, 3)
             d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
             thresh = np.minimum(radius[ii] + radius[jj] + self.config.margin, d_now - 0.05)
-            pi, pj = ii[p], jj[p]
-            ci = pts[pi, a, t][:, None] + offs[pi] * dirs[pi, a, t][:, None]  # (M, 3)
-            cj = pts[pj, b, t][:, None] + offs[pj] * dirs[pj, b, t][:, None]
-            dd = ci[:, :, None] - cj[:, None, :]
+            circles = pts[..., None] + offs[:, None, None, :] * dirs[..., None]  # (A, K, T, 3)
+            dd = circles[ii[p], a, t][:, :, None] - circles[jj[p], b, t][:, None, :]  # (M, 3, 3)
             d2 = (dd.real**2 + dd.imag**2).min(axis=(1, 2))
             th_p = np.maximum(thresh[p], 0.0)
             hit = d2 < th_p * th_p
@@ -238,9 +236,8 @@ class VelocityPlanner:
             problem = Problem(_PrioritySolver(self.priority(world, agents)))
             for a in np.unique(pairs).tolist():
                 problem.addVariable(a, allowed[a].nonzero()[0].tolist())
-            for (a, b), table in zip(pairs.tolist(), conflict, strict=True):
-                ok = frozenset(zip(*np.nonzero(~table), strict=True))
-                problem.addConstraint(FunctionConstraint(lambda x, y, ok=ok: (x, y) in ok), [a, b])
+            for (a, b), table in zip(pairs.tolist(), conflict.tolist(), strict=True):
+                problem.addConstraint(FunctionConstraint(lambda x, y, bad=table: not bad[x][y]), [a, b])
             solution = problem.getSolution()
             if solution is None:  # cannot happen (all-stop is feasible); fail loudly if it does
                 raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
