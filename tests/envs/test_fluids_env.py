@@ -8,6 +8,7 @@ import warnings
 import gymnasium as gym
 import numpy as np
 import pytest
+from exact_compare import exactly_equal
 from gymnasium.utils.env_checker import check_env
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -57,21 +58,11 @@ def _rollout(level: str, seed: int, steps: int, **kwargs):
     return trace
 
 
-def _same(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_same(a[k], b[k]) for k in a)
-    if isinstance(a, list | tuple):
-        return len(a) == len(b) and all(_same(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, np.ndarray):
-        return a.dtype == np.asarray(b).dtype and np.array_equal(a, b)
-    return a == b
-
-
 @pytest.mark.parametrize("level", LEVELS)
 def test_same_seed_same_episode(level):
     kw = {"num_cars": 5, "num_pedestrians": 3, "obs_noise": 0.1}
     a, b = _rollout(level, 7, 120, **kw), _rollout(level, 7, 120, **kw)
-    assert _same(a, b)
+    assert exactly_equal(a, b)
 
 
 def test_different_seeds_give_different_starts():
@@ -89,7 +80,7 @@ def test_pickle_round_trip_mid_episode():
     for _ in range(40):
         a = info["supervisor_action"]
         out1, out2 = env.step(a), clone.step(a)
-        assert _same(list(out1), list(out2))
+        assert exactly_equal(list(out1), list(out2))
         info = out1[-1]
         if out1[2] or out1[3]:
             break

@@ -8,6 +8,7 @@ import warnings
 import numpy as np
 import pytest
 import shapely
+from exact_compare import exactly_equal
 from pettingzoo.utils.conversions import parallel_to_aec
 
 from fluids_bench.envs.multi_agent import FluidsParallelEnv, agent_observers, parallel_env
@@ -39,16 +40,6 @@ def _random_episode(env, seed: int, steps: int) -> list:
     return out
 
 
-def _equal(a, b) -> bool:
-    if isinstance(a, dict):
-        return a.keys() == b.keys() and all(_equal(a[k], b[k]) for k in a)
-    if isinstance(a, list | tuple):
-        return len(a) == len(b) and all(_equal(x, y) for x, y in zip(a, b, strict=True))
-    if isinstance(a, np.ndarray):
-        return isinstance(b, np.ndarray) and a.dtype == b.dtype and np.array_equal(a, b)
-    return type(a) is type(b) and a == b
-
-
 @pytest.mark.parametrize("level", LEVELS)
 def test_pettingzoo_api_and_seed_tests(level):
     env = parallel_env(controlled_cars=5, num_cars=2, action_level=level)
@@ -66,9 +57,9 @@ def test_pettingzoo_state_tests():
 def test_random_episodes_are_deterministic_and_seed_dependent():
     make = lambda: parallel_env(controlled_cars=4, num_cars=2, obs_noise=0.05, max_cycles=60)  # noqa: E731
     first, second = _random_episode(make(), 3, 60), _random_episode(make(), 3, 60)
-    assert _equal(first, second)
+    assert exactly_equal(first, second)
     other = _random_episode(make(), 4, 60)
-    assert not _equal(first[0], other[0])
+    assert not exactly_equal(first[0], other[0])
 
 
 def test_registered_factory_and_pickle_round_trip():
@@ -82,7 +73,7 @@ def test_registered_factory_and_pickle_round_trip():
     for _ in range(5):
         actions = {a: infos[a]["supervisor_action"] for a in env.agents}
         out = env.step(actions)
-        assert _equal(out, clone.step(actions))
+        assert exactly_equal(out, clone.step(actions))
         infos = out[4]
 
 
