@@ -24,6 +24,8 @@ from fluids_bench.supervisors.dag import L, R, expected_return, greedy_action
 
 CONSTANT = PolicySpec("constant")
 ROOT = np.zeros(2, dtype=np.float32)
+# the constant class {L, R} on the DAG, evaluated only at the end
+THEOREM = {"env_id": "DAG-v0", "policy": CONSTANT, "eval_episodes": 1, "eval_at": ()}
 
 
 def test_check_env_passes_with_warnings_as_errors() -> None:
@@ -105,15 +107,7 @@ def test_bad_mu_names_field_and_range(value: object) -> None:
 
 def test_off_policy_converges_to_L() -> None:
     for seed in range(5):
-        config = BCConfig(
-            env_id="DAG-v0",
-            policy=CONSTANT,
-            iterations=60,
-            eval_episodes=1,
-            eval_every=100,
-            seed=seed,
-        )
-        assert run_bc(config).policy.act(ROOT) == L
+        assert run_bc(BCConfig(**THEOREM, iterations=60, seed=seed)).policy.act(ROOT) == L
 
 
 def test_on_policy_keeps_R_forever_once_its_first_vote_says_R() -> None:
@@ -121,16 +115,7 @@ def test_on_policy_keeps_R_forever_once_its_first_vote_says_R() -> None:
     # adds L R R again, so DAgger (beta = 0) never leaves R. Otherwise it starts at L.
     slipped_runs = 0
     for seed in range(40):
-        config = DAggerConfig(
-            env_id="DAG-v0",
-            policy=CONSTANT,
-            initial_demos=1,
-            iterations=15,
-            eval_episodes=1,
-            eval_every=100,
-            seed=seed,
-        )
-        result = run_dagger(config)
+        result = run_dagger(DAggerConfig(**THEOREM, initial_demos=1, iterations=15, seed=seed))
         initial_return = result.records[0].collection_return  # 2.0 = the slipped path L R R
         if initial_return == 2.0:
             slipped_runs += 1
