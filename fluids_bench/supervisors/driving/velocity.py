@@ -11,8 +11,12 @@ domains (unary constraints). python-constraint2 then assigns every agent a veloc
 * Priority: variables are assigned in a fixed order (agents in or past the junction first, the
   furthest along first; then the others, nearest the junction first; then by index), so the
   agent that committed first keeps its right of way and the plan is deterministic.
-* Always feasible: a pair only conflicts when a candidate pair brings the agents closer than
-  they are now, so everyone stopping satisfies every constraint, and a stop is never pruned.
+* Always feasible: a candidate pair conflicts only when it brings the agents closer than both
+  their clearance and their distance now; both braking never conflicts and braking is never
+  pruned from a domain, so everyone braking satisfies every constraint.
+* Pedestrians are agents like cars: they obey crosswalk lights (unary constraints) and, having
+  no right of way over a car already in the crosswalk, wait for it (priority order). Pairs of
+  pedestrians are not constrained: they step round each other.
 """
 
 from __future__ import annotations
