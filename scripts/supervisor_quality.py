@@ -4,6 +4,9 @@ For every scene of ``--cars`` × ``--peds`` on ``--layout``, runs ``--episodes``
 which the supervisor drives every agent until all have arrived. An episode succeeds when every
 agent reaches its goal with no collision; one that runs out of steps without a collision is a
 deadlock. Usage: ``python scripts/supervisor_quality.py --layout four_way --episodes 200``.
+
+With ``--out FILE``, each scene's row is appended to ``FILE.jsonl`` as soon as it finishes, and a
+rerun skips the scenes already there: a killed run resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -12,7 +15,7 @@ import argparse
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
@@ -48,8 +51,28 @@ def main() -> None:
     args = parser.parse_args()
     jobs = [(args.layout, c, p, args.episodes, args.max_steps)
             for c in range(args.cars[0], args.cars[1] + 1) for p in range(args.peds[0], args.peds[1] + 1)]
+    log = f"{args.out}.jsonl" if args.out else None
+    done = {}
+    if log and os.path.exists(log):
+        with open(log) as f:  # a torn last line (killed mid-write) is simply redone
+            for line in f:
+                try:
+                    row = json.loads(line)
+                except json.JSONDecodeError:
+                    continue
+                done[(row["layout"], row["cars"], row["pedestrians"], row["episodes"])] = row
+    todo = [j for j in jobs if j[:4] not in done]
     with ProcessPoolExecutor(args.workers) as pool:
-        rows = list(tqdm(pool.map(_scene_result, jobs), total=len(jobs), desc=args.layout, unit="scene"))
+        futures = [pool.submit(_scene_result, job) for job in todo]
+        for future in tqdm(as_completed(futures), total=len(futures), desc=args.layout, unit="scene"):
+            row = future.result()
+            done[(row["layout"], row["cars"], row["pedestrians"], row["episodes"])] = row
+            if log:
+                with open(log, "a") as f:
+                    f.write(json.dumps(row) + "\n")
+                    f.flush()
+                    os.fsync(f.fileno())
+    rows = [done[j[:4]] for j in jobs]
     total = sum(r["episodes"] for r in rows)
     report = {"layout": args.layout, "episodes": total, "success_rate": sum(r["success"] for r in rows) / total,
               "scenes": rows}
