@@ -1,0 +1,181 @@
+"""The parameter grid of a sensitivity sweep (ch. 7, "Testing Generalization in FLUIDS").
+
+A :class:`Grid` is the full factorial product of a few :class:`Parameter` value lists; its
+configurations are numbered in row-major order of the parameters (the last parameter varies
+fastest), and configuration ``i`` maps to keyword arguments of ``FLUIDS-Sensitivity-v0``.
+
+The six parameters of the source, with the default values (4 × 4 × 2 × 2 × 2 × 2 = 256
+configurations, the source's count):
+
+========================  ==================  =====================  ===========================
+parameter                 default values      env keyword            source range
+========================  ==================  =====================  ===========================
+``cars``                  2, 3, 4, 5          ``num_cars = cars-1``  [2, 5] cars, ego included
+``pedestrians``           0, 1, 3, 4          ``num_pedestrians``    [0, 4]
+``lidar_noise``           0, 1                ``lidar_noise``        λ_l in [0, 1] (variance)
+``lidar_dropout``         0, 1                ``lidar_dropout``      omission probability [0, 1]
+``lights``                off, on             ``lights``             [0, 1]
+``car_mass``              750, 3000 kg        ``car_mass``           [0, 200] in its own units
+========================  ==================  =====================  ===========================
+
+Pedestrians take ``round(linspace(0, 4, 4))``. Car mass: the source sweeps [0, 200] in
+unstated units around its nominal car; here source value ``s`` maps to ``750 + 11.25 s`` kg,
+so [0, 200] is 0.5× to 2× the 1500 kg nominal mass the supervisor's PID assumes (1500 kg is
+``s ≈ 66.7``); the two default values are the ends of that range, both a model mismatch.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from fluids_bench.validation import fail
+
+# name -> (kind, lo, hi, unit/description); lo/hi are the values the env accepts
+PARAMETERS: dict[str, tuple[str, float, float, str]] = {
+    "cars": ("int", 1, 64, "cars in the scene, ego included"),
+    "pedestrians": ("int", 0, 32, "pedestrians"),
+    "lidar_noise": ("float", 0.0, 100.0, "quasi-LIDAR noise variance λ_l"),
+    "lidar_dropout": ("float", 0.0, 1.0, "quasi-LIDAR omission probability ε"),
+    "lights": ("bool", 0, 1, "traffic lights on (1) or off (0)"),
+    "car_mass": ("float", 1.0, 1e5, "true car mass, kg (the supervisor assumes 1500)"),
+}
+ORDER = tuple(PARAMETERS)  # the canonical order of columns and of the row-major numbering
+
+DEFAULT_VALUES: dict[str, tuple[Any, ...]] = {
+    "cars": (2, 3, 4, 5),
+    "pedestrians": (0, 1, 3, 4),
+    "lidar_noise": (0.0, 1.0),
+    "lidar_dropout": (0.0, 1.0),
+    "lights": (False, True),
+    "car_mass": (750.0, 3000.0),
+}
+
+
+def source_mass_to_kg(value: float) -> float:
+    """The source's car-mass units ([0, 200]) in kg: 0 -> 750 kg, 200 -> 3000 kg."""
+    return 750.0 + 11.25 * float(value)
+
+
+def _coerce(name: str, value: Any) -> Any:
+    kind, lo, hi, _ = PARAMETERS[name]
+    where = "Grid"
+    if kind == "bool":
+        if isinstance(value, bool) or value in (0, 1):
+            return bool(value)
+        fail(where, name, value, "0/1 or false/true")
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        fail(where, name, value, f"{'an integer' if kind == 'int' else 'a number'} in [{lo}, {hi}]")
+    if kind == "int":
+        if float(value) != int(value):
+            fail(where, name, value, f"an integer in [{lo}, {hi}]")
+        value = int(value)
+    else:
+        value = float(value)
+        if not math.isfinite(value):
+            fail(where, name, value, f"a finite number in [{lo}, {hi}]")
+    if not lo <= value <= hi:
+        fail(where, name, value, f"a value in [{lo}, {hi}]")
+    return value
+
+
+@dataclass(frozen=True)
+class Grid:
+    """Value lists for every parameter of :data:`PARAMETERS` (strictly increasing, non-empty)."""
+
+    values: Mapping[str, tuple[Any, ...]]
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.values, Mapping):
+            fail("Grid", "values", self.values, "a mapping of parameter name to values")
+        unknown = sorted(set(self.values) - set(PARAMETERS))
+        if unknown:
+            fail("Grid", "values", unknown, f"parameter names among {list(ORDER)}")
+        missing = [name for name in ORDER if name not in self.values]
+        if missing:
+            fail("Grid", "values", missing, f"values for every parameter of {list(ORDER)}")
+        clean: dict[str, tuple[Any, ...]] = {}
+        for name in ORDER:
+            raw = self.values[name]
+            if isinstance(raw, str | bytes) or not isinstance(raw, Sequence) or not raw:
+                fail("Grid", name, raw, "a non-empty list of values")
+            values = tuple(_coerce(name, v) for v in raw)
+            if any(b <= a for a, b in itertools.pairwise(values)):
+                fail("Grid", name, list(raw), "distinct values in increasing order")
+            clean[name] = values
+        object.__setattr__(self, "values", clean)
+
+    @classmethod
+    def default(cls) -> Grid:
+        return cls(DEFAULT_VALUES)
+
+    @classmethod
+    def with_overrides(cls, overrides: Mapping[str, Sequence[Any]]) -> Grid:
+        """The default grid with some parameters' values replaced."""
+        return cls({**DEFAULT_VALUES, **overrides})
+
+    @property
+    def shape(self) -> tuple[int, ...]:
+        return tuple(len(self.values[name]) for name in ORDER)
+
+    def __len__(self) -> int:
+        return math.prod(self.shape)
+
+    def configuration(self, index: int) -> dict[str, Any]:
+        """Parameter values of configuration ``index`` (row-major, last parameter fastest)."""
+        if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(self):
+            fail("Grid", "index", index, f"an integer in [0, {len(self) - 1}]")
+        out: dict[str, Any] = {}
+        for name, size in zip(reversed(ORDER), reversed(self.shape), strict=True):
+            index, position = divmod(index, size)
+            out[name] = self.values[name][position]
+        return {name: out[name] for name in ORDER}
+
+    def configurations(self) -> Iterator[tuple[int, dict[str, Any]]]:
+        for index in range(len(self)):
+            yield index, self.configuration(index)
+
+    def normalise(self, name: str, value: Any) -> float:
+        """``value`` of parameter ``name`` mapped to [0, 1] by the grid's own range."""
+        values = self.values[name]
+        lo, hi = float(values[0]), float(values[-1])
+        return 0.0 if hi == lo else (float(value) - lo) / (hi - lo)
+
+    def to_dict(self) -> dict[str, list[Any]]:
+        """JSON-friendly form (what the result store's manifest records)."""
+        return {name: list(self.values[name]) for name in ORDER}
+
+
+def env_kwargs(configuration: Mapping[str, Any]) -> dict[str, Any]:
+    """``FLUIDS-Sensitivity-v0`` keyword arguments of one configuration."""
+    return {
+        "num_cars": int(configuration["cars"]) - 1,  # background cars besides the ego
+        "num_pedestrians": int(configuration["pedestrians"]),
+        "lidar_noise": float(configuration["lidar_noise"]),
+        "lidar_dropout": float(configuration["lidar_dropout"]),
+        "lights": bool(configuration["lights"]),
+        "car_mass": float(configuration["car_mass"]),
+    }
+
+
+def parse_values(text: str) -> tuple[str, list[Any]]:
+    """``NAME=V1,V2,...`` (the CLI's ``--values``) as a name and a list of numbers."""
+    name, sep, rest = text.partition("=")
+    if not sep or name not in PARAMETERS:
+        raise ValueError(
+            f"--values: expected NAME=V1,V2,... with NAME in {list(ORDER)}; got {text!r}"
+        )
+    out: list[Any] = []
+    for item in rest.split(","):
+        item = item.strip().lower()
+        if item in ("true", "on", "false", "off"):
+            out.append(item in ("true", "on"))
+            continue
+        try:
+            out.append(int(item) if item.lstrip("-").isdigit() else float(item))
+        except ValueError:
+            raise ValueError(f"--values {name}: {item!r} is not a number") from None
+    return name, out
