@@ -17,6 +17,7 @@ COMMAND_MODULES = (
     "fluids_bench.commands.render_layout",
     "fluids_bench.commands.train",
     "fluids_bench.commands.collect",
+    "fluids_bench.commands.sweep",
 )
 
 

@@ -1,0 +1,247 @@
+"""Evaluate one policy over every configuration of a :class:`~fluids_bench.sweep.grid.Grid`.
+
+Configuration ``i`` runs ``episodes`` episodes of ``FLUIDS-Sensitivity-v0`` (velocity actions,
+quasi-LIDAR observations, ``done_when="all"``) with the grid's keyword arguments, each through
+:func:`fluids_bench.algos.rollout.rollout` with the learner acting. Success is the source's:
+every car reached its goal and nothing collided (``info["is_success"]``); a terminated episode
+without success ended in a collision, a truncated one ran out of time.
+
+Episode seeds come from ``SeedSequence(seed, spawn_key=(i,))``: they depend on the sweep seed
+and the configuration's index only, so results do not depend on the backend, the number of
+workers or on how often the sweep was interrupted and resumed.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import pickle
+import time
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+import fluids_bench  # noqa: F401  (registers the env ids in every worker)
+from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
+from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
+from fluids_bench.algos.rollout import rollout
+from fluids_bench.sweep.backends import run_tasks
+from fluids_bench.sweep.grid import Grid, env_kwargs
+from fluids_bench.sweep.store import ResultStore
+
+ENV_ID = "FLUIDS-Sensitivity-v0"
+# 40 s of simulated time instead of the registered 600 steps. With the supervisor acting, every
+# (cars, pedestrians, lights, mass) cell of the default grid, 5 episodes each, gave the same
+# outcomes under 400 and 600 steps (316 of 320 successes; the 3 timeouts are gridlocks without
+# lights that last past 600 too): the cap cuts only episodes that fail anyway, which are a
+# third of a learner sweep's steps.
+MAX_EPISODE_STEPS = 400
+SUPERVISOR_POLICY = "supervisor"  # --policy value: the supervisor itself acts (a reference)
+POLICY_FILE = "policy.pkl"
+
+
+@dataclass(frozen=True)
+class ConfigTask:
+    """Everything configuration ``index`` depends on (what a worker receives)."""
+
+    index: int
+    configuration: dict[str, Any]
+    env_id: str
+    max_episode_steps: int
+    seeds: tuple[int, ...]
+
+
+def episode_seeds(seed: int, index: int, episodes: int) -> tuple[int, ...]:
+    """The reset seeds of configuration ``index``'s episodes."""
+    state = np.random.SeedSequence(seed, spawn_key=(index,)).generate_state(episodes, np.uint32)
+    return tuple(int(s) for s in state)
+
+
+def evaluate_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
+    """Run one configuration's episodes; its result row. ``cpu_seconds`` (this process's CPU
+    time for it) is reported but not stored: stored rows must reproduce exactly."""
+    cpu_start = time.process_time()
+    env = gym.make(
+        task.env_id, max_episode_steps=task.max_episode_steps, **env_kwargs(task.configuration)
+    )
+    actor: Actor = SUPERVISOR if policy is None else LearnerActor(policy)
+    successes = collisions = timeouts = steps = 0
+    try:
+        for seed in task.seeds:
+            trajectory = rollout(env, actor, seed)
+            success = bool(trajectory.infos[-1].get("is_success", False))
+            successes += success
+            collisions += trajectory.terminated and not success
+            timeouts += trajectory.truncated
+            steps += len(trajectory)
+    finally:
+        env.close()
+    episodes = len(task.seeds)
+    return {
+        "index": task.index,
+        **task.configuration,
+        "episodes": episodes,
+        "successes": successes,
+        "collisions": collisions,
+        "timeouts": timeouts,
+        "success_rate": successes / episodes,
+        "mean_steps": steps / episodes,
+        "cpu_seconds": time.process_time() - cpu_start,
+    }
+
+
+def probe_env(grid: Grid) -> None:
+    """Build and reset the env at the grid's largest and smallest configurations (fail early)."""
+    for pick in (0, -1):
+        configuration = {name: values[pick] for name, values in grid.values.items()}
+        try:
+            env = gym.make(ENV_ID, **env_kwargs(configuration))
+            env.reset(seed=0)
+            env.close()
+        except ValueError as exc:
+            raise ValueError(f"grid configuration {configuration} is not valid: {exc}") from exc
+
+
+# -- the policy under evaluation ----------------------------------------------------------------
+
+
+def policy_digest(policy_bytes: bytes | None) -> str:
+    return SUPERVISOR_POLICY if policy_bytes is None else hashlib.sha256(policy_bytes).hexdigest()
+
+
+def load_policy(path: str | Path) -> tuple[Any, bytes]:
+    """A pickled policy (anything with ``act(observation)``) and its bytes. Pickles run code:
+    load only files you made."""
+    data = Path(path).read_bytes()
+    policy = pickle.loads(data)
+    if not callable(getattr(policy, "act", None)):
+        raise ValueError(
+            f"{path}: unpickled a {type(policy).__name__}; allowed: a policy with act(observation)"
+        )
+    return policy, data
+
+
+def train_default_policy(
+    folder: Path,
+    *,
+    demos: int = 100,
+    learner: str = "tree",
+    seed: int = 0,
+    replace: bool = False,
+    progress: Callable[[Any], None] | None = None,
+) -> Path:
+    """Behavior Cloning on ``demos`` supervisor demonstrations of ``FLUIDS-Sensitivity-v0`` (its
+    defaults: 4 cars, 2 pedestrians, lights on, no sensor noise, 1500 kg), quasi-LIDAR to
+    target velocity, every state–label pair kept. Cached in ``folder/policy.pkl`` with the
+    training settings in ``policy.json``; an existing cache made with the same settings is
+    reused; one made with other settings is replaced only when ``replace``."""
+    from fluids_bench.algos.bc import BCConfig, run
+    from fluids_bench.algos.policies import PolicySpec
+
+    path, info_path = folder / POLICY_FILE, folder / "policy.json"
+    config = BCConfig(
+        env_id=ENV_ID,
+        policy=PolicySpec(learner),
+        iterations=1,
+        demos_per_iteration=demos,
+        samples_per_demo=None,
+        eval_episodes=1,
+        seed=seed,
+    )
+    settings = json.loads(json.dumps({"algo": "bc", "config": config.to_dict()}))
+    if path.exists() and info_path.exists():
+        if json.loads(info_path.read_text()).get("settings") == settings:
+            return path
+        if not replace:
+            raise FileExistsError(
+                f"{path} was trained with other settings; use another --out folder, "
+                "or --overwrite to retrain it and discard the folder's results"
+            )
+    result = run(config, progress)
+    write_bytes_atomic(path, pickle.dumps(result.policy, protocol=pickle.HIGHEST_PROTOCOL))
+    record = result.records[-1]
+    write_json_atomic(
+        info_path,
+        {
+            "settings": settings,
+            "training_pairs": record.labels_requested,
+            "fit_seconds": record.train_seconds,
+            "eval_return": record.eval_return,
+            "supervisor_return": result.supervisor_return,
+        },
+    )
+    return path
+
+
+# -- the sweep ------------------------------------------------------------------------------
+
+
+def manifest(
+    grid: Grid, episodes: int, seed: int, max_episode_steps: int, policy_bytes: bytes | None
+) -> dict[str, Any]:
+    """What a sweep's rows depend on (the store refuses to resume under another manifest)."""
+    return {
+        "format": 1,
+        "env_id": ENV_ID,
+        "grid": grid.to_dict(),
+        "episodes": episodes,
+        "seed": seed,
+        "max_episode_steps": max_episode_steps,
+        "policy_sha256": policy_digest(policy_bytes),
+    }
+
+
+def run_sweep(
+    folder: str | Path,
+    grid: Grid,
+    policy: Any,
+    policy_bytes: bytes | None,
+    *,
+    episodes: int = 20,
+    seed: int = 0,
+    max_episode_steps: int = MAX_EPISODE_STEPS,
+    backend: str = "process",
+    workers: int = 1,
+    address: str | None = None,
+    overwrite: bool = False,
+    on_start: Callable[[int, int], None] | None = None,
+    on_row: Callable[[Mapping[str, Any]], None] | None = None,
+) -> list[dict[str, Any]]:
+    """Evaluate ``policy`` (None: the supervisor) on every configuration not yet in ``folder``.
+
+    ``on_start(done, total)`` is called once the finished rows are known, ``on_row(row)`` after
+    each new row is stored. Returns all rows, sorted by configuration index.
+    """
+    with ResultStore(folder) as store:
+        done = store.open(
+            manifest(grid, episodes, seed, max_episode_steps, policy_bytes), overwrite
+        )
+        if on_start is not None:
+            on_start(len(done), len(grid))
+        tasks = (
+            ConfigTask(
+                index, config, ENV_ID, max_episode_steps, episode_seeds(seed, index, episodes)
+            )
+            for index, config in grid.configurations()
+            if index not in done
+        )
+
+        def finished(task: ConfigTask, row: dict[str, Any]) -> None:
+            store.append(row)
+            if on_row is not None:
+                on_row(row)
+
+        run_tasks(
+            evaluate_config,
+            tasks,
+            policy,
+            finished,
+            backend=backend,
+            workers=workers,
+            address=address,
+        )
+        return store.sorted_rows()
