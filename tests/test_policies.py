@@ -104,3 +104,20 @@ def test_bad_specs_and_spaces_are_refused_with_what_is_allowed() -> None:
         fit_policy(PolicySpec(), spaces.MultiBinary(2), np.zeros((2, 1)), np.zeros((2, 2)), 0)
     with pytest.raises(ValueError, match="no training pairs"):
         fit_policy(PolicySpec(), DISCRETE, np.zeros((0, 2)), np.zeros(0), 0)
+
+
+def test_tree_fast_path_equals_sklearn_predict():
+    """Trees are evaluated straight through ``tree_``: same dtype, shape and values as predict."""
+    from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
+
+    from fluids_bench.algos.policies import _predict
+
+    rng = np.random.default_rng(0)
+    X = rng.normal(size=(600, 12))
+    targets = [X[:, 0] * 2 + X[:, 1], np.column_stack([X[:, 0], X[:, 2]]),
+               (X[:, 0] > 0).astype(int) + (X[:, 1] > 0), rng.integers(0, 5, 600)]
+    for y in targets:
+        cls = DecisionTreeClassifier if y.dtype.kind == "i" else DecisionTreeRegressor
+        est = cls(random_state=0).fit(X[:300], y[:300])
+        expected, got = est.predict(X[300:]), _predict(est, X[300:])
+        assert expected.dtype == got.dtype and np.array_equal(expected, got)

@@ -148,6 +148,22 @@ def check_action_space(action_space: spaces.Space[Any]) -> bool:
     )
 
 
+def _predict(estimator: BaseEstimator, X: np.ndarray) -> np.ndarray:
+    """``estimator.predict(X)``; for fitted decision trees, straight through the tree.
+
+    scikit-learn's ``predict`` spends almost all of a one-row call validating its input
+    (~240 µs against ~7 µs for the tree itself), and policies are asked one row per env step.
+    The tree path gives bit-identical output: it is what ``predict`` runs after validating.
+    """
+    if isinstance(estimator, DecisionTreeRegressor):
+        out = estimator.tree_.predict(X.astype(np.float32))
+        return out[:, 0] if estimator.n_outputs_ == 1 else out[:, :, 0]
+    if isinstance(estimator, DecisionTreeClassifier) and estimator.n_outputs_ == 1:
+        proba = estimator.tree_.predict(X.astype(np.float32))
+        return estimator.classes_.take(np.argmax(proba, axis=1), axis=0)
+    return estimator.predict(X)
+
+
 def features(observations: np.ndarray) -> np.ndarray:
     """Flatten a batch of Box observations to a float64 feature matrix."""
     batch = np.asarray(observations, dtype=np.float64)
@@ -171,7 +187,7 @@ class FittedPolicy:
         X = features(observations)
         if self.estimator is None:
             return np.repeat(np.asarray(self.constant)[None], len(X), axis=0)
-        raw = np.asarray(self.estimator.predict(X))
+        raw = np.asarray(_predict(self.estimator, X))
         if self.discrete:
             return raw.astype(np.int64).reshape(len(X))
         shape = self.action_space.shape
