@@ -27,6 +27,7 @@ local instance it starts (and stops) with ``workers`` CPUs; Ray is the ``ray`` e
 
 from __future__ import annotations
 
+import contextlib
 import json
 import multiprocessing
 from collections.abc import Callable, Iterable, Iterator
@@ -214,29 +215,42 @@ def import_ray():
     return ray
 
 
+@contextlib.contextmanager
+def ray_session(workers: int, address: str | None):
+    """Ray, initialised for this block (a cluster at ``address``, else a local instance of
+    ``workers`` CPUs) unless it already was; shut down after if this block started it."""
+    ray = import_ray()
+    started = not ray.is_initialized()
+    if started:
+        if address is not None:
+            ray.init(address=address)
+        else:
+            ray.init(num_cpus=workers, include_dashboard=False)
+    try:
+        yield ray
+    finally:
+        if started:
+            ray.shutdown()
+
+
+def ray_results(ray, submit: Callable[[Any], Any], tasks, workers: int):
+    """Results of ``submit(task)`` remote calls, at most ``workers`` in flight, as they finish."""
+
+    def wait_any(pending: set) -> tuple[set, set]:
+        finished, rest = ray.wait(list(pending), num_returns=1)
+        return set(finished), set(rest)
+
+    for ref in _bounded(submit, tasks, workers, wait_any):
+        yield ray.get(ref)
+
+
 def _run_ray(
     tasks: list[EpisodeTask],
     workers: int,
     address: str | None,
     done: Callable[[int, Trajectory], None],
 ) -> None:
-    ray = import_ray()
-    started = False
-    if not ray.is_initialized():
-        if address is not None:
-            ray.init(address=address)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False)
-        started = True
-    try:
+    with ray_session(workers, address) as ray:
         remote = ray.remote(num_cpus=1)(run_episode)
-
-        def wait_any(pending: set) -> tuple[set, set]:
-            finished, rest = ray.wait(list(pending), num_returns=1)
-            return set(finished), set(rest)
-
-        for ref in _bounded(remote.remote, tasks, workers, wait_any):
-            done(*ray.get(ref))
-    finally:
-        if started:
-            ray.shutdown()
+        for result in ray_results(ray, remote.remote, tasks, workers):
+            done(*result)

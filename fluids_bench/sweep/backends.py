@@ -28,7 +28,7 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
-from fluids_bench.data.collect import BACKENDS, START_METHODS, _bounded, import_ray
+from fluids_bench.data.collect import BACKENDS, START_METHODS, _bounded, ray_results, ray_session
 from fluids_bench.validation import check_choice, check_int
 
 TaskFn = Callable[[Any, Any], Any]
@@ -110,27 +110,8 @@ def _run_ray(
     workers: int,
     address: str | None,
 ) -> None:
-    ray = import_ray()
-    started = False
-    if not ray.is_initialized():
-        if address is not None:
-            ray.init(address=address)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False)
-        started = True
-    try:
-        shared_ref = ray.put(shared)
+    with ray_session(workers, address) as ray:
+        shared_ref = ray.put(shared)  # sent to the cluster once, not with every task
         remote = ray.remote(num_cpus=1)(_call)
-
-        def wait_any(pending: set) -> tuple[set, set]:
-            finished, rest = ray.wait(list(pending), num_returns=1)
-            return set(finished), set(rest)
-
-        def submit(task: Any) -> Any:
-            return remote.remote(fn, task, shared_ref)
-
-        for ref in _bounded(submit, tasks, workers, wait_any):
-            on_result(*ray.get(ref))
-    finally:
-        if started:
-            ray.shutdown()
+        for result in ray_results(ray, lambda task: remote.remote(fn, task, shared_ref), tasks, workers):
+            on_result(*result)
