@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from importlib.util import find_spec
 from typing import Any
 
 import gymnasium as gym
@@ -113,8 +112,8 @@ class FluidsEnv(gym.Env):
     * ``lidar_dropout``: ε, per-ray dropout probability, 0 to 1 (default 0).
     * ``render_mode``: ``None``, ``"rgb_array"`` (a global view: routes, light states, this
       step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
-      window; needs ``pip install "fluids-bench[human]"``, and is listed in
-      ``metadata["render_modes"]`` only where pygame is installed).
+      window; needs ``pip install "fluids-bench[human]"``: without it, asking for it raises an
+      ImportError that says so).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
     * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
     * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
@@ -128,8 +127,8 @@ class FluidsEnv(gym.Env):
     * v0: initial release.
     """
 
-    # "human" is offered only where pygame (the ``human`` extra) is installed
-    metadata = {"render_modes": ["rgb_array"] + (["human"] if find_spec("pygame") else []),
+    # "human" needs pygame (the ``human`` extra): asking for it without pygame is a clear error
+    metadata = {"render_modes": ["rgb_array", "human"],
                 "render_fps": 10}
 
     def __init__(self, layout: str = "four_way", lanes: int = 1, lights: bool = True,
