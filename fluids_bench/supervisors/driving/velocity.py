@@ -38,6 +38,7 @@ class VelocityPlannerConfig:
     sample_every: int = 2  # compare positions every this many sim steps of the projection
     fractions: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)  # of the agent's allowed speed
     margin: float = 0.5  # m of clearance kept between footprint circles
+    pedestrian_margin: float = 0.25  # m between a car's and a pedestrian's (lets cars creep past)
     lateral_accel: float = 2.5  # m/s², sets the speed allowed on curves
     speed_gain: float = 2.0  # 1/s, the controller's speed loop gain (projection mirrors it)
     max_accel: float = 2.5  # m/s² the controller asks for at most
@@ -48,6 +49,7 @@ class VelocityPlannerConfig:
         check_range("VelocityPlannerConfig", "horizon", self.horizon, 0.5, 20.0)
         check_range("VelocityPlannerConfig", "sample_every", self.sample_every, 1, 10, integer=True)
         check_range("VelocityPlannerConfig", "margin", self.margin, 0.0, 5.0)
+        check_range("VelocityPlannerConfig", "pedestrian_margin", self.pedestrian_margin, 0.0, 5.0)
         check_range("VelocityPlannerConfig", "period", self.period, 1, 50, integer=True)
         fr = self.fractions
         if not fr or fr[0] != 0.0 or list(fr) != sorted(set(fr)) or fr[-1] > 1.0:
@@ -185,7 +187,8 @@ class VelocityPlanner:
             th = world.state[agents, 2]
             now = pos[:, None] + offs * np.exp(1j * th).astype(np.complex64)[:, None]  # (A, 3)
             d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
-            thresh = np.minimum(radius[ii] + radius[jj] + self.config.margin, d_now - 0.05)
+            margin = np.where(cars[ii] & cars[jj], self.config.margin, self.config.pedestrian_margin)
+            thresh = np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05)
             circles = pts[..., None] + offs[:, None, None, :] * dirs[..., None]  # (A, K, T, 3)
             dd = circles[ii[p], a, t][:, :, None] - circles[jj[p], b, t][:, None, :]  # (M, 3, 3)
             d2 = (dd.real**2 + dd.imag**2).min(axis=(1, 2))
