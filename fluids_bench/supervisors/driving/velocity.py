@@ -38,7 +38,7 @@ class VelocityPlannerConfig:
     sample_every: int = 2  # compare positions every this many sim steps of the projection
     fractions: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)  # of the agent's allowed speed
     margin: float = 0.5  # m of clearance kept between footprint circles
-    pedestrian_margin: float = 0.25  # m between a car's and a pedestrian's (lets cars creep past)
+    pedestrian_margin: float = 0.25  # m between a car and a walker on a crossing (cars creep past)
     lateral_accel: float = 2.5  # m/s², sets the speed allowed on curves
     speed_gain: float = 2.0  # 1/s, the controller's speed loop gain (projection mirrors it)
     max_accel: float = 2.5  # m/s² the controller asks for at most
@@ -187,7 +187,10 @@ class VelocityPlanner:
             th = world.state[agents, 2]
             now = pos[:, None] + offs * np.exp(1j * th).astype(np.complex64)[:, None]  # (A, 3)
             d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
-            margin = np.where(cars[ii] & cars[jj], self.config.margin, self.config.pedestrian_margin)
+            # the smaller car-pedestrian clearance applies once the walker is on the crossing
+            # (so a car can creep past it); a walker still at the kerb keeps the full one
+            crossing = ~cars & (world.route_s[agents] + self._front[agents] >= world.layout.routes.enter_s[world.route[agents]])
+            margin = np.where(crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin)
             thresh = np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05)
             circles = pts[..., None] + offs[:, None, None, :] * dirs[..., None]  # (A, K, T, 3)
             dd = circles[ii[p], a, t][:, :, None] - circles[jj[p], b, t][:, None, :]  # (M, 3, 3)
