@@ -7,7 +7,7 @@ naming the field, the value and the allowed range.
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, field
 
 
 def check_range(owner: str, name: str, value, lo: float, hi: float, integer: bool = False) -> None:
@@ -89,6 +89,3 @@ class SceneConfig:
             return build_layout("roundabout")
         return build_layout(self.layout, lanes=self.lanes, lights=self.lights)
 
-
-def config_fields(cls) -> list[str]:
-    return [f.name for f in fields(cls)]
