@@ -40,12 +40,15 @@ def _kinds(a: np.ndarray, b: np.ndarray, is_car: np.ndarray) -> list[tuple[int, 
 
 
 def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is_car: np.ndarray,
-                    active: np.ndarray, drivable_tolerant, boundary: np.ndarray) -> list[tuple[int, int, str]]:
+                    active: np.ndarray, drivable_tolerant, boundary: np.ndarray,
+                    offroad_candidates: np.ndarray | None = None) -> list[tuple[int, int, str]]:
     """Every colliding pair ``(i, j, kind)`` with i < j among ``active`` agents, and
     ``(i, -1, "offroad")`` for active cars.
 
     ``state`` (N, 4) holds [x, y, θ, v]; ``drivable_tolerant`` is the prepared drivable area
-    grown by :data:`OFFROAD_TOLERANCE` and ``boundary`` its boundary's vertices (complex). Works on whole arrays with masks (no subsetting), so
+    grown by :data:`OFFROAD_TOLERANCE` and ``boundary`` its boundary's vertices (complex).
+    ``offroad_candidates`` (bool, N) limits the off-road test to the cars the caller cannot
+    vouch for (default: every active car). Works on whole arrays with masks (no subsetting), so
     its cost hardly depends on how many agents are still driving.
     """
     n = len(state)
@@ -72,7 +75,7 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
         polys[involved] = shapely.polygons(corners)
         hit = shapely.intersects(polys[a], polys[b])
         out.extend(_kinds(a[hit], b[hit], is_car))
-    cars = (is_car & active).nonzero()[0]
+    cars = (is_car & active if offroad_candidates is None else offroad_candidates).nonzero()[0]
     if len(cars):
         hl, hw = length[cars, None] / 2, width[cars, None] / 2
         corners = centre[cars, None] + heading[cars, None] * (_CORNERS_C.real * hl + 1j * _CORNERS_C.imag * hw)

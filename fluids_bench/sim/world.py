@@ -55,8 +55,10 @@ class World:
                                        np.full(n, car.lr), self.max_speed])
         self.lights = LightProgram(self.layout.spec.lights)
         width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
-        self.path = np.zeros((n, width, 2))
+        # paths as complex numbers x + iy (the ``path`` property shows them as (n, width, 2))
+        self.path_z = np.zeros((n, width), dtype=np.complex128)
         self.path_heading = np.zeros((n, width))
+        self.path_clearance = np.zeros((n, width))  # m from each path point to the road's edge
         # single-precision complex copies (x + iy, unit tangent e^{iθ}) for the planner's large
         # pairwise arrays: they stay in cache, and centimetres need no more precision
         self.path_c64 = np.zeros((n, width), dtype=np.complex64)
@@ -76,8 +78,16 @@ class World:
         self.steps = 0
         self.log: list[Collision] = []
         self.light_state = self.lights.states(0.0)
+        self.nearest = np.zeros(n, dtype=np.int64)  # path sample nearest each agent (progress)
         self._window = np.arange(-3, 9)  # path samples searched around the last progress
-        self._rows = np.arange(n)[:, None]
+        self._row_start = np.arange(n)[:, None] * width  # flat index of each agent's path start
+        self._rows = np.arange(n)
+        # covering circles of car footprints (centre offsets along the heading, and radius), and
+        # the path sample offset nearest each, for the quick on-road test
+        thirds = np.outer(np.where(self.is_car, self.length / 3, 0.0), [-1.0, 0.0, 1.0])
+        self._circle_offsets = thirds
+        self._circle_samples = np.rint(thirds / PATH_SPACING).astype(np.int64)
+        self._circle_radius = np.hypot(self.length / 6, self.width / 2)[:, None]
 
     # ----------------------------------------------------------------------------- placement
     def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
@@ -86,8 +96,7 @@ class World:
         if table.kind[route] != self.kind[agent]:
             raise ValueError(f"agent {agent} is a {'car' if self.is_car[agent] else 'pedestrian'}; "
                              f"route '{table.names[route]}' is not")
-        self.route[agent] = route
-        self.set_path(agent, table.path[route], table.heading[route], float(table.length[route]))
+        self.follow_route(agent, route)
         k = int(round(s / PATH_SPACING))
         self.state[agent] = [*table.path[route, k], table.heading[route, k], speed]
         self.s[agent] = k * PATH_SPACING
@@ -96,18 +105,39 @@ class World:
         self.active[agent] = True
         self.reached[agent] = self.collided[agent] = self.recovering[agent] = False
 
-    def set_path(self, agent: int, path: np.ndarray, heading: np.ndarray, length: float) -> None:
-        """Give ``agent`` a new path to follow (its route's, or a recovery path)."""
-        m = min(len(path), self.path.shape[1])
-        self.path[agent, :m] = path[:m]
-        self.path[agent, m:] = path[m - 1]
-        self.path_heading[agent, :m] = heading[:m]
-        self.path_heading[agent, m:] = heading[m - 1]
+    def follow_route(self, agent: int, route: int) -> None:
+        """Make route ``route``'s path the one ``agent`` follows (progress is kept)."""
+        table = self.layout.routes
+        self.route[agent] = route
+        self.set_path(agent, table.path[route], table.heading[route], float(table.length[route]),
+                      self.layout.route_clearance[route])
+
+    def set_path(self, agent: int, path: np.ndarray, heading: np.ndarray, length: float,
+                 clearance: np.ndarray | None = None) -> None:
+        """Give ``agent`` a new path to follow (its route's, or a recovery path). ``clearance``
+        (m from each point to the road's edge) is computed when not given."""
+        if clearance is None:
+            clearance = self.layout.road_clearance(path)
+        m = min(len(path), self.path_z.shape[1])
+        for row, values in ((self.path_z[agent], path[:, 0] + 1j * path[:, 1]),
+                            (self.path_heading[agent], heading), (self.path_clearance[agent], clearance)):
+            row[:m] = values[:m]
+            row[m:] = values[m - 1]
         self.path_dir[agent] = np.exp(1j * self.path_heading[agent])
-        self.path_c64[agent] = self.path[agent, :, 0] + 1j * self.path[agent, :, 1]
+        self.path_c64[agent] = self.path_z[agent]
         self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
 
     # ----------------------------------------------------------------------------- queries
+    @property
+    def path(self) -> np.ndarray:
+        """Every agent's path as points (n, width, 2) (m); a view of :attr:`path_z`."""
+        return self.path_z.view(np.float64).reshape(*self.path_z.shape, 2)
+
+    @property
+    def position(self) -> np.ndarray:
+        """Positions as complex numbers x + iy (n,); a view of :attr:`state`."""
+        return self.state.view(np.complex128)[:, 0]
+
     @property
     def route_s(self) -> np.ndarray:
         """Progress (m) in the coordinates of each agent's route (for stop lines and zones)."""
@@ -121,17 +151,19 @@ class World:
 
     def path_points(self, s: np.ndarray, agents: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
         """Points and headings at arc lengths ``s`` (shape (n,) or (n, ...)) on each agent's path."""
-        agents = np.arange(self.n) if agents is None else agents
-        k = np.minimum(np.maximum(np.rint(s / PATH_SPACING).astype(np.int64), 0), self.path.shape[1] - 1)
-        rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
-        return self.path[rows, k], self.path_heading[rows, k]
+        k = np.rint(s / PATH_SPACING).astype(np.int64)
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        starts = self._row_start if agents is None else self._row_start[agents]
+        k += starts.reshape((-1,) + (1,) * (k.ndim - 1))  # flat indices
+        points = self.path_z.ravel().take(k)
+        return points.view(np.float64).reshape(*k.shape, 2), self.path_heading.ravel().take(k)
 
     def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Points and unit tangents at arc lengths ``s`` (len(agents), ...), as complex64."""
         k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
-        np.minimum(np.maximum(k, 0, out=k), self.path.shape[1] - 1, out=k)
-        rows = agents.reshape((-1,) + (1,) * (k.ndim - 1))
-        return self.path_c64[rows, k], self.path_dir[rows, k]
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        k += self._row_start[agents].reshape((-1,) + (1,) * (k.ndim - 1))  # flat indices
+        return self.path_c64.ravel().take(k), self.path_dir.ravel().take(k)
 
     def tracking_error(self) -> tuple[np.ndarray, np.ndarray]:
         """Lateral offset (m, left positive) and heading error (rad) of every agent from the
@@ -159,23 +191,40 @@ class World:
         """Project each agent onto its path near its previous progress (a local window: an
         agent moves at most a few samples per step)."""
         k = np.rint(self.s / PATH_SPACING).astype(np.int64)[:, None] + self._window
-        np.minimum(np.maximum(k, 0, out=k), self.path.shape[1] - 1, out=k)
-        rows = self._rows
-        d = self.path[rows, k] - self.state[:, None, :2]
-        best = k[rows[:, 0], np.einsum("nkd,nkd->nk", d, d).argmin(axis=1)]
-        h = self.path_heading[rows[:, 0], best]
-        off = self.state[:, :2] - self.path[rows[:, 0], best]
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        k += self._row_start  # flat indices
+        pos = self.position
+        paths = self.path_z.ravel()
+        d = paths.take(k) - pos[:, None]
+        best = k[self._rows, (d.real * d.real + d.imag * d.imag).argmin(axis=1)]
+        h = self.path_heading.ravel().take(best)
+        off = pos - paths.take(best)
+        best -= self._row_start[:, 0]
+        self.nearest = best
         ch, sh = np.cos(h), np.sin(h)
-        along = np.minimum(np.maximum(off[:, 0] * ch + off[:, 1] * sh, -PATH_SPACING / 2), PATH_SPACING / 2)
+        along = np.minimum(np.maximum(off.real * ch + off.imag * sh, -PATH_SPACING / 2), PATH_SPACING / 2)
         s = np.minimum(best * PATH_SPACING + along, self.path_len)
         self.s = np.where(self.active, s, self.s)
         # by-products for the supervisor: signed lateral offset and heading error from the path
-        self.lateral_error = off[:, 1] * ch - off[:, 0] * sh
+        self.lateral_error = off.imag * ch - off.real * sh
         self.heading_error = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
+
+    def surely_on_road(self) -> np.ndarray:
+        """Cars whose footprint is certainly inside the (tolerant) drivable area: each of its
+        three covering circles lies within the clearance of the path point nearest it. Cheap,
+        and true for nearly every car following its path; the others get the exact test."""
+        heading = np.exp(1j * self.state[:, 2])
+        centres = self.position[:, None] + self._circle_offsets * heading[:, None]
+        k = self.nearest[:, None] + self._circle_samples
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        k += self._row_start
+        reach = np.abs(centres - self.path_z.ravel().take(k)) + self._circle_radius
+        return (reach < self.path_clearance.ravel().take(k)).all(axis=1)
 
     def _collisions(self) -> list[Collision]:
         found = find_collisions(self.state, self.length, self.width, self.is_car, self.active,
-                                self.layout.drivable_tolerant, self.layout.tolerant_boundary_vertices)
+                                self.layout.drivable_tolerant, self.layout.tolerant_boundary_vertices,
+                                offroad_candidates=self.is_car & self.active & ~self.surely_on_road())
         out = []
         for a, b, kind in found:
             self.collided[a] = True

@@ -105,6 +105,26 @@ def test_fast_collisions_equal_the_strtree_reference(seed, layout):
     assert sorted(fast) == sorted(find_collisions_strtree(*args))
 
 
+@settings(max_examples=60, deadline=None)
+@given(seed=st.integers(0, 10_000), layout=st.sampled_from(["four_way", "t_junction", "roundabout"]),
+       spread=st.sampled_from([0.3, 1.0, 3.0]))
+def test_quick_on_road_test_never_hides_an_offroad_car(seed, layout, spread):
+    """Cars knocked off their paths by up to ``spread`` m and rad: the world's clearance-based
+    shortcut gives the same collisions as checking every car exactly."""
+    w = _world(layout=layout, num_cars=10, num_pedestrians=6)
+    rng = np.random.default_rng(seed)
+    w.step(np.zeros((w.n, 2)))
+    w.state[:, :3] += rng.uniform(-spread, spread, (w.n, 3))
+    w._update_progress()
+    vouched = w.surely_on_road() & w.is_car & w.active
+    exact = find_collisions(w.state, w.length, w.width, w.is_car, w.active, w.layout.drivable_tolerant,
+                            w.layout.tolerant_boundary_vertices)
+    assert not {a for a, b, kind in exact if kind == "offroad"} & set(vouched.nonzero()[0].tolist())
+    assert sorted((c.a, c.b, c.kind) for c in w._collisions()) == sorted(exact)
+    if spread < 1.0:
+        assert vouched[w.is_car & w.active].mean() > 0.5  # the shortcut does its job
+
+
 def test_overlapping_cars_and_offroad_are_logged():
     w = _world(num_cars=3, num_pedestrians=0)
     w.state[1, :3] = w.state[0, :3] + [1.0, 0.0, 0.0]  # car 1 on top of car 0

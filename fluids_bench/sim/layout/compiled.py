@@ -80,6 +80,19 @@ class Layout:
         xy = shapely.get_coordinates(self.drivable_tolerant.boundary)
         return xy[:, 0] + 1j * xy[:, 1]
 
+    def road_clearance(self, points: np.ndarray) -> np.ndarray:
+        """Distance (m) from each of ``points`` (P, 2) to the edge of the grown drivable area:
+        positive inside it, negative outside."""
+        g = self.drivable_tolerant
+        d = shapely.distance(g.boundary, shapely.points(points))
+        return np.where(shapely.contains_xy(g, points[:, 0], points[:, 1]), d, -d)
+
+    @functools.cached_property
+    def route_clearance(self) -> np.ndarray:
+        """:meth:`road_clearance` of every point of every route path (R, M)."""
+        path = self.routes.path
+        return self.road_clearance(path.reshape(-1, 2)).reshape(path.shape[:2])
+
     @property
     def name(self) -> str:
         return self.spec.name

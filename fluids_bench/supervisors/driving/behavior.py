@@ -36,6 +36,5 @@ def choose_movement(world: World, agent: int, movement: int) -> bool:
     front = world.length[agent] / 2
     if new == route or world.route_s[agent] + front >= routes.enter_s[route] or world.offset[agent] != 0:
         return False
-    world.route[agent] = new
-    world.set_path(agent, routes.path[new], routes.heading[new], float(routes.length[new]))
+    world.follow_route(agent, new)
     return True
