@@ -80,7 +80,8 @@ class _Explicit:
         self.space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
-        return np.clip(self.sensor.observe(world, rng), -OBS_BOUND, OBS_BOUND)
+        obs = self.sensor.observe(world, rng)
+        return np.minimum(np.maximum(obs, -OBS_BOUND, out=obs), OBS_BOUND, out=obs)
 
 
 class _BirdsEye:

@@ -115,9 +115,10 @@ class VelocityPlanner:
         lim = np.where(e0 < 0, cfg.max_accel, cfg.max_decel)
         n1 = np.maximum(0.0, np.ceil((np.abs(e0) - lim / cfg.speed_gain) / (lim * dt)))
         e1 = e0 - sign * lim * dt * n1
-        r = 1.0 - cfg.speed_gain * dt
         linear = v0[..., None] - (sign * lim * dt)[..., None] * n
-        geometric = targets[..., None] + e1[..., None] * r ** (n - n1[..., None])
+        # (1 - gain·dt) ** (n - n1) for integer exponents, from a table (pow is the costly part)
+        decay = self._decay.take((n - n1[..., None]).astype(np.int64) + steps)
+        geometric = targets[..., None] + e1[..., None] * decay
         v = np.maximum(np.where(n <= n1[..., None], linear, geometric), 0.0)
         v_prev = np.concatenate([np.broadcast_to(v0[..., None], (*targets.shape, 1)), v[..., :-1]], axis=-1)
         travelled = np.cumsum(0.5 * (v_prev + v) * dt, axis=-1)[..., cfg.sample_every - 1 :: cfg.sample_every]
@@ -175,13 +176,17 @@ class VelocityPlanner:
         ii, jj = ii[keep], jj[keep]
         if not len(ii):
             return empty
-        # broad phase: bounding circles, for every pair, candidate pair and time
-        diff = pts[ii][:, :, None] - pts[jj][:, None, :]  # (P, K, K, T)
+        # broad phase: bounding circles, for every candidate pair and time of every pair. Arrays
+        # are (K, K, T, P), x and y apart, so numpy's inner loops run along the long pair axis;
+        # f are flat indices of the candidates that meet
+        n_p, n_t = len(ii), pts.shape[2]
+        px, py = pts.real.transpose(1, 2, 0), pts.imag.transpose(1, 2, 0)  # (K, T, A)
+        dx = px[..., ii][:, None] - px[..., jj][None, :]
+        dy = py[..., ii][:, None] - py[..., jj][None, :]
         reach = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
-        near = diff.real**2 + diff.imag**2 < reach[:, None, None, None]
-        conflict = np.zeros((len(ii), k, k), dtype=bool)
-        p, a, b, t = np.nonzero(near)
-        if len(p):
+        f = np.flatnonzero(dx * dx + dy * dy < reach)
+        conflict = np.zeros((k, k, n_p), dtype=bool)
+        if len(f):
             # narrow phase where bounding circles meet: three circles along each car
             offs, radius = self._offs[agents].astype(np.float32), self._radius[agents]
             th = world.state[agents, 2]
@@ -192,15 +197,30 @@ class VelocityPlanner:
             crossing = ~cars & (world.route_s[agents] + self._front[agents] >= world.layout.routes.enter_s[world.route[agents]])
             margin = np.where(crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin)
             thresh = np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05)
-            circles = pts[..., None] + offs[:, None, None, :] * dirs[..., None]  # (A, K, T, 3)
-            dd = circles[ii[p], a, t][:, :, None] - circles[jj[p], b, t][:, None, :]  # (M, 3, 3)
-            d2 = (dd.real**2 + dd.imag**2).min(axis=(1, 2))
+            a, b, t, p = np.unravel_index(f, conflict.shape[:2] + (n_t, n_p))
+            offs_t = np.ascontiguousarray(offs.T)  # (3, A): gathers along axis 1 stay C-ordered
+            xi, yi = self._circles(pts, dirs, offs_t, ii[p], a, t)
+            xj, yj = self._circles(pts, dirs, offs_t, jj[p], b, t)
+            dx = xi[:, None] - xj[None, :]  # (3, 3, M)
+            dy = yi[:, None] - yj[None, :]
+            d2 = (dx * dx + dy * dy).reshape(9, len(f)).min(axis=0)
             th_p = np.maximum(thresh[p], 0.0)
             hit = d2 < th_p * th_p
-            conflict[p[hit], a[hit], b[hit]] = True
+            conflict[a[hit], b[hit], p[hit]] = True
+        conflict = np.ascontiguousarray(conflict.transpose(2, 0, 1))  # (P, K, K)
         conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
-        keep = conflict.any(axis=(1, 2))
+        keep = conflict.reshape(len(ii), -1).any(axis=1)
         return np.column_stack([ii, jj])[keep], conflict[keep]
+
+    @staticmethod
+    def _circles(pts, dirs, offs_t, agent, cand, t) -> tuple[np.ndarray, np.ndarray]:
+        """x and y (3, M) of the footprint circles of positions ``agent`` at candidate ``cand``
+        and time ``t`` of the projection (M entries each); ``offs_t`` (3, A) are the circles'
+        offsets along each agent."""
+        row = (agent * pts.shape[1] + cand) * pts.shape[2] + t
+        z, u = pts.ravel().take(row), dirs.ravel().take(row)
+        o = offs_t.take(agent, axis=1)
+        return z.real + o * u.real, z.imag + o * u.imag
 
     def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         if n not in self._pair_cache:
@@ -226,6 +246,8 @@ class VelocityPlanner:
         self._bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
+        steps = int(round(self.config.horizon / world.dt))
+        self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(-steps, steps + 1, dtype=float)
 
     def plan(self, world: World) -> np.ndarray:
         """Target velocity (m/s) of every agent; 0 for inactive ones."""
