@@ -53,13 +53,13 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
     """
     n = len(state)
     out: list[tuple[int, int, str]] = []
-    heading = np.exp(1j * state[:, 2])
-    centre = state[:, 0] + 1j * state[:, 1]
+    centre = np.ascontiguousarray(state).view(np.complex128)[:, 0]  # x + iy
     # broad phase 1: circumscribed circles, all pairs at once (most steps stop here)
-    half_diag = 0.5 * np.hypot(length, width)
     gap = centre[:, None] - centre[None, :]
-    reach = half_diag[:, None] + half_diag[None, :]
-    a, b = ((gap.real**2 + gap.imag**2 < reach * reach) & _pair_mask(is_car) & active[:, None] & active[None, :]).nonzero()
+    near = gap.real**2 + gap.imag**2 < _pair_reach2(is_car, length, width)
+    near &= np.logical_and.outer(active, active)
+    a, b = near.nonzero()
+    heading = np.exp(1j * state[:, 2]) if len(a) or offroad_candidates is None or offroad_candidates.any() else None
     if len(a):
         # broad phase 2: three covering circles per car, centred at -1/3, 0, +1/3 of its length
         circles = centre[:, None] + (np.where(is_car, length / 3, 0.0) * heading)[:, None] * _THIRDS
@@ -89,15 +89,19 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
 
 _THIRDS = np.array([-1.0, 0.0, 1.0])
 _CORNERS_C = _CORNERS[:, 0] + 1j * _CORNERS[:, 1]
-_PAIR_MASKS: dict[bytes, np.ndarray] = {}
+_PAIR_REACH2: dict[bytes, np.ndarray] = {}
 
 
-def _pair_mask(is_car: np.ndarray) -> np.ndarray:
-    """Upper-triangular pairs with at least one car (cached per agent make-up)."""
-    key = is_car.tobytes()
-    if key not in _PAIR_MASKS:
-        _PAIR_MASKS[key] = np.triu(is_car[:, None] | is_car[None, :], k=1)
-    return _PAIR_MASKS[key]
+def _pair_reach2(is_car: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
+    """(N, N) squared sum of circumscribed radii for pairs i < j with at least one car, -1 for
+    the others (so no distance passes), cached per agent make-up."""
+    key = is_car.tobytes() + length.tobytes() + width.tobytes()
+    if key not in _PAIR_REACH2:
+        half_diag = 0.5 * np.hypot(length, width)
+        reach = half_diag[:, None] + half_diag[None, :]
+        pairs = np.triu(is_car[:, None] | is_car[None, :], k=1)
+        _PAIR_REACH2[key] = np.where(pairs, reach * reach, -1.0)
+    return _PAIR_REACH2[key]
 
 
 def find_collisions_strtree(state, length, width, is_car, active, drivable_tolerant) -> list[tuple[int, int, str]]:

@@ -175,7 +175,7 @@ class World:
         """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
         act = self.active
         new = integrate(self.state, controls, self.is_car, self.params, self.dt)
-        self.state[act] = new[act]
+        np.copyto(self.state, new, where=act[:, None])
         self.time = round(self.time + self.dt, 9)
         self.steps += 1
         self.light_state = self.lights.states(self.time)
