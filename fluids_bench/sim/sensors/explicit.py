@@ -53,14 +53,15 @@ class ExplicitSensor:
         dx, dy = goal.real - x, goal.imag - y
         out[: EGO + GOAL] = (x, y, c, s, v, c * dx + s * dy, -s * dx + c * dy,
                              float(world.path_len[ego] - world.s[ego]))
-        others = world.active.nonzero()[0]
-        others = others[others != ego]
+        seen = world.active.copy()
+        seen[ego] = False
+        others = seen.nonzero()[0]
         if len(others):
             rel = state[others, :2] - (x, y)
             order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")[: self.k]
             idx, rel = others[order], rel[order]
             dth = state[idx, 2] - th
-            rows = np.empty((len(idx), PER_AGENT))
+            rows = out[EGO + GOAL : EGO + GOAL + PER_AGENT * len(idx)].reshape(-1, PER_AGENT)
             rows[:, 0] = c * rel[:, 0] + s * rel[:, 1]
             rows[:, 1] = -s * rel[:, 0] + c * rel[:, 1]
             rows[:, 2] = np.cos(dth)
@@ -68,8 +69,6 @@ class ExplicitSensor:
             rows[:, 4] = state[idx, 3]
             rows[:, 5] = world.kind[idx] == PEDESTRIAN
             rows[:, 6] = 1.0
-            base = EGO + GOAL
-            out[base : base + rows.size] = rows.ravel()
         base = EGO + GOAL + PER_AGENT * self.k
         routes = world.layout.routes
         r = world.route[ego]
