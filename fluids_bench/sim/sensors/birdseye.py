@@ -308,14 +308,25 @@ def remaining_path(world, agent: int, every: float = 2.0) -> np.ndarray:
     return world.path[agent, k0 : k1 + 1 : max(1, int(every / PATH_SPACING))]
 
 
+@functools.lru_cache(maxsize=256)
+def _light_groups(layer: StaticLayer, states: tuple[int, ...]) -> tuple:
+    """((colour, bar indices), …) for the lights in ``states``, one per colour shown, in
+    palette order: what each ``fillPoly`` call draws. Cached: the lights cycle through a few
+    states, and grouping them costs more numpy calls than drawing."""
+    code = layer.crosswalk_quad * 3 + np.asarray(states)[layer.light_of_quad]
+    return tuple((_LIGHT_PALETTE[c], np.flatnonzero(code == c)) for c in np.unique(code).tolist())
+
+
 def draw_lights(img, affine, layer: StaticLayer, states: np.ndarray) -> None:
     """Every light bar in the colour of its light's current state."""
-    if not len(layer.light_quads):
-        return
-    code = layer.crosswalk_quad * 3 + states[layer.light_of_quad]
-    quads = to_fixed(affine, layer.light_quads)
-    for c in set(code.tolist()):
-        cv2.fillPoly(img, quads[code == c], _LIGHT_PALETTE[c], cv2.LINE_AA, SHIFT)
+    if len(layer.light_quads):
+        fill_lights(img, to_fixed(affine, layer.light_quads), layer, states)
+
+
+def fill_lights(img, quads: np.ndarray, layer: StaticLayer, states: np.ndarray) -> None:
+    """:func:`draw_lights` with the bars ``layer.light_quads`` already in fixed-point pixels."""
+    for colour, bars in _light_groups(layer, tuple(states.tolist())):
+        cv2.fillPoly(img, quads[bars], colour, cv2.LINE_AA, SHIFT)
 
 
 def agent_boxes(
@@ -370,17 +381,22 @@ class AgentPainter:
             self._lengths = world.length
         return self._shapes
 
-    def draw(self, img, affine, world, idx: np.ndarray, ego: int = 0) -> None:
-        """Cars (blue), pedestrians (orange) and the ego (magenta) among ``idx``; cars get a dark
-        windscreen (it shows the heading) when they are at least 8 pixels long."""
-        n = len(idx)
-        if not n:
-            return
+    def corners(self, world, idx: np.ndarray) -> np.ndarray:
+        """World corners (len(idx), 8, 2) of the bodies (4) and windscreens (4) of ``idx``."""
         shapes = self._shapes_of(world)[idx]
         st = world.state[idx]
         z = np.exp(1j * st[:, 2])[:, None] * shapes
         z += (st[:, 0] + 1j * st[:, 1])[:, None]
-        px = to_fixed(affine, z.view(np.float64).reshape(n, 8, 2))
+        return z.view(np.float64).reshape(len(idx), 8, 2)
+
+    def draw(self, img, affine, world, idx: np.ndarray, ego: int = 0) -> None:
+        """Cars (blue), pedestrians (orange) and the ego (magenta) among ``idx``; cars get a dark
+        windscreen (it shows the heading) when they are at least 8 pixels long."""
+        if len(idx):
+            self.fill(img, to_fixed(affine, self.corners(world, idx)), world, idx, ego)
+
+    def fill(self, img, px: np.ndarray, world, idx: np.ndarray, ego: int = 0) -> None:
+        """:meth:`draw` with the :meth:`corners` already in fixed-point pixels ``px``."""
         is_car = world.is_car[idx]
         is_ego = idx == ego
         aa = cv2.LINE_AA
@@ -389,10 +405,13 @@ class AgentPainter:
             (~(is_car | is_ego), "pedestrian"),
             (is_ego, "ego"),
         ):
-            if mask.any():
-                cv2.fillPoly(img, px[mask, :4], COLOURS[colour], aa, SHIFT)
-        if self.screens and is_car.any():
-            cv2.fillPoly(img, px[is_car, 4:], COLOURS["windscreen"], aa, SHIFT)
+            polys = px[mask, :4]
+            if len(polys):
+                cv2.fillPoly(img, polys, COLOURS[colour], aa, SHIFT)
+        if self.screens:
+            polys = px[is_car, 4:]
+            if len(polys):
+                cv2.fillPoly(img, polys, COLOURS["windscreen"], aa, SHIFT)
 
 
 def add_pixel_noise(img: np.ndarray, std: float, rng: np.random.Generator) -> np.ndarray:
@@ -436,59 +455,79 @@ class BirdsEyeSensor:
         self._border = tuple(int(c) for c in COLOURS["terrain"])
         # north-up at the raster's own scale: the view is a crop, shifted by whole pixels
         self._crop = frame == "ego" and self.layer.ppm == self.ppm
+        self._shift = self.layer.to_pixels[:, 2].tolist()  # the raster's (u, v) of world (0, 0)
+        self._route_px = line_px(self.ppm, 0.35)
         self.painter = AgentPainter(self.ppm)
 
     def view(self, world, ego: int = 0) -> np.ndarray:
         """The world → output-pixel affine (2×3) for the current state. In the ``"ego"`` frame
         the view is a crop of the static raster moved by whole pixels, so the ego sits within
         half a pixel of the image centre (and the background needs no resampling)."""
+        return self._view(world, ego)[0]
+
+    def _view(self, world, ego: int) -> tuple[np.ndarray, tuple[int, int] | None]:
+        """:meth:`view` and, for a crop, the raster (row, column) of its top-left pixel."""
         if self.frame == "global":
-            return self.layer.to_pixels
-        ex, ey, th, _ = world.state[ego]
+            return self.layer.to_pixels, None
+        ex, ey, th, _ = world.state[ego].tolist()
         p, c = self.ppm, self._centre
         if self._crop:
-            m = self.layer.to_pixels
-            return np.array(
-                [
-                    [p, 0.0, m[0, 2] - round(m[0, 2] + p * ex - c)],
-                    [0.0, -p, m[1, 2] - round(m[1, 2] - p * ey - c)],
-                ]
-            )
+            u, v = self._shift
+            col, row = round(u + p * ex - c), round(v - p * ey - c)
+            return np.array([[p, 0.0, u - col], [0.0, -p, v - row]]), (row, col)
         if self.frame == "ego":
             lin = np.array([[p, 0.0], [0.0, -p]])
         else:  # rotate by π/2 − θ, so that the heading points up the image
             phi = math.pi / 2 - th
             cs, sn = math.cos(phi), math.sin(phi)
             lin = np.array([[p * cs, -p * sn], [-p * sn, -p * cs]])
-        return np.column_stack([lin, [c, c] - lin @ (ex, ey)])
+        return np.column_stack([lin, [c, c] - lin @ (ex, ey)]), None
+
+    def _background(self, affine: np.ndarray, corner: tuple[int, int] | None) -> np.ndarray:
+        """The static raster seen through ``affine``: a copy of it (global), a crop (ego frame
+        inside the raster), else a resampling."""
+        image = self.layer.image
+        if self.frame == "global":
+            return image.copy()
+        if corner is not None:
+            row, col = corner
+            if 0 <= row <= image.shape[0] - self.size and 0 <= col <= image.shape[1] - self.size:
+                return image[row : row + self.size, col : col + self.size].copy()
+        # map pixel = L · world + l, out = A · world + a  ⇒  out = A L⁻¹ · map + a − A L⁻¹ l
+        lin = affine[:, :2] * self._map_inv
+        warp = np.column_stack([lin, affine[:, 2] - lin @ self.layer.to_pixels[:, 2]])
+        return cv2.warpAffine(
+            image,
+            warp,
+            (self.size, self.size),
+            flags=cv2.INTER_LINEAR,
+            borderMode=cv2.BORDER_CONSTANT,
+            borderValue=self._border,
+        )
 
     def render(self, world, ego: int = 0) -> np.ndarray:
-        """The noiseless image."""
-        affine = self.view(world, ego)
-        image = self.layer.image
-        col, row = (round(v) for v in self.layer.to_pixels[:, 2] - affine[:, 2])
-        if self.frame == "global":
-            img = image.copy()
-        elif (
-            self._crop
-            and 0 <= row <= image.shape[0] - self.size
-            and 0 <= col <= image.shape[1] - self.size
-        ):
-            img = image[row : row + self.size, col : col + self.size].copy()
-        else:  # map pixel = L · world + l, out = A · world + a  ⇒  out = A L⁻¹ · map + a − A L⁻¹ l
-            lin = affine[:, :2] * self._map_inv
-            warp = np.column_stack([lin, affine[:, 2] - lin @ self.layer.to_pixels[:, 2]])
-            img = cv2.warpAffine(
-                self.layer.image,
-                warp,
-                (self.size, self.size),
-                flags=cv2.INTER_LINEAR,
-                borderMode=cv2.BORDER_CONSTANT,
-                borderValue=self._border,
+        """The noiseless image: the static raster, then the ego's route, the light bars and the
+        agents. All their points go through the view in one :func:`to_fixed` call (each point's
+        pixel does not depend on what else is in the call)."""
+        affine, corner = self._view(world, ego)
+        img = self._background(affine, corner)
+        path = remaining_path(world, ego)
+        quads = self.layer.light_quads
+        idx = visible_agents(world, ego)
+        px = to_fixed(
+            affine,
+            np.concatenate(
+                [path, quads.reshape(-1, 2), self.painter.corners(world, idx).reshape(-1, 2)]
+            ),
+        )
+        k, q = len(path), len(path) + 4 * len(quads)
+        if k >= 2:
+            cv2.polylines(
+                img, [px[:k]], False, COLOURS["route"], self._route_px, cv2.LINE_AA, SHIFT
             )
-        draw_route(img, affine, self.ppm, remaining_path(world, ego), COLOURS["route"])
-        draw_lights(img, affine, self.layer, world.light_state)
-        self.painter.draw(img, affine, world, visible_agents(world, ego), ego)
+        if len(quads):
+            fill_lights(img, px[k:q].reshape(-1, 4, 2), self.layer, world.light_state)
+        self.painter.fill(img, px[q:].reshape(-1, 8, 2), world, idx, ego)
         return img
 
     def observe(self, world, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
