@@ -30,6 +30,7 @@ from fluids_bench.sim.config import check_range
 from fluids_bench.sim.layout.geometry import PATH_SPACING
 from fluids_bench.sim.lights import CAUTION, STOP
 from fluids_bench.sim.world import World
+from fluids_bench.supervisors.driving.kernels import conflict_tables, projected_arc_lengths
 
 
 @dataclass(frozen=True)
@@ -107,22 +108,9 @@ class VelocityPlanner:
         (1 − gain · dt) per step. Positions are sampled every ``sample_every`` steps.
         """
         cfg, dt = self.config, world.dt
-        steps = int(round(cfg.horizon / dt))
-        n = np.arange(1, steps + 1, dtype=float)
-        v0 = world.state[agents, 3][:, None]
-        e0 = v0 - targets
-        sign = np.sign(e0)
-        lim = np.where(e0 < 0, cfg.max_accel, cfg.max_decel)
-        n1 = np.maximum(0.0, np.ceil((np.abs(e0) - lim / cfg.speed_gain) / (lim * dt)))
-        e1 = e0 - sign * lim * dt * n1
-        linear = v0[..., None] - (sign * lim * dt)[..., None] * n
-        # (1 - gain·dt) ** (n - n1) for integer exponents, from a table (pow is the costly part)
-        decay = self._decay.take((n - n1[..., None]).astype(np.int64) + steps)
-        geometric = targets[..., None] + e1[..., None] * decay
-        v = np.maximum(np.where(n <= n1[..., None], linear, geometric), 0.0)
-        v_prev = np.concatenate([np.broadcast_to(v0[..., None], (*targets.shape, 1)), v[..., :-1]], axis=-1)
-        travelled = np.cumsum(0.5 * (v_prev + v) * dt, axis=-1)[..., cfg.sample_every - 1 :: cfg.sample_every]
-        return world.s[agents][:, None, None] + travelled
+        return projected_arc_lengths(world.s[agents], world.state[agents, 3], targets, self._decay,
+                                     int(round(cfg.horizon / dt)), cfg.sample_every, dt, cfg.max_accel,
+                                     cfg.max_decel, cfg.speed_gain)
 
     # ------------------------------------------------------------------ constraints
     def domains(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
@@ -155,72 +143,34 @@ class VelocityPlanner:
     def conflicts(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
 
-        Positions are complex numbers (x + iy) so that offsets along a heading are one product.
+        Only pairs with a car are checked (pedestrians step round each other). The per-pair,
+        per-candidate, per-time loop is compiled (:func:`kernels.conflict_tables`).
         """
         k = len(self.fractions)
         empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
-        if len(agents) < 2:
-            return empty
-        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex each
-        bound = self._bound[agents] + self.config.margin / 2
-        pos = (world.state[agents, 0] + 1j * world.state[agents, 1]).astype(np.complex64)
-        # pairs whose swept boxes (every candidate, every time, and now) overlap; pedestrians
-        # step round each other, so only pairs with a car constrain anyone
-        flat = np.concatenate([pts.reshape(len(agents), -1), pos[:, None]], axis=1)
-        lo_x, hi_x = flat.real.min(1) - bound, flat.real.max(1) + bound
-        lo_y, hi_y = flat.imag.min(1) - bound, flat.imag.max(1) + bound
-        ii, jj = self._pairs(len(agents))
         cars = world.is_car[agents]
-        keep = ((lo_x[ii] <= hi_x[jj]) & (lo_x[jj] <= hi_x[ii]) & (lo_y[ii] <= hi_y[jj])
-                & (lo_y[jj] <= hi_y[ii]) & (cars[ii] | cars[jj]))
-        ii, jj = ii[keep], jj[keep]
+        ii, jj = self._pairs(len(agents))
+        with_car = cars[ii] | cars[jj]
+        ii, jj = ii[with_car], jj[with_car]
         if not len(ii):
             return empty
-        # broad phase: bounding circles, for every candidate pair and time of every pair. Arrays
-        # are (K, K, T, P), x and y apart, so numpy's inner loops run along the long pair axis;
-        # f are flat indices of the candidates that meet
-        n_p, n_t = len(ii), pts.shape[2]
-        px, py = pts.real.transpose(1, 2, 0), pts.imag.transpose(1, 2, 0)  # (K, T, A)
-        dx = px[..., ii][:, None] - px[..., jj][None, :]
-        dy = py[..., ii][:, None] - py[..., jj][None, :]
-        reach = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
-        f = np.flatnonzero(dx * dx + dy * dy < reach)
-        conflict = np.zeros((k, k, n_p), dtype=bool)
-        if len(f):
-            # narrow phase where bounding circles meet: three circles along each car
-            offs, radius = self._offs[agents].astype(np.float32), self._radius[agents]
-            th = world.state[agents, 2]
-            now = pos[:, None] + offs * np.exp(1j * th).astype(np.complex64)[:, None]  # (A, 3)
-            d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
-            # the smaller car-pedestrian clearance applies once the walker is on the crossing
-            # (so a car can creep past it); a walker still at the kerb keeps the full one
-            crossing = ~cars & (world.route_s[agents] + self._front[agents] >= world.layout.routes.enter_s[world.route[agents]])
-            margin = np.where(crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin)
-            thresh = np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05)
-            a, b, t, p = np.unravel_index(f, conflict.shape[:2] + (n_t, n_p))
-            offs_t = np.ascontiguousarray(offs.T)  # (3, A): gathers along axis 1 stay C-ordered
-            xi, yi = self._circles(pts, dirs, offs_t, ii[p], a, t)
-            xj, yj = self._circles(pts, dirs, offs_t, jj[p], b, t)
-            dx = xi[:, None] - xj[None, :]  # (3, 3, M)
-            dy = yi[:, None] - yj[None, :]
-            d2 = (dx * dx + dy * dy).reshape(9, len(f)).min(axis=0)
-            th_p = np.maximum(thresh[p], 0.0)
-            hit = d2 < th_p * th_p
-            conflict[a[hit], b[hit], p[hit]] = True
-        conflict = np.ascontiguousarray(conflict.transpose(2, 0, 1))  # (P, K, K)
+        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
+        bound = self._bound[agents] + self.config.margin / 2
+        pos = (world.state[agents, 0] + 1j * world.state[agents, 1]).astype(np.complex64)
+        offs, radius = self._offs[agents].astype(np.float32), self._radius[agents]
+        now = pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]  # (A, 3)
+        d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
+        # the smaller car-pedestrian clearance applies once the walker is on the crossing
+        # (so a car can creep past it); a walker still at the kerb keeps the full one
+        crossing = ~cars & (world.route_s[agents] + self._front[agents] >= world.layout.routes.enter_s[world.route[agents]])
+        margin = np.where(crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin)
+        thresh = np.maximum(np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05), 0.0)
+        reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
+        conflict = conflict_tables(pts.real, pts.imag, dirs.real, dirs.imag, pos.real, pos.imag, bound,
+                                   offs, ii, jj, reach2, thresh * thresh)
         conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
         keep = conflict.reshape(len(ii), -1).any(axis=1)
         return np.column_stack([ii, jj])[keep], conflict[keep]
-
-    @staticmethod
-    def _circles(pts, dirs, offs_t, agent, cand, t) -> tuple[np.ndarray, np.ndarray]:
-        """x and y (3, M) of the footprint circles of positions ``agent`` at candidate ``cand``
-        and time ``t`` of the projection (M entries each); ``offs_t`` (3, A) are the circles'
-        offsets along each agent."""
-        row = (agent * pts.shape[1] + cand) * pts.shape[2] + t
-        z, u = pts.ravel().take(row), dirs.ravel().take(row)
-        o = offs_t.take(agent, axis=1)
-        return z.real + o * u.real, z.imag + o * u.imag
 
     def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         if n not in self._pair_cache:

@@ -1,0 +1,94 @@
+"""Compiled inner loops of the velocity planner (numba).
+
+The planner's pairwise check visits every pair of agents, every pair of candidate speeds and
+every projected time, and stops at the first time the two footprints come too close. In numpy
+that is a few large temporary arrays per plan and no early exit; compiled, it is a loop that
+touches only what it needs. The arithmetic is the numpy version's, operation for operation and
+in the same precision (float32 positions, float64 thresholds, no fused multiply-add), so plans
+are bit-identical to it (``tests/supervisors/test_planner_kernels.py`` keeps that reference).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def conflict_tables(px, py, ux, uy, now_x, now_y, bound, offs, first, second, reach2,
+                    thresh2):  # pragma: no cover (compiled)
+    """conflict[p, a, b]: agents ``first[p]`` at candidate a and ``second[p]`` at candidate b
+    come too close at some projected time.
+
+    px, py, ux, uy: (A, K, T) float32 positions and unit tangents of the projections; now_x,
+    now_y: (A,) float32 positions now; bound: (A,) bounding-circle radius (m); offs: (A, 3)
+    float32 offsets of each agent's footprint circles along its heading; reach2: (P,) float32
+    squared bounding-circle reach of each pair (broad phase); thresh2: (P,) float64 squared
+    clearance between footprint circles (narrow phase). Pairs whose swept boxes (every
+    candidate, every time, and now) do not overlap are skipped.
+    """
+    n_agents, n_cand, n_t = px.shape
+    lo_x, hi_x = np.empty(n_agents), np.empty(n_agents)
+    lo_y, hi_y = np.empty(n_agents), np.empty(n_agents)
+    for i in range(n_agents):
+        x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
+        for a in range(n_cand):
+            for t in range(n_t):
+                x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
+                y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
+        lo_x[i], hi_x[i], lo_y[i], hi_y[i] = x0 - bound[i], x1 + bound[i], y0 - bound[i], y1 + bound[i]
+    out = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
+    for p in range(len(first)):
+        i, j = first[p], second[p]
+        if lo_x[i] > hi_x[j] or lo_x[j] > hi_x[i] or lo_y[i] > hi_y[j] or lo_y[j] > hi_y[i]:
+            continue
+        for a in range(n_cand):
+            for b in range(n_cand):
+                for t in range(n_t):
+                    dx = px[i, a, t] - px[j, b, t]
+                    dy = py[i, a, t] - py[j, b, t]
+                    if not dx * dx + dy * dy < reach2[p]:
+                        continue
+                    nearest = np.float32(np.inf)
+                    for ci in range(3):
+                        xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
+                        yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
+                        for cj in range(3):
+                            ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
+                            ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
+                            nearest = min(nearest, ex * ex + ey * ey)
+                    if nearest < thresh2[p]:
+                        out[p, a, b] = True
+                        break
+    return out
+
+
+@njit(cache=True, nogil=True)
+def projected_arc_lengths(s0, v0, targets, decay, steps, every, dt, max_accel, max_decel,
+                          gain):  # pragma: no cover (compiled)
+    """Arc lengths (A, K, T) travelled from ``s0`` (A,) at speed ``v0`` (A,) toward each target
+    speed (A, K) under the PID's discrete speed law, sampled every ``every`` of ``steps`` steps.
+
+    A saturated, linear phase of ``n1`` steps, then a geometric approach: ``decay[n + steps]``
+    is (1 - gain·dt)^n. Speeds are integrated with the trapezoid rule, as a cumulative sum.
+    """
+    n_agents, n_cand = targets.shape
+    out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    for a in range(n_agents):
+        for k in range(n_cand):
+            e0 = v0[a] - targets[a, k]
+            sign = 1.0 if e0 > 0 else (-1.0 if e0 < 0 else 0.0)
+            lim = max_accel if e0 < 0 else max_decel
+            n1 = max(0.0, np.ceil((abs(e0) - lim / gain) / (lim * dt)))
+            slope = sign * lim * dt
+            e1 = e0 - slope * n1
+            prev, travelled = v0[a], 0.0
+            for m in range(1, steps + 1):
+                n = float(m)
+                v = v0[a] - slope * n if n <= n1 else targets[a, k] + e1 * decay[int(n - n1) + steps]
+                v = max(v, 0.0)
+                travelled += 0.5 * (prev + v) * dt
+                prev = v
+                if m % every == 0:
+                    out[a, k, m // every - 1] = s0[a] + travelled
+    return out
