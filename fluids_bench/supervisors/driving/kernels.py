@@ -1,11 +1,14 @@
-"""Compiled inner loops of the velocity planner (numba).
+"""Compiled inner loops of the driving supervisor (numba): velocity planner and PID.
 
 The planner's pairwise check visits every pair of agents, every pair of candidate speeds and
 every projected time, and stops at the first time the two footprints come too close. In numpy
 that is a few large temporary arrays per plan and no early exit; compiled, it is a loop that
-touches only what it needs. The arithmetic is the numpy version's, operation for operation and
-in the same precision (float32 positions, float64 thresholds, no fused multiply-add), so plans
-are bit-identical to it (``tests/supervisors/test_planner_kernels.py`` keeps that reference).
+touches only what it needs. The PID loops are a few dozen scalar operations per agent, cheaper
+compiled than as numpy calls on 16-element arrays. The arithmetic is the numpy version's,
+operation for operation and in the same precision (float32 positions, float64 thresholds, no
+fused multiply-add), so results are bit-identical to it
+(``tests/supervisors/test_supervisor_kernels.py`` keeps those references). The simulator itself
+(``fluids_bench.sim``) stays numpy + shapely.
 """
 
 from __future__ import annotations
@@ -92,3 +95,46 @@ def projected_arc_lengths(s0, v0, targets, decay, steps, every, dt, max_accel, m
                 if m % every == 0:
                     out[a, k, m // every - 1] = s0[a] + travelled
     return out
+
+
+@njit(cache=True, nogil=True)
+def lookahead_points(path, s, speed, path_len, min_ahead, ahead_time, spacing):  # pragma: no cover
+    """The point (N, 2) of each agent's path (N, M, 2) a look-ahead distance ahead of its
+    progress ``s``: max(min_ahead, ahead_time · speed) metres, capped at the path's end."""
+    out = np.empty((len(s), 2))
+    last = path.shape[1] - 1
+    for i in range(len(s)):
+        k = np.rint(min(s[i] + max(min_ahead[i], ahead_time[i] * speed[i]), path_len[i]) / spacing)
+        k = min(max(int(k), 0), last)
+        out[i, 0], out[i, 1] = path[i, k, 0], path[i, k, 1]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def pid_controls(state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains,
+                 limits, gain, low, high):  # pragma: no cover (compiled)
+    """Controls (N, 2) of the two PID loops and their new memory (error, integrators).
+
+    gains: steering kp, ki, kd/dt, speed kp, ki; limits: max steer (rad), max decel, max accel
+    (m/s²); gain, low, high (N,): acceleration to actuator units, and the actuator's range.
+    """
+    steer_kp, steer_ki, steer_kd_dt, speed_kp, speed_ki = gains
+    max_steer, max_decel, max_accel = limits
+    n = len(state)
+    out, err, integ, v_int = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        desired = np.arctan2(aim[i, 1] - state[i, 1], aim[i, 0] - state[i, 0])
+        e = (desired - state[i, 2] + np.pi) % (2 * np.pi) - np.pi
+        err[i], integ[i] = e, steer_int[i] + e * dt
+        steer = steer_kp * e + steer_kd_dt * (e - steer_prev[i])
+        if steer_ki:
+            steer += steer_ki * integ[i]
+        v_err = target_speed[i] - state[i, 3]
+        v_int[i] = speed_int[i] + v_err * dt
+        accel = speed_kp * v_err
+        if speed_ki:
+            accel += speed_ki * v_int[i]
+        out[i, 0] = min(max(steer, -max_steer), max_steer) if is_car[i] else desired
+        accel = min(max(accel, -max_decel), max_accel)
+        out[i, 1] = min(max(accel * gain[i], low[i]), high[i])
+    return out, err, integ, v_int

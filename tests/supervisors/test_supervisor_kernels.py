@@ -1,7 +1,8 @@
-"""The velocity planner's compiled kernels against plain numpy references, bit for bit.
+"""The supervisor's compiled kernels against plain numpy references, bit for bit.
 
 The references are the vectorised formulations the kernels replaced: whole (A, K, T) speed
-profiles with a cumulative sum, and (P, K, K, T) pairwise distance arrays. States come from
+profiles with a cumulative sum, (P, K, K, T) pairwise distance arrays, and the PID loops as
+array expressions. States come from
 seeded supervised episodes and from the same states with agents shuffled about, so that both
 near misses and clear roads are covered.
 """
@@ -71,6 +72,25 @@ def reference_conflicts(planner, world, agents, s_proj):
     return np.column_stack([ii, jj])[keep], conflict[keep]
 
 
+def reference_pid(pid, world, target_speed):
+    cfg = pid.config
+    ahead = np.maximum(pid.min_ahead, pid.ahead_time * world.state[:, 3])
+    k = np.rint(np.minimum(world.s + ahead, world.path_len) / 0.5).astype(np.int64)
+    aim = world.path[np.arange(world.n), np.clip(k, 0, world.path.shape[1] - 1)]
+    state = world.state
+    desired = np.arctan2(aim[:, 1] - state[:, 1], aim[:, 0] - state[:, 0])
+    err = (desired - state[:, 2] + np.pi) % (2 * np.pi) - np.pi
+    integ = pid.steer_int + err * world.dt
+    steer = cfg.steer_kp * err + cfg.steer_kd / world.dt * (err - pid.steer_prev) + cfg.steer_ki * integ
+    v_err = target_speed - state[:, 3]
+    v_int = pid.speed_int + v_err * world.dt
+    accel = np.clip(cfg.speed_kp * v_err + cfg.speed_ki * v_int, -cfg.max_decel, cfg.max_accel)
+    out = np.column_stack([np.clip(steer, -world.scene.car.max_steer, world.scene.car.max_steer),
+                           np.clip(accel * pid.gain, pid.low, pid.high)])
+    out[~world.is_car, 0] = desired[~world.is_car]
+    return out, (err, integ, v_int)
+
+
 def _states(layout: str, seed: int):
     """Planner inputs along a supervised episode, every few steps, some with agents jostled."""
     world = make_world(SceneConfig(layout=layout, num_cars=8, num_pedestrians=4), seed)
@@ -101,4 +121,12 @@ def test_kernels_equal_the_numpy_reference(layout, seed):
         np.testing.assert_array_equal(conflict, ref_conflict)
         checked += 1
         conflicts_seen += int(conflict.sum())
+        pid = DrivingSupervisor(world).pid  # fresh loops
+        pid.commit(tuple(np.random.default_rng(checked).normal(size=(3, world.n))))  # some memory
+        targets = np.random.default_rng(checked).uniform(0.0, 10.0, world.n)
+        controls, memory = pid.controls(world, targets)
+        ref_controls, ref_memory = reference_pid(pid, world, targets)
+        np.testing.assert_array_equal(controls, ref_controls)
+        for got, want in zip(memory, ref_memory, strict=True):
+            np.testing.assert_array_equal(got, want)
     assert checked >= 15 and conflicts_seen > 0  # the comparison saw real conflicts
