@@ -363,8 +363,9 @@ class AgentPainter:
 
     def __init__(self, ppm: float, min_px: float = MIN_AGENT_PX) -> None:
         self.ppm, self.min_px = float(ppm), float(min_px)
-        self._lengths = None  # the world.length array the cache was built from
+        self._lengths = None  # the world.length array the caches were built from
         self._shapes = np.zeros((0, 8), complex)
+        self._groups: dict = {}  # (agents drawn, ego) -> what each fillPoly draws
         self.screens = False
 
     def _shapes_of(self, world) -> np.ndarray:
@@ -378,6 +379,7 @@ class AgentPainter:
             screen = fwd + fwd * _CORNER_SIGNS.real + 1j * (0.8 * width * _CORNER_SIGNS.imag)
             self._shapes = np.concatenate([body, screen], axis=1)
             self.screens = self.ppm * float(world.scene.car.length) >= 8.0  # a few pixels long
+            self._groups.clear()
             self._lengths = world.length
         return self._shapes
 
@@ -386,7 +388,9 @@ class AgentPainter:
         shapes = self._shapes_of(world)[idx]
         st = world.state[idx]
         z = np.exp(1j * st[:, 2])[:, None] * shapes
-        z += (st[:, 0] + 1j * st[:, 1])[:, None]
+        # + x + iy, the first complex of each state row (as floats x + 1j·y would be, but for
+        # the sign of a zero part, which no pixel can show)
+        z += st.view(np.complex128)[:, :1]
         return z.view(np.float64).reshape(len(idx), 8, 2)
 
     def draw(self, img, affine, world, idx: np.ndarray, ego: int = 0) -> None:
@@ -397,21 +401,31 @@ class AgentPainter:
 
     def fill(self, img, px: np.ndarray, world, idx: np.ndarray, ego: int = 0) -> None:
         """:meth:`draw` with the :meth:`corners` already in fixed-point pixels ``px``."""
-        is_car = world.is_car[idx]
-        is_ego = idx == ego
-        aa = cv2.LINE_AA
-        for mask, colour in (
-            (is_car & ~is_ego, "car"),
-            (~(is_car | is_ego), "pedestrian"),
-            (is_ego, "ego"),
-        ):
-            polys = px[mask, :4]
-            if len(polys):
-                cv2.fillPoly(img, polys, COLOURS[colour], aa, SHIFT)
-        if self.screens:
-            polys = px[is_car, 4:]
-            if len(polys):
-                cv2.fillPoly(img, polys, COLOURS["windscreen"], aa, SHIFT)
+        for colour, rows, corners in self._groups_of(world, idx, ego):
+            cv2.fillPoly(img, px[rows, corners], colour, cv2.LINE_AA, SHIFT)
+
+    def _groups_of(self, world, idx: np.ndarray, ego: int) -> tuple:
+        """((colour, rows of ``idx``, corners), …) for each non-empty ``fillPoly`` call, in
+        drawing order. Cached per set of agents drawn and ego: it changes rarely."""
+        self._shapes_of(world)  # drops the cache for another world's agents
+        key = (idx.tobytes(), ego)
+        groups = self._groups.get(key)
+        if groups is None:
+            is_car, is_ego = world.is_car[idx], idx == ego
+            groups = tuple(
+                (COLOURS[colour], np.flatnonzero(mask), corners)
+                for mask, colour, corners in (
+                    (is_car & ~is_ego, "car", slice(0, 4)),
+                    (~(is_car | is_ego), "pedestrian", slice(0, 4)),
+                    (is_ego, "ego", slice(0, 4)),
+                    (is_car & self.screens, "windscreen", slice(4, 8)),
+                )
+                if mask.any()
+            )
+            if len(self._groups) >= 256:  # agents come and go: keep the cache small
+                self._groups.clear()
+            self._groups[key] = groups
+        return groups
 
 
 def add_pixel_noise(img: np.ndarray, std: float, rng: np.random.Generator) -> np.ndarray:
