@@ -24,7 +24,7 @@ from __future__ import annotations
 
 import functools
 import math
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
@@ -210,6 +210,8 @@ class StaticLayer:
     light_quads: np.ndarray  # (Q, 4, 2) world m
     light_of_quad: np.ndarray  # (Q,) index into the layout's lights
     crosswalk_quad: np.ndarray  # (Q,) bool
+    # light states → ((colour, bar indices), …): see light_groups
+    light_groups: dict = field(default_factory=dict, repr=False)
 
 
 def pixel_affine(ppm: float, x0: float, y1: float) -> np.ndarray:
@@ -308,13 +310,18 @@ def remaining_path(world, agent: int, every: float = 2.0) -> np.ndarray:
     return world.path[agent, k0 : k1 + 1 : max(1, int(every / PATH_SPACING))]
 
 
-@functools.lru_cache(maxsize=256)
-def _light_groups(layer: StaticLayer, states: tuple[int, ...]) -> tuple:
+def light_groups(layer: StaticLayer, states: np.ndarray) -> tuple:
     """((colour, bar indices), …) for the lights in ``states``, one per colour shown, in
-    palette order: what each ``fillPoly`` call draws. Cached: the lights cycle through a few
-    states, and grouping them costs more numpy calls than drawing."""
-    code = layer.crosswalk_quad * 3 + np.asarray(states)[layer.light_of_quad]
-    return tuple((_LIGHT_PALETTE[c], np.flatnonzero(code == c)) for c in np.unique(code).tolist())
+    palette order: what each ``fillPoly`` call draws. Cached on the layer: the lights cycle
+    through a few states, and grouping them costs more numpy calls than drawing."""
+    key = (states.dtype.char, states.tobytes())
+    groups = layer.light_groups.get(key)
+    if groups is None:
+        code = layer.crosswalk_quad * 3 + states[layer.light_of_quad]
+        colours = np.unique(code).tolist()
+        groups = tuple((_LIGHT_PALETTE[c], np.flatnonzero(code == c)) for c in colours)
+        layer.light_groups[key] = groups
+    return groups
 
 
 def draw_lights(img, affine, layer: StaticLayer, states: np.ndarray) -> None:
@@ -325,7 +332,7 @@ def draw_lights(img, affine, layer: StaticLayer, states: np.ndarray) -> None:
 
 def fill_lights(img, quads: np.ndarray, layer: StaticLayer, states: np.ndarray) -> None:
     """:func:`draw_lights` with the bars ``layer.light_quads`` already in fixed-point pixels."""
-    for colour, bars in _light_groups(layer, tuple(states.tolist())):
+    for colour, bars in light_groups(layer, states):
         cv2.fillPoly(img, quads[bars], colour, cv2.LINE_AA, SHIFT)
 
 
