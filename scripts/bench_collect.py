@@ -5,7 +5,8 @@ observation (explicit where quasi-LIDAR is not available), the supervisor acting
 worker count, ``collect`` runs ``--episodes`` full episodes (seeds 0, 1, ...); the time
 includes starting the workers, and a second "warm" run reuses the process pool's forkserver
 (worker processes still start anew). ``raw_env_loop`` is the same episodes stepped in this
-process without the collector, the ceiling for one worker; its ``pairs_per_cpu_min`` (CPU time)
+process without the collector (after one warm-up step: imports, caches, compiled kernels), the
+ceiling for one worker; its ``pairs_per_cpu_min`` (CPU time)
 is what one core gives when nothing else runs on it, and ``idle_estimate`` scales it by the
 worker count (an estimate for cores of one's own; wall-clock rates fall when others share them).
 
@@ -36,6 +37,7 @@ def scenario() -> dict:
 
 def raw_loop(kwargs: dict, episodes: int) -> dict:
     env = gym.make(ENV_ID, **kwargs)
+    env.step(env.reset(seed=10**6)[1]["supervisor_action"])  # one-time costs before the clock
     pairs, t0, cpu0 = 0, time.perf_counter(), time.process_time()
     for seed in range(episodes):
         _, info = env.reset(seed=seed)

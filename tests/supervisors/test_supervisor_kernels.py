@@ -39,7 +39,7 @@ def reference_conflicts(planner, world, agents, s_proj):
     """(pairs, conflict) as the numpy planner computed them."""
     k = len(planner.fractions)
     pts, dirs = world.path_samples(s_proj, agents)
-    bound = planner._bound[agents] + planner.config.margin / 2
+    bound = planner._reach[agents]  # bounding circle + margin / 2
     pos = (world.state[agents, 0] + 1j * world.state[agents, 1]).astype(np.complex64)
     flat = np.concatenate([pts.reshape(len(agents), -1), pos[:, None]], axis=1)
     lo_x, hi_x = flat.real.min(1) - bound, flat.real.max(1) + bound

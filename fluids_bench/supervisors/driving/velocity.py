@@ -155,9 +155,9 @@ class VelocityPlanner:
         if not len(ii):
             return empty
         pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
-        bound = self._bound[agents] + self.config.margin / 2
-        pos = (world.state[agents, 0] + 1j * world.state[agents, 1]).astype(np.complex64)
-        offs, radius = self._offs[agents].astype(np.float32), self._radius[agents]
+        bound = self._reach[agents]
+        pos = world.position[agents].astype(np.complex64)
+        offs, radius = self._offs32[agents], self._radius[agents]
         now = pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]  # (A, 3)
         d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
         # the smaller car-pedestrian clearance applies once the walker is on the crossing
@@ -193,7 +193,9 @@ class VelocityPlanner:
             return
         self._bound_world = world
         self._offs, self._radius = _circle_layout(world)
-        self._bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
+        self._offs32 = self._offs.astype(np.float32)
+        bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
+        self._reach = bound + self.config.margin / 2  # bounding circle plus half the clearance
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
         steps = int(round(self.config.horizon / world.dt))
