@@ -1,1 +1,2 @@
-"""The FLUIDS simulator: numpy and shapely only (no gymnasium import)."""
+"""The FLUIDS simulator: numpy arrays, shapely geometry and numba-compiled per-step loops (no
+gymnasium import)."""

@@ -1,12 +1,12 @@
-"""Collision checking: a numpy broad phase, then Shapely 2's vectorised predicates.
+"""Collision checking: a compiled broad phase, then Shapely 2's vectorised predicates.
 
 Kinds logged: ``car-car``, ``car-pedestrian`` and ``offroad`` (a car's footprint leaves the
 drivable area, i.e. touches terrain or a sidewalk). Pedestrians brushing past each other is not
 a collision.
 
 Pairs are first culled by covering circles (three along each car, one per pedestrian: they
-contain the footprint, so disjoint circles prove no contact) in one array expression over all
-pairs; only pairs whose circles meet become Shapely polygons, tested with one array call of
+contain the footprint, so disjoint circles prove no contact) in one compiled loop over all
+pairs (:func:`fluids_bench.sim.kernels.touching_pairs`); only pairs whose circles meet become Shapely polygons, tested with one array call of
 ``shapely.intersects``. At the scene sizes FLUIDS runs (tens of agents) this beats building an
 STRtree every step; :func:`find_collisions_strtree` is the tree-based equivalent, used by the
 tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
@@ -19,6 +19,8 @@ from __future__ import annotations
 
 import numpy as np
 import shapely
+
+from fluids_bench.sim import kernels
 
 OFFROAD_TOLERANCE = 0.25  # m a footprint may overhang the kerb (a wheel on the kerb line)
 KINDS = ("car-car", "car-pedestrian", "offroad")
@@ -48,25 +50,12 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
     ``state`` (N, 4) holds [x, y, θ, v]; ``drivable_tolerant`` is the prepared drivable area
     grown by :data:`OFFROAD_TOLERANCE` and ``boundary`` its boundary's vertices (complex).
     ``offroad_candidates`` (bool, N) limits the off-road test to the cars the caller cannot
-    vouch for (default: every active car). Works on whole arrays with masks (no subsetting), so
-    its cost hardly depends on how many agents are still driving.
+    vouch for (default: every active car).
     """
     n = len(state)
     out: list[tuple[int, int, str]] = []
-    centre = np.ascontiguousarray(state).view(np.complex128)[:, 0]  # x + iy
-    # broad phase 1: circumscribed circles, all pairs at once (most steps stop here)
-    gap = centre[:, None] - centre[None, :]
-    near = gap.real**2 + gap.imag**2 < _pair_reach2(is_car, length, width)
-    near &= np.logical_and.outer(active, active)
-    a, b = near.nonzero()
-    heading = np.exp(1j * state[:, 2]) if len(a) or offroad_candidates is None or offroad_candidates.any() else None
-    if len(a):
-        # broad phase 2: three covering circles per car, centred at -1/3, 0, +1/3 of its length
-        circles = centre[:, None] + (np.where(is_car, length / 3, 0.0) * heading)[:, None] * _THIRDS
-        radius = np.hypot(np.where(is_car, length / 6, length / 2), width / 2)
-        g = circles[a][:, :, None] - circles[b][:, None, :]
-        near = (g.real**2 + g.imag**2).min(axis=(1, 2)) < (radius[a] + radius[b]) ** 2
-        a, b = a[near], b[near]
+    state = np.ascontiguousarray(state, dtype=np.float64)
+    a, b = kernels.touching_pairs(state, np.asarray(active, dtype=bool), *_covering(is_car, length, width))
     if len(a):
         involved = np.unique(np.concatenate([a, b]))
         corners = footprint_corners(state[involved, 0], state[involved, 1], state[involved, 2],
@@ -78,30 +67,35 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
     cars = (is_car & active if offroad_candidates is None else offroad_candidates).nonzero()[0]
     if len(cars):
         hl, hw = length[cars, None] / 2, width[cars, None] / 2
-        corners = centre[cars, None] + heading[cars, None] * (_CORNERS_C.real * hl + 1j * _CORNERS_C.imag * hw)
+        centre = state.view(np.complex128)[cars, 0]  # x + iy
+        heading = np.exp(1j * state[cars, 2])
+        corners = centre[:, None] + heading[:, None] * (_CORNERS_C.real * hl + 1j * _CORNERS_C.imag * hw)
         inside = shapely.contains_xy(drivable_tolerant, corners.real.ravel(), corners.imag.ravel())
         off = ~inside.reshape(len(cars), -1).all(axis=1)
-        local = (boundary[None, :] - centre[cars, None]) * heading[cars, None].conj()  # car frames
+        local = (boundary[None, :] - centre[:, None]) * heading[:, None].conj()  # car frames
         off |= ((np.abs(local.real) < hl) & (np.abs(local.imag) < hw)).any(axis=1)
         out.extend((int(i), -1, "offroad") for i in cars[off])
     return out
 
 
-_THIRDS = np.array([-1.0, 0.0, 1.0])
 _CORNERS_C = _CORNERS[:, 0] + 1j * _CORNERS[:, 1]
-_PAIR_REACH2: dict[bytes, np.ndarray] = {}
+_COVERING: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
-def _pair_reach2(is_car: np.ndarray, length: np.ndarray, width: np.ndarray) -> np.ndarray:
-    """(N, N) squared sum of circumscribed radii for pairs i < j with at least one car, -1 for
-    the others (so no distance passes), cached per agent make-up."""
+def _covering(is_car: np.ndarray, length: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, ...]:
+    """The broad phase's geometry, cached per agent make-up: (N, N) squared sum of circumscribed
+    radii for pairs i < j with at least one car (-1 for the others, so no distance passes), and
+    the covering circles (offsets (N, 3) m along the heading at -1/3, 0, +1/3 of a car's
+    length; radius (N,) m; one circle per pedestrian)."""
     key = is_car.tobytes() + length.tobytes() + width.tobytes()
-    if key not in _PAIR_REACH2:
+    if key not in _COVERING:
         half_diag = 0.5 * np.hypot(length, width)
         reach = half_diag[:, None] + half_diag[None, :]
         pairs = np.triu(is_car[:, None] | is_car[None, :], k=1)
-        _PAIR_REACH2[key] = np.where(pairs, reach * reach, -1.0)
-    return _PAIR_REACH2[key]
+        offsets = np.outer(np.where(is_car, length / 3, 0.0), [-1.0, 0.0, 1.0])
+        radius = np.hypot(np.where(is_car, length / 6, length / 2), width / 2)
+        _COVERING[key] = (np.where(pairs, reach * reach, -1.0), offsets, radius)
+    return _COVERING[key]
 
 
 def find_collisions_strtree(state, length, width, is_car, active, drivable_tolerant) -> list[tuple[int, int, str]]:

@@ -11,9 +11,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fluids_bench.sim import kernels
 from fluids_bench.sim.collision import find_collisions, footprint_corners
 from fluids_bench.sim.config import SceneConfig
-from fluids_bench.sim.dynamics import integrate
+from fluids_bench.sim.dynamics import advance
 from fluids_bench.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
 from fluids_bench.sim.layout.geometry import PATH_SPACING
 from fluids_bench.sim.lights import LightProgram
@@ -79,15 +80,13 @@ class World:
         self.log: list[Collision] = []
         self.light_state = self.lights.states(0.0)
         self.nearest = np.zeros(n, dtype=np.int64)  # path sample nearest each agent (progress)
-        self._window = np.arange(-3, 9)  # path samples searched around the last progress
         self._row_start = np.arange(n)[:, None] * width  # flat index of each agent's path start
-        self._rows = np.arange(n)
         # covering circles of car footprints (centre offsets along the heading, and radius), and
         # the path sample offset nearest each, for the quick on-road test
         thirds = np.outer(np.where(self.is_car, self.length / 3, 0.0), [-1.0, 0.0, 1.0])
         self._circle_offsets = thirds
         self._circle_samples = np.rint(thirds / PATH_SPACING).astype(np.int64)
-        self._circle_radius = np.hypot(self.length / 6, self.width / 2)[:, None]
+        self._circle_radius = np.hypot(self.length / 6, self.width / 2)
 
     # ----------------------------------------------------------------------------- placement
     def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
@@ -174,8 +173,8 @@ class World:
     def step(self, controls: np.ndarray) -> list[Collision]:
         """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
         act = self.active
-        new = integrate(self.state, controls, self.is_car, self.params, self.dt)
-        np.copyto(self.state, new, where=act[:, None])
+        advance(self.state, np.ascontiguousarray(controls, dtype=np.float64), self.is_car,
+                        self.params, self.dt, act)
         self.time = round(self.time + self.dt, 9)
         self.steps += 1
         self.light_state = self.lights.states(self.time)
@@ -189,37 +188,17 @@ class World:
 
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an
-        agent moves at most a few samples per step)."""
-        k = np.rint(self.s / PATH_SPACING).astype(np.int64)[:, None] + self._window
-        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
-        k += self._row_start  # flat indices
-        pos = self.position
-        paths = self.path_z.ravel()
-        d = paths.take(k) - pos[:, None]
-        best = k[self._rows, (d.real * d.real + d.imag * d.imag).argmin(axis=1)]
-        h = self.path_heading.ravel().take(best)
-        off = pos - paths.take(best)
-        best -= self._row_start[:, 0]
-        self.nearest = best
-        ch, sh = np.cos(h), np.sin(h)
-        along = np.minimum(np.maximum(off.real * ch + off.imag * sh, -PATH_SPACING / 2), PATH_SPACING / 2)
-        s = np.minimum(best * PATH_SPACING + along, self.path_len)
-        self.s = np.where(self.active, s, self.s)
-        # by-products for the supervisor: signed lateral offset and heading error from the path
-        self.lateral_error = off.imag * ch - off.real * sh
-        self.heading_error = (self.state[:, 2] - h + np.pi) % (2 * np.pi) - np.pi
+        agent moves at most a few samples per step); see :func:`kernels.progress`."""
+        self.s, self.nearest, self.lateral_error, self.heading_error = kernels.progress(
+            self.state, self.s, self.active, self.path_z, self.path_heading, self.path_len,
+            PATH_SPACING, -3, 9)
 
     def surely_on_road(self) -> np.ndarray:
         """Cars whose footprint is certainly inside the (tolerant) drivable area: each of its
         three covering circles lies within the clearance of the path point nearest it. Cheap,
         and true for nearly every car following its path; the others get the exact test."""
-        heading = np.exp(1j * self.state[:, 2])
-        centres = self.position[:, None] + self._circle_offsets * heading[:, None]
-        k = self.nearest[:, None] + self._circle_samples
-        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
-        k += self._row_start
-        reach = np.abs(centres - self.path_z.ravel().take(k)) + self._circle_radius
-        return (reach < self.path_clearance.ravel().take(k)).all(axis=1)
+        return kernels.surely_on_road(self.state, self.nearest, self._circle_offsets, self._circle_samples,
+                                      self._circle_radius, self.path_z, self.path_clearance)
 
     def _collisions(self) -> list[Collision]:
         found = find_collisions(self.state, self.length, self.width, self.is_car, self.active,

@@ -7,8 +7,8 @@ touches only what it needs. The PID loops are a few dozen scalar operations per 
 compiled than as numpy calls on 16-element arrays. The arithmetic is the numpy version's,
 operation for operation and in the same precision (float32 positions, float64 thresholds, no
 fused multiply-add), so results are bit-identical to it
-(``tests/supervisors/test_supervisor_kernels.py`` keeps those references). The simulator itself
-(``fluids_bench.sim``) stays numpy + shapely.
+(``tests/supervisors/test_supervisor_kernels.py`` keeps those references). The simulator's own
+loops are in :mod:`fluids_bench.sim.kernels`.
 """
 
 from __future__ import annotations
