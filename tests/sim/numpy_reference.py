@@ -80,3 +80,44 @@ def touching_pairs(state, length, width, is_car, active):
     g = circles[a][:, :, None] - circles[b][:, None, :]
     near = (g.real**2 + g.imag**2).min(axis=(1, 2)) < (radius[a] + radius[b]) ** 2
     return a[near], b[near]
+
+
+def explicit(world, k_nearest, ego=0):
+    """The noiseless explicit observation (float64) as ``ExplicitSensor`` computed it."""
+    from fluids_bench.sim.layout.compiled import PEDESTRIAN
+    from fluids_bench.sim.sensors.explicit import EGO, GOAL, PER_AGENT, explicit_size
+
+    out = np.zeros(explicit_size(k_nearest), dtype=np.float64)
+    state = world.state
+    x, y, th, v = state[ego].tolist()
+    c, s = float(np.cos(th)), float(np.sin(th))
+    goal = world.path_z[ego, int(round(world.path_len[ego] / 0.5))]
+    dx, dy = goal.real - x, goal.imag - y
+    out[: EGO + GOAL] = (x, y, c, s, v, c * dx + s * dy, -s * dx + c * dy, float(world.path_len[ego] - world.s[ego]))
+    seen = world.active.copy()
+    seen[ego] = False
+    others = seen.nonzero()[0]
+    if len(others):
+        rel = state[others, :2] - (x, y)
+        order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")[:k_nearest]
+        idx, rel = others[order], rel[order]
+        dth = state[idx, 2] - th
+        rows = out[EGO + GOAL : EGO + GOAL + PER_AGENT * len(idx)].reshape(-1, PER_AGENT)
+        rows[:, 0] = c * rel[:, 0] + s * rel[:, 1]
+        rows[:, 1] = -s * rel[:, 0] + c * rel[:, 1]
+        rows[:, 2] = np.cos(dth)
+        rows[:, 3] = np.sin(dth)
+        rows[:, 4] = state[idx, 3]
+        rows[:, 5] = world.kind[idx] == PEDESTRIAN
+        rows[:, 6] = 1.0
+    base = EGO + GOAL + PER_AGENT * k_nearest
+    routes = world.layout.routes
+    r = world.route[ego]
+    light = routes.light[r]
+    gap = float(routes.stop_s[r] - (world.s[ego] + world.offset[ego] + world.length[ego] / 2))
+    if light >= 0 and gap > -0.5:
+        out[base + int(world.light_state[light])] = 1.0
+        out[base + 4] = max(gap, 0.0)
+    else:
+        out[base + 3] = 1.0
+    return out

@@ -1,4 +1,4 @@
-"""The simulator's compiled loops against the numpy formulations they replaced, bit for bit.
+"""The simulator's compiled loops (world step, explicit observation) against the numpy formulations they replaced, bit for bit.
 
 States come from seeded supervised episodes on every layout builder, every few steps, with
 agents often jostled off their paths and into each other, so that near misses, collisions and
@@ -15,6 +15,7 @@ from fluids_bench.sim import kernels
 from fluids_bench.sim.collision import _covering
 from fluids_bench.sim.config import SceneConfig
 from fluids_bench.sim.dynamics import integrate
+from fluids_bench.sim.sensors.explicit import ExplicitSensor
 from fluids_bench.supervisors.driving.episode import make_world
 from fluids_bench.supervisors.driving.stack import DrivingSupervisor
 
@@ -57,6 +58,11 @@ def test_world_kernels_equal_the_numpy_reference(layout, seed):
         np.testing.assert_array_equal(a, ra)
         np.testing.assert_array_equal(b, rb)
         pairs_seen += len(a)
+        # the explicit observation, of several agents, with more and fewer slots than others
+        for ego in (0, 1, w.n - 1):
+            for k in (3, 16):
+                got = ExplicitSensor(k).observe(w, rng, ego)
+                np.testing.assert_array_equal(got, ref.explicit(w, k, ego).astype(np.float32))
     assert pairs_seen > 0 and unsure_seen > 0  # the comparison saw contacts and cars off the road
 
 

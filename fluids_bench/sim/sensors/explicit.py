@@ -9,7 +9,8 @@ Layout, all in SI units, positions and headings of others in the ego's frame (x 
 * light (5): one-hot of go / caution / stop / none for the ego's own signal, and the distance
   from the ego's front to its stop line (m, 0 once past it or without a light)
 
-Optional zero-mean Gaussian noise with variance ``noise_var`` is added to every continuous entry
+The noiseless vector is filled in one compiled pass (:func:`kernels.fill_explicit`). Optional
+zero-mean Gaussian noise with variance ``noise_var`` is added to every continuous entry
 (not to masks or one-hots), drawn from the generator passed in.
 """
 
@@ -17,10 +18,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from fluids_bench.sim.layout.compiled import PEDESTRIAN
+from fluids_bench.sim.layout.geometry import PATH_SPACING
+from fluids_bench.sim.sensors.kernels import EGO, GOAL, LIGHT, PER_AGENT, fill_explicit
 from fluids_bench.sim.world import World
-
-EGO, GOAL, PER_AGENT, LIGHT = 5, 3, 7, 5
 
 
 def explicit_size(k_nearest: int) -> int:
@@ -45,40 +45,10 @@ class ExplicitSensor:
 
     def observe(self, world: World, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
         out = np.zeros(self.size, dtype=np.float64)
-        state = world.state
-        # scalars as Python floats: the same IEEE arithmetic, without numpy's per-call cost
-        x, y, th, v = state[ego].tolist()
-        c, s = float(np.cos(th)), float(np.sin(th))
-        goal = world.path_z[ego, int(round(world.path_len[ego] / 0.5))]
-        dx, dy = goal.real - x, goal.imag - y
-        out[: EGO + GOAL] = (x, y, c, s, v, c * dx + s * dy, -s * dx + c * dy,
-                             float(world.path_len[ego] - world.s[ego]))
-        seen = world.active.copy()
-        seen[ego] = False
-        others = seen.nonzero()[0]
-        if len(others):
-            rel = state[others, :2] - (x, y)
-            order = np.argsort(np.hypot(rel[:, 0], rel[:, 1]), kind="stable")[: self.k]
-            idx, rel = others[order], rel[order]
-            dth = state[idx, 2] - th
-            rows = out[EGO + GOAL : EGO + GOAL + PER_AGENT * len(idx)].reshape(-1, PER_AGENT)
-            rows[:, 0] = c * rel[:, 0] + s * rel[:, 1]
-            rows[:, 1] = -s * rel[:, 0] + c * rel[:, 1]
-            rows[:, 2] = np.cos(dth)
-            rows[:, 3] = np.sin(dth)
-            rows[:, 4] = state[idx, 3]
-            rows[:, 5] = world.kind[idx] == PEDESTRIAN
-            rows[:, 6] = 1.0
-        base = EGO + GOAL + PER_AGENT * self.k
         routes = world.layout.routes
-        r = world.route[ego]
-        light = routes.light[r]
-        gap = float(routes.stop_s[r] - (world.s[ego] + world.offset[ego] + world.length[ego] / 2))
-        if light >= 0 and gap > -0.5:
-            out[base + int(world.light_state[light])] = 1.0
-            out[base + 4] = max(gap, 0.0)
-        else:
-            out[base + 3] = 1.0
+        fill_explicit(out, world.state, world.active, world.kind, world.path_z,
+                      world.path_len, world.s, world.offset, world.length, world.route, routes.light,
+                      routes.stop_s, world.light_state, ego, self.k, PATH_SPACING)
         if self.noise_std > 0:
             out[self.noise_mask] += rng.normal(0.0, self.noise_std, int(self.noise_mask.sum()))
         return out.astype(np.float32)

@@ -1,4 +1,8 @@
-"""Compiled inner loops of the sensors (numba): the quasi-LIDAR's ray casting.
+"""Compiled inner loops of the sensors (numba): the explicit observation and the quasi-LIDAR's
+ray casting.
+
+The explicit observation is a few scalar operations per agent plus a nearest-first sort; as
+numpy calls on arrays of tens of elements it cost ~100 µs a step, compiled a few µs.
 
 A quasi-LIDAR reading tests a few dozen rays against a dozen agents and a few dozen kerb
 segments: a few thousand tiny ray-versus-shape tests per call. As numpy operations over
@@ -20,6 +24,11 @@ import math
 
 import numpy as np
 from numba import njit
+
+from fluids_bench.sim.layout.compiled import PEDESTRIAN
+
+# lengths of the explicit observation's blocks: ego, goal, each of the k nearest agents, light
+EGO, GOAL, PER_AGENT, LIGHT = 5, 3, 7, 5
 
 
 @njit(cache=True, nogil=True)
@@ -142,3 +151,46 @@ def qlidar_cast(state, active, length, width, is_car, ego, cos_k, sin_k, max_ran
         out[k, 2] = (heading - th + half) % (2 * half) - half
         out[k, 3] = speed - v
     return out
+
+
+@njit(cache=True, nogil=True)
+def fill_explicit(out, state, active, kind, path_z, path_len, s, offset, length, route,
+                  route_light, stop_s, light_state, ego, k, spacing):  # pragma: no cover (compiled)
+    """Writes the noiseless observation of agent ``ego`` into ``out`` (zeros, float64)."""
+    x, y, th, v = state[ego, 0], state[ego, 1], state[ego, 2], state[ego, 3]
+    c, sn = math.cos(th), math.sin(th)
+    goal = path_z[ego, np.int64(np.rint(path_len[ego] / spacing))]
+    dx, dy = goal.real - x, goal.imag - y
+    out[0], out[1], out[2], out[3], out[4] = x, y, c, sn, v
+    out[5], out[6], out[7] = c * dx + sn * dy, -sn * dx + c * dy, path_len[ego] - s[ego]
+    # the k nearest other active agents, nearest first (ties by index: a stable insertion sort)
+    others = np.empty(len(state), np.int64)
+    dist = np.empty(len(state))
+    n = 0
+    for j in range(len(state)):
+        if not active[j] or j == ego:
+            continue
+        d = math.hypot(state[j, 0] - x, state[j, 1] - y)
+        m = n
+        while m > 0 and dist[m - 1] > d:
+            dist[m], others[m] = dist[m - 1], others[m - 1]
+            m -= 1
+        dist[m], others[m] = d, j
+        n += 1
+    row = EGO + GOAL
+    for j in others[: min(n, k)]:
+        rx, ry = state[j, 0] - x, state[j, 1] - y
+        out[row], out[row + 1] = c * rx + sn * ry, -sn * rx + c * ry
+        out[row + 2], out[row + 3] = math.cos(state[j, 2] - th), math.sin(state[j, 2] - th)
+        out[row + 4], out[row + 5], out[row + 6] = state[j, 3], 1.0 if kind[j] == PEDESTRIAN else 0.0, 1.0
+        row += PER_AGENT
+    # the ego's own light: one-hot of its state and the gap to the stop line, or "none"
+    base = EGO + GOAL + PER_AGENT * k
+    r = route[ego]
+    light = route_light[r]
+    gap = stop_s[r] - (s[ego] + offset[ego] + length[ego] / 2)
+    if light >= 0 and gap > -0.5:
+        out[base + light_state[light]] = 1.0
+        out[base + 4] = max(gap, 0.0)
+    else:
+        out[base + 3] = 1.0
