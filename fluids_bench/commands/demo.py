@@ -46,6 +46,20 @@ def _write_png(path: Path, frame) -> None:
         raise FileNotFoundError(f"could not write {path}")
 
 
+def _load_kernels(layout: str) -> None:
+    """A few throwaway steps, so that loading the compiled kernels (compiling them, on a
+    machine's first run: a few seconds) is not counted in the episode's steps per second."""
+    import gymnasium as gym
+
+    env = gym.make("FLUIDS-v0", layout=layout)
+    _, info = env.reset(seed=0)
+    for _ in range(10):
+        _, _, terminated, truncated, info = env.step(info["supervisor_action"])
+        if terminated or truncated:
+            break
+    env.close()
+
+
 def run(args: argparse.Namespace) -> int:
     import gymnasium as gym
     import imageio.v2 as imageio
@@ -59,6 +73,7 @@ def run(args: argparse.Namespace) -> int:
     env = gym.make(
         "FLUIDS-v0", layout=args.layout, render_mode="rgb_array", max_episode_steps=args.steps
     )
+    _load_kernels(args.layout)
     obs, info = env.reset(seed=args.seed)
     sim = env.unwrapped
     centre = np.mean(np.reshape(sim.world.layout.bounds, (2, 2)), axis=0)
