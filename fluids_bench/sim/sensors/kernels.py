@@ -154,6 +154,21 @@ def qlidar_cast(state, active, length, width, is_car, ego, cos_k, sin_k, max_ran
 
 
 @njit(cache=True, nogil=True)
+def qlidar_noise(reading, noise, dropped, max_range, speed_bound):  # pragma: no cover (compiled)
+    """Apply drawn noise to a quasi-LIDAR ``reading`` (m, 4), in place: ``noise`` (m, 3) is added
+    to distance (then clipped to [0, max_range]), angle (wrapped to [-π, π)) and speed (clipped
+    to ±speed_bound); rays where ``dropped`` (m,) read as empty. Either may be empty (m = 0
+    rows: that source is off). ``np.clip``'s rules, so bit-identical to the array version."""
+    for r in range(len(noise)):
+        reading[r, 0] = _minimum(_maximum(reading[r, 0] + noise[r, 0], 0.0), max_range)
+        reading[r, 2] = (reading[r, 2] + noise[r, 1] + math.pi) % (2 * math.pi) - math.pi
+        reading[r, 3] = _minimum(_maximum(reading[r, 3] + noise[r, 2], -speed_bound), speed_bound)
+    for r in range(len(dropped)):
+        if dropped[r]:
+            reading[r, 0], reading[r, 1], reading[r, 2], reading[r, 3] = max_range, 0.0, 0.0, 0.0  # nothing
+
+
+@njit(cache=True, nogil=True)
 def fill_explicit(out, state, active, kind, path_z, path_len, s, offset, length, route,
                   route_light, stop_s, light_state, ego, k, spacing):  # pragma: no cover (compiled)
     """Writes the noiseless observation of agent ``ego`` into ``out`` (zeros, float64)."""

@@ -33,7 +33,7 @@ import numpy as np
 import shapely
 
 from fluids_bench.sim.layout.compiled import Layout
-from fluids_bench.sim.sensors.kernels import qlidar_cast
+from fluids_bench.sim.sensors.kernels import qlidar_cast, qlidar_noise
 
 LABELS = ("nothing", "car", "pedestrian", "road_edge")
 NOTHING, CAR_HIT, PEDESTRIAN_HIT, EDGE_HIT = range(4)
@@ -80,10 +80,6 @@ def road_edges(layout: Layout) -> RoadEdges:
     return edges
 
 
-def _wrap(angle: np.ndarray) -> np.ndarray:
-    return (angle + math.pi) % (2 * math.pi) - math.pi
-
-
 class QLidarSensor:
     """``rays`` rays of ``max_range`` metres; ``noise_var`` is λ_l and ``dropout`` is ε.
 
@@ -109,7 +105,6 @@ class QLidarSensor:
         self._cos, self._sin = np.cos(self.offsets), np.sin(self.offsets)
         self.edges = road_edges(layout)
         self.shape = (self.rays, 4)
-        self._empty = np.array([self.max_range, NOTHING, 0.0, 0.0])
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -138,11 +133,13 @@ class QLidarSensor:
 
     def observe(self, world, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
         out = self.cast(world, ego)
-        if self.noise_std > 0:
-            noise = rng.standard_normal((self.rays, 3)) * self.noise_std
-            out[:, 0] = np.clip(out[:, 0] + noise[:, 0], 0.0, self.max_range)
-            out[:, 2] = _wrap(out[:, 2] + noise[:, 1])
-            out[:, 3] = np.clip(out[:, 3] + noise[:, 2], -self.speed_bound, self.speed_bound)
-        if self.dropout > 0:
-            out[rng.random(self.rays) < self.dropout] = self._empty
+        if self.noise_std > 0 or self.dropout > 0:
+            # the draws, in this order, from the caller's generator; applied by a compiled loop
+            noise = rng.standard_normal((self.rays, 3)) * self.noise_std if self.noise_std > 0 else _NONE
+            dropped = rng.random(self.rays) < self.dropout if self.dropout > 0 else _NONE_DROPPED
+            qlidar_noise(out, noise, dropped, self.max_range, self.speed_bound)
         return out.astype(np.float32)
+
+
+_NONE = np.zeros((0, 3))
+_NONE_DROPPED = np.zeros(0, dtype=bool)
