@@ -6,10 +6,10 @@ a collision.
 
 Pairs are first culled by covering circles (three along each car, one per pedestrian: they
 contain the footprint, so disjoint circles prove no contact) in one compiled loop over all
-pairs (:func:`fluids_bench.sim.kernels.touching_pairs`); only pairs whose circles meet become Shapely polygons, tested with one array call of
-``shapely.intersects``. At the scene sizes FLUIDS runs (tens of agents) this beats building an
-STRtree every step; :func:`find_collisions_strtree` is the tree-based equivalent, used by the
-tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
+pairs (:func:`fluids_bench.sim.kernels.touching_pairs`); only pairs whose circles meet become
+Shapely polygons, tested with one array call of ``shapely.intersects``. At the scene sizes
+FLUIDS runs (tens of agents) this beats building an STRtree every step;
+:func:`find_collisions_strtree` is the tree-based equivalent, used by the tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
 the (slightly grown) drivable area iff its four corners do (one ``contains_xy`` call) and no
 vertex of that area's boundary lies inside the rectangle (the only way the boundary can cut in
 between inside corners).
@@ -55,7 +55,8 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
     n = len(state)
     out: list[tuple[int, int, str]] = []
     state = np.ascontiguousarray(state, dtype=np.float64)
-    a, b = kernels.touching_pairs(state, np.asarray(active, dtype=bool), *_covering(is_car, length, width))
+    circles = covering_circles(is_car, length, width)
+    a, b = kernels.touching_pairs(state, np.asarray(active, dtype=bool), *circles)
     if len(a):
         involved = np.unique(np.concatenate([a, b]))
         corners = footprint_corners(state[involved, 0], state[involved, 1], state[involved, 2],
@@ -79,23 +80,24 @@ def find_collisions(state: np.ndarray, length: np.ndarray, width: np.ndarray, is
 
 
 _CORNERS_C = _CORNERS[:, 0] + 1j * _CORNERS[:, 1]
-_COVERING: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
+_COVERING_CIRCLES: dict[bytes, tuple[np.ndarray, np.ndarray, np.ndarray]] = {}
 
 
-def _covering(is_car: np.ndarray, length: np.ndarray, width: np.ndarray) -> tuple[np.ndarray, ...]:
+def covering_circles(is_car: np.ndarray, length: np.ndarray,
+                     width: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The broad phase's geometry, cached per agent make-up: (N, N) squared sum of circumscribed
     radii for pairs i < j with at least one car (-1 for the others, so no distance passes), and
     the covering circles (offsets (N, 3) m along the heading at -1/3, 0, +1/3 of a car's
     length; radius (N,) m; one circle per pedestrian)."""
     key = is_car.tobytes() + length.tobytes() + width.tobytes()
-    if key not in _COVERING:
+    if key not in _COVERING_CIRCLES:
         half_diag = 0.5 * np.hypot(length, width)
         reach = half_diag[:, None] + half_diag[None, :]
         pairs = np.triu(is_car[:, None] | is_car[None, :], k=1)
         offsets = np.outer(np.where(is_car, length / 3, 0.0), [-1.0, 0.0, 1.0])
         radius = np.hypot(np.where(is_car, length / 6, length / 2), width / 2)
-        _COVERING[key] = (np.where(pairs, reach * reach, -1.0), offsets, radius)
-    return _COVERING[key]
+        _COVERING_CIRCLES[key] = (np.where(pairs, reach * reach, -1.0), offsets, radius)
+    return _COVERING_CIRCLES[key]
 
 
 def find_collisions_strtree(state, length, width, is_car, active, drivable_tolerant) -> list[tuple[int, int, str]]:

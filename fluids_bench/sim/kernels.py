@@ -66,7 +66,8 @@ def surely_on_road(state, nearest, offsets, samples, radius, path_z, clearance):
         out[i] = True
         for j in range(3):
             k = min(max(nearest[i] + samples[i, j], 0), width - 1)
-            gap = math.hypot(x + offsets[i, j] * c - path_z[i, k].real, y + offsets[i, j] * s - path_z[i, k].imag)
+            gap = math.hypot(x + offsets[i, j] * c - path_z[i, k].real,
+                             y + offsets[i, j] * s - path_z[i, k].imag)
             if not gap + radius[i] < clearance[i, k]:
                 out[i] = False
                 break

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fluids_bench.sim import kernels
-from fluids_bench.sim.collision import find_collisions, footprint_corners
+from fluids_bench.sim.collision import covering_circles, find_collisions, footprint_corners
 from fluids_bench.sim.config import SceneConfig
 from fluids_bench.sim.dynamics import advance
 from fluids_bench.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
@@ -21,6 +21,7 @@ from fluids_bench.sim.lights import LightProgram
 
 GOAL_TOLERANCE = 0.5  # m between an arriving agent's front and the end of its path
 RECOVERY_ROOM = 160  # extra path samples per agent, for recovery paths longer than the route
+PROGRESS_WINDOW = (-3, 9)  # path samples searched around the last progress: 3 back, 8 ahead
 
 
 @dataclass(frozen=True)
@@ -81,12 +82,11 @@ class World:
         self.light_state = self.lights.states(0.0)
         self.nearest = np.zeros(n, dtype=np.int64)  # path sample nearest each agent (progress)
         self._row_start = np.arange(n)[:, None] * width  # flat index of each agent's path start
-        # covering circles of car footprints (centre offsets along the heading, and radius), and
-        # the path sample offset nearest each, for the quick on-road test
-        thirds = np.outer(np.where(self.is_car, self.length / 3, 0.0), [-1.0, 0.0, 1.0])
-        self._circle_offsets = thirds
-        self._circle_samples = np.rint(thirds / PATH_SPACING).astype(np.int64)
-        self._circle_radius = np.hypot(self.length / 6, self.width / 2)
+        # the footprints' covering circles (as the collision check's), and the path sample
+        # offset nearest each, for the quick on-road test
+        circles = covering_circles(self.is_car, self.length, self.width)
+        _, self._circle_offsets, self._circle_radius = circles
+        self._circle_samples = np.rint(self._circle_offsets / PATH_SPACING).astype(np.int64)
 
     # ----------------------------------------------------------------------------- placement
     def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
@@ -173,8 +173,8 @@ class World:
     def step(self, controls: np.ndarray) -> list[Collision]:
         """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
         act = self.active
-        advance(self.state, np.ascontiguousarray(controls, dtype=np.float64), self.is_car,
-                        self.params, self.dt, act)
+        advance(self.state, np.ascontiguousarray(controls, dtype=np.float64), self.is_car, self.params,
+                self.dt, act)
         self.time = round(self.time + self.dt, 9)
         self.steps += 1
         self.light_state = self.lights.states(self.time)
@@ -191,7 +191,7 @@ class World:
         agent moves at most a few samples per step); see :func:`kernels.progress`."""
         self.s, self.nearest, self.lateral_error, self.heading_error = kernels.progress(
             self.state, self.s, self.active, self.path_z, self.path_heading, self.path_len,
-            PATH_SPACING, -3, 9)
+            PATH_SPACING, *PROGRESS_WINDOW)
 
     def surely_on_road(self) -> np.ndarray:
         """Cars whose footprint is certainly inside the (tolerant) drivable area: each of its

@@ -31,7 +31,7 @@ def progress(world):
     """(s, nearest, lateral error, heading error) as ``World._update_progress`` computed them."""
     w = world
     width = w.path_z.shape[1]
-    k = np.rint(w.s / PATH_SPACING).astype(np.int64)[:, None] + np.arange(-3, 9)
+    k = np.rint(w.s / PATH_SPACING).astype(np.int64)[:, None] + np.arange(-3, 9)  # the window
     np.minimum(np.maximum(k, 0, out=k), width - 1, out=k)
     row_start = np.arange(w.n)[:, None] * width
     k += row_start

@@ -12,10 +12,12 @@ import numpy_reference as ref
 import pytest
 
 from fluids_bench.sim import kernels
-from fluids_bench.sim.collision import _covering
+from fluids_bench.sim.collision import covering_circles
 from fluids_bench.sim.config import SceneConfig
 from fluids_bench.sim.dynamics import integrate
+from fluids_bench.sim.layout.geometry import PATH_SPACING
 from fluids_bench.sim.sensors.explicit import ExplicitSensor
+from fluids_bench.sim.world import PROGRESS_WINDOW
 from fluids_bench.supervisors.driving.episode import make_world
 from fluids_bench.supervisors.driving.stack import DrivingSupervisor
 
@@ -45,15 +47,15 @@ def test_world_kernels_equal_the_numpy_reference(layout, seed):
         want = np.where(active[:, None], ref.integrate(w.state, controls, w.is_car, w.params, w.dt), w.state)
         np.testing.assert_array_equal(integrate(w.state, controls, w.is_car, w.params, w.dt, active), want)
         # progress along the paths
-        got = kernels.progress(w.state, w.s, w.active, w.path_z, w.path_heading, w.path_len, 0.5, -3, 9)
+        got = kernels.progress(w.state, w.s, w.active, w.path_z, w.path_heading, w.path_len, PATH_SPACING, *PROGRESS_WINDOW)
         for g, r in zip(got, ref.progress(w), strict=True):
             np.testing.assert_array_equal(g, r)
         # the quick on-road test
         sure = w.surely_on_road()
-        np.testing.assert_array_equal(sure, ref.surely_on_road(w))
+        np.testing.assert_array_equal(sure[w.is_car], ref.surely_on_road(w)[w.is_car])  # cars only
         unsure_seen += int((~sure & w.is_car & w.active).sum())
         # the collision broad phase
-        a, b = kernels.touching_pairs(w.state, w.active, *_covering(w.is_car, w.length, w.width))
+        a, b = kernels.touching_pairs(w.state, w.active, *covering_circles(w.is_car, w.length, w.width))
         ra, rb = ref.touching_pairs(w.state, w.length, w.width, w.is_car, w.active)
         np.testing.assert_array_equal(a, ra)
         np.testing.assert_array_equal(b, rb)
