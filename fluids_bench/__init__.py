@@ -4,7 +4,7 @@ Importing the package registers every environment id with Gymnasium, so
 ``gym.make("FLUIDS-v0")`` works after ``import fluids_bench``.
 """
 
-from fluids_bench.envs.registration import register_envs
+from fluids_bench.registration import register_envs
 
 __version__ = "0.1.0"
 

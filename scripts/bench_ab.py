@@ -54,7 +54,9 @@ def main() -> None:
     parser.add_argument("--base", required=True, help="git revision to compare against")
     parser.add_argument("--runs", type=int, default=5, help="alternated runs of each version")
     parser.add_argument("--core", type=int, default=0, help="CPU core to pin every run to")
-    parser.add_argument("bench", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS]: a script in scripts/")
+    parser.add_argument(
+        "bench", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS]: a script in scripts/"
+    )
     args = parser.parse_args()
     bench = args.bench[1:] if args.bench[:1] == ["--"] else args.bench
     if not bench or not (ROOT / "scripts" / bench[0]).is_file():
@@ -63,22 +65,48 @@ def main() -> None:
         parser.error(f"--runs is {args.runs}; allowed: 1 or more")
     with tempfile.TemporaryDirectory(prefix="bench_ab_") as tmp:
         base_tree = Path(tmp) / "base"
-        subprocess.run(["git", "-C", str(ROOT), "worktree", "add", "--detach", "--quiet", str(base_tree), args.base],
-                       check=True)
+        subprocess.run(
+            [
+                "git",
+                "-C",
+                str(ROOT),
+                "worktree",
+                "add",
+                "--detach",
+                "--quiet",
+                str(base_tree),
+                args.base,
+            ],
+            check=True,
+        )
         try:
             runs: dict[str, list[dict[str, float]]] = {"base": [], "now": []}
             for _ in range(args.runs):  # alternate, so drift hits both versions alike
                 runs["base"].append(run(base_tree, bench, args.core))
                 runs["now"].append(run(ROOT, bench, args.core))
         finally:
-            subprocess.run(["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base_tree)], check=False)
+            subprocess.run(
+                ["git", "-C", str(ROOT), "worktree", "remove", "--force", str(base_tree)],
+                check=False,
+            )
     keys = [k for k in runs["now"][0] if all(k in r for r in runs["base"] + runs["now"])]
     median = {v: {k: statistics.median(r[k] for r in runs[v]) for k in keys} for v in runs}
-    print(json.dumps({
-        "benchmark": bench, "base": args.base, "runs": runs,
-        "median": median,
-        "ratio": {k: round(median["now"][k] / median["base"][k], 3) for k in keys if median["base"][k]},
-    }, indent=2))
+    print(
+        json.dumps(
+            {
+                "benchmark": bench,
+                "base": args.base,
+                "runs": runs,
+                "median": median,
+                "ratio": {
+                    k: round(median["now"][k] / median["base"][k], 3)
+                    for k in keys
+                    if median["base"][k]
+                },
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

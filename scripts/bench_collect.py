@@ -25,7 +25,7 @@ import gymnasium as gym
 
 import fluids_bench
 from fluids_bench.data.collect import collect
-from fluids_bench.envs.observations import OBS_TYPES
+from fluids_bench.tasks.fluids.observations import OBS_TYPES
 
 ENV_ID = "FLUIDS-v0"
 
@@ -68,9 +68,13 @@ def timed_collect(kwargs: dict, episodes: int, workers: int) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--episodes", type=int, default=200,
-                        help="episodes per run (default 200, ~42,000 pairs: enough that the "
-                             "workers' ~2 s start-up does not dominate)")
+    parser.add_argument(
+        "--episodes",
+        type=int,
+        default=200,
+        help="episodes per run (default 200, ~42,000 pairs: enough that the "
+        "workers' ~2 s start-up does not dominate)",
+    )
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     args = parser.parse_args()
     kwargs = scenario()

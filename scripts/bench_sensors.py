@@ -27,9 +27,9 @@ import numpy as np
 from bench_sim import bench_env  # the same S2 loop as the simulator benchmark (scripts/)
 
 import fluids_bench
-from fluids_bench.sim.render import Renderer
-from fluids_bench.sim.sensors.birdseye import BirdsEyeSensor
-from fluids_bench.sim.sensors.qlidar import QLidarSensor
+from fluids_bench.tasks.fluids.sim.render import Renderer
+from fluids_bench.tasks.fluids.sim.sensors.birdseye import BirdsEyeSensor
+from fluids_bench.tasks.fluids.sim.sensors.qlidar import QLidarSensor
 
 S2 = {"num_cars": 10, "num_pedestrians": 5, "action_level": "control"}
 ENV_VARIANTS = {

@@ -22,17 +22,23 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench
-from fluids_bench.sim.config import SceneConfig
-from fluids_bench.supervisors.driving.episode import make_world
-from fluids_bench.supervisors.driving.stack import DrivingSupervisor, SupervisorConfig
-from fluids_bench.supervisors.driving.velocity import VelocityPlannerConfig
+from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.supervisor.episode import make_world
+from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor, SupervisorConfig
+from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
 
 
 def _result(done: int, episodes: int, t0: float, c0: float) -> dict:
     wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     # CPU time is reported too: on a shared machine it is steadier than wall time
-    return {"steps": done, "episodes": episodes, "seconds": round(wall, 3), "cpu_seconds": round(cpu, 3),
-            "steps_per_s": round(done / wall, 1), "steps_per_cpu_s": round(done / cpu, 1)}
+    return {
+        "steps": done,
+        "episodes": episodes,
+        "seconds": round(wall, 3),
+        "cpu_seconds": round(cpu, 3),
+        "steps_per_s": round(done / wall, 1),
+        "steps_per_cpu_s": round(done / cpu, 1),
+    }
 
 
 def _warm_up(step) -> None:
@@ -74,21 +80,39 @@ def bench_env(kwargs: dict, steps: int) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=3000, help="steps per scenario")
-    parser.add_argument("--period", type=int, default=None, help="velocity-planner period (default: the env's)")
+    parser.add_argument(
+        "--period", type=int, default=None, help="velocity-planner period (default: the env's)"
+    )
     parser.add_argument("--only", nargs="*", default=None, help="scenario names to run (S1 S2 S3)")
     args = parser.parse_args()
     period = args.period
     env_period = {} if period is None else {"planner_period": period}
     world_period = period if period is not None else VelocityPlannerConfig().period
     scenarios = {
-        "S1": lambda: bench_world(SceneConfig(num_cars=4, num_pedestrians=2), args.steps, world_period),
-        "S2": lambda: bench_env({"num_cars": 10, "num_pedestrians": 5, "action_level": "control", **env_period}, args.steps),
-        "S3": lambda: bench_world(SceneConfig(lanes=2, num_cars=20, num_pedestrians=10), args.steps, world_period),
+        "S1": lambda: bench_world(
+            SceneConfig(num_cars=4, num_pedestrians=2), args.steps, world_period
+        ),
+        "S2": lambda: bench_env(
+            {"num_cars": 10, "num_pedestrians": 5, "action_level": "control", **env_period},
+            args.steps,
+        ),
+        "S3": lambda: bench_world(
+            SceneConfig(lanes=2, num_cars=20, num_pedestrians=10), args.steps, world_period
+        ),
     }
     results = {name: fn() for name, fn in scenarios.items() if not args.only or name in args.only}
-    print(json.dumps({"benchmark": "bench_sim", "fluids_bench": fluids_bench.__version__,
-                      "python": platform.python_version(), "numpy": np.__version__,
-                      "results": results}, indent=2))
+    print(
+        json.dumps(
+            {
+                "benchmark": "bench_sim",
+                "fluids_bench": fluids_bench.__version__,
+                "python": platform.python_version(),
+                "numpy": np.__version__,
+                "results": results,
+            },
+            indent=2,
+        )
+    )
 
 
 if __name__ == "__main__":

@@ -14,10 +14,11 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the env ids)
-from fluids_bench.sim.layout import build_layout, compile_layout
-from fluids_bench.sim.render import RAY_LEGEND, Renderer, draw_legend, draw_rays
-from fluids_bench.sim.sensors.birdseye import BirdsEyeSensor, visible_agents
-from fluids_bench.sim.sensors.qlidar import QLidarSensor
+from fluids_bench.tasks.fluids.sim.draw import visible_agents
+from fluids_bench.tasks.fluids.sim.layout import build_layout, compile_layout
+from fluids_bench.tasks.fluids.sim.render import RAY_LEGEND, Renderer, draw_legend, draw_rays
+from fluids_bench.tasks.fluids.sim.sensors.birdseye import BirdsEyeSensor
+from fluids_bench.tasks.fluids.sim.sensors.qlidar import QLidarSensor
 
 SEED, STEP = 4, 75  # a scene with the ego at the junction and traffic around it
 ZOOM = 4  # 84-pixel observations are shown enlarged (nearest neighbour) so pixels stay visible

@@ -19,8 +19,8 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
-from fluids_bench.sim.config import SceneConfig
-from fluids_bench.supervisors.driving.episode import run_supervised
+from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
 
 def _scene_result(args: tuple[str, int, int, int, int]) -> dict:
@@ -29,7 +29,10 @@ def _scene_result(args: tuple[str, int, int, int, int]) -> dict:
     t0 = time.process_time()
     results = [run_supervised(scene, seed, max_steps=max_steps) for seed in range(episodes)]
     return {
-        "layout": layout, "cars": cars, "pedestrians": peds, "episodes": episodes,
+        "layout": layout,
+        "cars": cars,
+        "pedestrians": peds,
+        "episodes": episodes,
         "success": sum(r.success for r in results),
         "collision_episodes": sum(r.collisions > 0 for r in results),
         "deadlocks": sum(r.timed_out for r in results),
@@ -41,16 +44,23 @@ def _scene_result(args: tuple[str, int, int, int, int]) -> dict:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--layout", default="four_way", choices=["four_way", "t_junction", "roundabout"])
+    parser.add_argument(
+        "--layout", default="four_way", choices=["four_way", "t_junction", "roundabout"]
+    )
     parser.add_argument("--cars", type=int, nargs=2, default=(2, 7), metavar=("MIN", "MAX"))
     parser.add_argument("--peds", type=int, nargs=2, default=(0, 4), metavar=("MIN", "MAX"))
     parser.add_argument("--episodes", type=int, default=200)
-    parser.add_argument("--max-steps", type=int, default=1500, help="steps before a deadlock is declared")
+    parser.add_argument(
+        "--max-steps", type=int, default=1500, help="steps before a deadlock is declared"
+    )
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--out", default=None, help="JSON file to write (atomically)")
     args = parser.parse_args()
-    jobs = [(args.layout, c, p, args.episodes, args.max_steps)
-            for c in range(args.cars[0], args.cars[1] + 1) for p in range(args.peds[0], args.peds[1] + 1)]
+    jobs = [
+        (args.layout, c, p, args.episodes, args.max_steps)
+        for c in range(args.cars[0], args.cars[1] + 1)
+        for p in range(args.peds[0], args.peds[1] + 1)
+    ]
     log = f"{args.out}.jsonl" if args.out else None
     done = {}
     if log and os.path.exists(log):
@@ -64,7 +74,9 @@ def main() -> None:
     todo = [j for j in jobs if j[:4] not in done]
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(_scene_result, job) for job in todo]
-        for future in tqdm(as_completed(futures), total=len(futures), desc=args.layout, unit="scene"):
+        for future in tqdm(
+            as_completed(futures), total=len(futures), desc=args.layout, unit="scene"
+        ):
             row = future.result()
             done[(row["layout"], row["cars"], row["pedestrians"], row["episodes"])] = row
             if log:
@@ -74,8 +86,12 @@ def main() -> None:
                     os.fsync(f.fileno())
     rows = [done[j[:4]] for j in jobs]
     total = sum(r["episodes"] for r in rows)
-    report = {"layout": args.layout, "episodes": total, "success_rate": sum(r["success"] for r in rows) / total,
-              "scenes": rows}
+    report = {
+        "layout": args.layout,
+        "episodes": total,
+        "success_rate": sum(r["success"] for r in rows) / total,
+        "scenes": rows,
+    }
     text = json.dumps(report, indent=2)
     if args.out:
         tmp = f"{args.out}.tmp"
@@ -83,7 +99,11 @@ def main() -> None:
             f.write(text)
         os.replace(tmp, args.out)
     print(text)
-    print("\n| cars \\ peds | " + " | ".join(str(p) for p in range(args.peds[0], args.peds[1] + 1)) + " |")
+    print(
+        "\n| cars \\ peds | "
+        + " | ".join(str(p) for p in range(args.peds[0], args.peds[1] + 1))
+        + " |"
+    )
     print("|---" * (args.peds[1] - args.peds[0] + 2) + "|")
     for c in range(args.cars[0], args.cars[1] + 1):
         cells = [f"{r['success']}/{r['episodes']}" for r in rows if r["cars"] == c]

@@ -10,6 +10,6 @@
   :mod:`~fluids_bench.algos.policies`, :mod:`~fluids_bench.algos.harness`,
   :mod:`~fluids_bench.algos.results`; :mod:`~fluids_bench.algos.registry` names them all.
 
-Every algorithm runs on any env that implements :mod:`fluids_bench.supervisors.base` with a Box
+Every algorithm runs on any env that implements :mod:`fluids_bench.core.supervisor` with a Box
 observation space and a Discrete or Box action space.
 """

@@ -7,7 +7,7 @@ from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from fluids_bench.algos.policies import PolicySpec
-from fluids_bench.validation import check_float, check_int, fail
+from fluids_bench.core.validation import check_float, check_int, fail
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -26,7 +26,7 @@ from fluids_bench.algos.actors import SUPERVISOR, LearnerActor, MixtureActor
 from fluids_bench.algos.config import RunConfig, check_iterations
 from fluids_bench.algos.harness import Harness, ProgressCallback
 from fluids_bench.algos.results import RunResult
-from fluids_bench.validation import check_choice, check_float, check_int
+from fluids_bench.core.validation import check_choice, check_float, check_int
 
 BETA_SCHEDULES = ("constant", "exponential")
 

@@ -30,7 +30,7 @@ from fluids_bench.algos.config import RunConfig, check_iterations
 from fluids_bench.algos.harness import Harness, ProgressCallback
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.results import RunResult
-from fluids_bench.validation import check_float
+from fluids_bench.core.validation import check_float
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -29,7 +29,7 @@ from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
 from fluids_bench.algos.policies import Policy, check_action_space, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.envs.registration import ENV_SPECS
+from fluids_bench.registration import ENV_SPECS
 
 SEED_BOUND = 2**31 - 1
 ProgressCallback = Callable[[IterationRecord], None]
@@ -55,7 +55,7 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
     if not hasattr(env.unwrapped, "supervisor_action"):
         raise ValueError(
             f"env {env_id!r} has no supervisor_action(); allowed: envs implementing "
-            "fluids_bench.supervisors.base.SupervisedEnv"
+            "fluids_bench.core.supervisor.SupervisedEnv"
         )
     return env
 

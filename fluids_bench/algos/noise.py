@@ -20,7 +20,7 @@ from fluids_bench.algos.actors import NoisySupervisorActor
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.harness import Harness, ProgressCallback
 from fluids_bench.algos.results import RunResult
-from fluids_bench.validation import check_float
+from fluids_bench.core.validation import check_float
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -29,7 +29,7 @@ from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.harness import Harness, ProgressCallback
 from fluids_bench.algos.policies import features
 from fluids_bench.algos.results import RunResult
-from fluids_bench.validation import check_float, check_int
+from fluids_bench.core.validation import check_float, check_int
 
 
 @dataclass(frozen=True, kw_only=True)

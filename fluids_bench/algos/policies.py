@@ -41,7 +41,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import LinearSVC, LinearSVR
 from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
 
-from fluids_bench.validation import check_choice, fail
+from fluids_bench.core.validation import check_choice, fail
 
 # Predictions of one fitted policy are memoised per observation, up to this many entries:
 # gridworld-like envs revisit the same few hundred states thousands of times, and a single

@@ -16,7 +16,7 @@ import numpy as np
 
 from fluids_bench.algos.actors import Actor
 from fluids_bench.algos.dataset import Trajectory
-from fluids_bench.supervisors.base import SUPERVISOR_ACTION_KEY, supervisor_action
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY, supervisor_action
 
 # second entropy word of the actor's generator: keeps its stream apart from the env's
 ACTOR_STREAM = 0xAC7

@@ -35,7 +35,7 @@ from fluids_bench.algos.query import (
     ShivSelector,
 )
 from fluids_bench.algos.results import RunResult
-from fluids_bench.validation import check_choice, check_float, check_int
+from fluids_bench.core.validation import check_choice, check_float, check_int
 
 
 @dataclass(frozen=True, kw_only=True)

@@ -17,7 +17,7 @@ import argparse
 import time
 from pathlib import Path
 
-from fluids_bench.sim.config import LAYOUTS
+from fluids_bench.tasks.fluids.sim.config import LAYOUTS
 
 VIDEO_NAME, SNAPSHOT_NAME = "episode.mp4", "episode.png"
 

@@ -42,7 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def load_spec(name: str, lanes: int | None = None, lights: bool = True):
     """The :class:`LayoutSpec` named ``name`` (a builder) or stored at path ``name``."""
-    from fluids_bench.sim.layout.builders import BUILDERS
+    from fluids_bench.tasks.fluids.sim.layout.builders import BUILDERS
 
     options = {
         k: v for k, v in (("lanes", lanes), ("lights", None if lights else False)) if v is not None
@@ -58,7 +58,7 @@ def load_spec(name: str, lanes: int | None = None, lights: bool = True):
     if path.suffix.lower() == ".json" or path.exists():
         if options:
             raise ValueError("--lanes and --no-lights apply to builders only, not to layout files")
-        from fluids_bench.sim.layout.io import load_layout
+        from fluids_bench.tasks.fluids.sim.layout.io import load_layout
 
         return load_layout(path)
     raise ValueError(
@@ -69,8 +69,8 @@ def load_spec(name: str, lanes: int | None = None, lights: bool = True):
 def run(args: argparse.Namespace) -> int:
     import cv2
 
-    from fluids_bench.sim.layout.compiled import compile_layout
-    from fluids_bench.sim.render import Renderer
+    from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
+    from fluids_bench.tasks.fluids.sim.render import Renderer
 
     if not 64 <= args.size <= 4096:
         raise ValueError(f"--size is {args.size}; allowed: 64 to 4096 pixels")

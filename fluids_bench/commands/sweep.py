@@ -86,6 +86,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def run(args: argparse.Namespace) -> int:
     from tqdm.auto import tqdm
 
+    from fluids_bench.core.validation import check_int
     from fluids_bench.sweep.grid import Grid
     from fluids_bench.sweep.plot import plot_sensitivity
     from fluids_bench.sweep.run import (
@@ -96,7 +97,6 @@ def run(args: argparse.Namespace) -> int:
         run_sweep,
         train_default_policy,
     )
-    from fluids_bench.validation import check_int
 
     check_int("sweep", "episodes", args.episodes, 1)
     check_int("sweep", "seed", args.seed, 0, 2**32 - 1)

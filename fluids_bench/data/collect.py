@@ -44,7 +44,7 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.validation import check_choice, check_float, check_int
+from fluids_bench.core.validation import check_choice, check_float, check_int
 
 PROVENANCES = ("supervisor", "noise", "learner")
 BACKENDS = ("process", "ray")

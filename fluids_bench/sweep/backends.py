@@ -28,8 +28,8 @@ from collections.abc import Callable, Iterable
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from typing import Any
 
+from fluids_bench.core.validation import check_choice, check_int
 from fluids_bench.data.collect import BACKENDS, START_METHODS, _bounded, ray_results, ray_session
-from fluids_bench.validation import check_choice, check_int
 
 TaskFn = Callable[[Any, Any], Any]
 ResultFn = Callable[[Any, Any], None]
@@ -113,5 +113,7 @@ def _run_ray(
     with ray_session(workers, address) as ray:
         shared_ref = ray.put(shared)  # sent to the cluster once, not with every task
         remote = ray.remote(num_cpus=1)(_call)
-        for result in ray_results(ray, lambda task: remote.remote(fn, task, shared_ref), tasks, workers):
+        for result in ray_results(
+            ray, lambda task: remote.remote(fn, task, shared_ref), tasks, workers
+        ):
             on_result(*result)

@@ -32,7 +32,7 @@ from collections.abc import Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
-from fluids_bench.validation import fail
+from fluids_bench.core.validation import fail
 
 # name -> (kind, lo, hi, unit/description); lo/hi are the values the env accepts
 PARAMETERS: dict[str, tuple[str, float, float, str]] = {

@@ -16,7 +16,7 @@ import pytest
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec, fit_policy
 from fluids_bench.data.collect import ActorSpec, collect, import_ray
-from fluids_bench.envs.registration import ENV_SPECS
+from fluids_bench.registration import ENV_SPECS
 
 IDS = sorted(ENV_SPECS)
 # short episodes keep the whole file well under a minute on two cores

@@ -25,7 +25,7 @@ from fluids_bench.data.minari_export import (
     check_dataset_id,
     export_minari,
 )
-from fluids_bench.envs.registration import ENV_SPECS
+from fluids_bench.registration import ENV_SPECS
 
 IDS = sorted(ENV_SPECS)
 METADATA = dict(

@@ -1,1 +1,0 @@
-"""Gymnasium and PettingZoo adapters over the simulators and supervisors."""

@@ -1,0 +1,1 @@
+"""One folder per task: its world (simulator), its algorithmic supervisor and its env adapters."""

@@ -1,0 +1,112 @@
+"""DAG-v0: the three-level decision DAG of the source's Theorem 1 (ch. 4, Fig. 4.1)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import check_choice, check_float
+from fluids_bench.tasks.dag.supervisor import DEPTH, EDGE_REWARDS, L, R, greedy_action
+
+WHERE = "DAG-v0"
+
+
+class DAGEnv(gym.Env[np.ndarray, np.int64]):
+    """
+    ## Description
+
+    The counter-example of the dissertation's Theorem 1: a robot descends a three-level
+    directed acyclic graph from its root, choosing the left (L) or right (R) child at each node
+    and collecting the reward on each branch. Only the root is stochastic: choosing L there
+    reaches the right child with probability `mu`. A greedy supervisor labels every node (see
+    `fluids_bench.tasks.dag.supervisor`). With the constant policy class {L, R} (the `"constant"`
+    policy of `fluids_bench.algos.policies`), off-policy learning (behaviour cloning) converges
+    to the best constant policy L, while on-policy learning (DAgger, beta = 0) stays at R forever
+    whenever its initial demonstrations happen to vote R, which happens with probability at
+    least c e^{-m} for m initial demonstrations.
+
+    ## Action Space
+
+    `Discrete(2)`: 0 = L (left child), 1 = R (right child).
+
+    ## Observation Space
+
+    `Box(0, 3, (2,), float32)`: the node `(level, index)`, where `index` counts right moves so
+    far (the node reached by L from `(l, i)` is `(l + 1, i)`, by R it is `(l + 1, i + 1)`).
+
+    ## Rewards
+
+    The reward of the branch taken: root (L 2, R 0); level 1: (1, 0) (L 2, R 0),
+    (1, 1) (L 0, R 1); level 2: (2, 0) (L 2, R 0), (2, 1) (L 0, R 1), (2, 2) (L 0, R 1).
+    Expected returns: supervisor 6 - 4 mu, constant L 6 - 6 mu, constant R 2.
+
+    ## Starting State
+
+    Always the root `(0, 0)` (the theorem's deterministic initial state).
+
+    ## Episode End
+
+    Termination after the third decision, on reaching level 3. The registration's
+    `max_episode_steps` is 3, so truncation never comes first.
+
+    ## Arguments
+
+    | Parameter     | Type  | Default | Description                                               |
+    |---------------|-------|---------|-----------------------------------------------------------|
+    | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
+    | `render_mode` | str   | None    | only None (the DAG has no picture)                        |
+
+    ## Version History
+
+    * v0: Initial version.
+    """
+
+    metadata = {"render_modes": [], "render_fps": 1}
+
+    def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:
+        self.mu = check_float(WHERE, "mu", mu, 0.0, 1.0)
+        self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None])
+        self.action_space = spaces.Discrete(2)
+        self.observation_space = spaces.Box(0.0, float(DEPTH), (2,), np.float32)
+        self._level = 0
+        self._index = 0
+
+    def supervisor_action(self) -> np.int64:
+        """The greedy supervisor's label at the current node (L at the leaves, unused)."""
+        if self._level == DEPTH:
+            return np.int64(L)
+        return np.int64(greedy_action(self._level, self._index))
+
+    def _observation(self) -> np.ndarray:
+        return np.array([self._level, self._index], dtype=np.float32)
+
+    def _info(self) -> dict[str, Any]:
+        return {SUPERVISOR_ACTION_KEY: self.supervisor_action()}
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self._level, self._index = 0, 0
+        return self._observation(), self._info()
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        move = int(action)
+        if move != action or move not in (L, R):  # cheaper than Space.contains
+            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        if self._level == DEPTH:
+            raise RuntimeError(f"{WHERE}: step() after the episode ended; call reset()")
+        # draw on every step, not only at the root, so the random stream does not depend on
+        # the actions taken before
+        slipped = self.np_random.random() < self.mu
+        if self._level == 0 and move == L and slipped:
+            move = R
+        reward = EDGE_REWARDS[self._level][self._index][move]
+        self._level += 1
+        self._index += move
+        terminated = self._level == DEPTH
+        return self._observation(), float(reward), terminated, False, self._info()

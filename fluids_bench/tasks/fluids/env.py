@@ -1,0 +1,329 @@
+"""FLUIDS-v0: one ego car at a signalised urban intersection, everyone else supervised."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.observations import ObservationConfig, Observer
+from fluids_bench.tasks.fluids.sim.config import (
+    CarConfig,
+    PedestrianConfig,
+    SceneConfig,
+    check_range,
+)
+from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
+from fluids_bench.tasks.fluids.sim.spawn import spawn
+from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
+from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, DrivingSupervisor, SupervisorConfig
+from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
+from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
+
+COLLISION_PENALTY = 1.0
+TRAJECTORY_PLANNERS = ("bezier", "ompl")
+
+
+class FluidsEnv(gym.Env):
+    """
+    ## Description
+    FLUIDS (ch. 7 of the source dissertation): a first-order, multi-agent urban-intersection
+    driving simulator. The learner drives the ego car through an intersection with traffic and
+    crosswalk lights; background cars and pedestrians are driven by FLUIDS' four-level
+    supervisor (behaviour → nominal trajectory → CSP velocity planner → PID control), which also
+    labels every state the ego visits, at the level the learner acts at.
+
+    ## Action Space
+    Set by ``action_level``; the supervisor fills the levels below it for the ego:
+
+    * ``"behavior"``: ``Discrete(n)``: which movement (target lane) to take from the ego's entry
+      lane, in counter-clockwise order of the exits (right, straight, left on a four-way); taken
+      modulo the lane's count; ignored once the ego has reached the junction.
+    * ``"trajectory"``: ``Box(-50, 50, (2K,))``: the next ``K = waypoints`` path points in the
+      ego's frame (m, x forward, y left, flattened); the ego steers toward them.
+    * ``"velocity"``: ``Box(0, v_max, (1,))``: the ego's target speed (m/s).
+    * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
+      rad; force × max_force when ≥ 0, × max_brake_force when < 0).
+
+    Box actions out of bounds are clipped; NaN or infinite actions raise ``ValueError``.
+
+    ## Observation Space
+    ``obs_type="explicit"``: ``Box(-1000, 1000, (13 + 7k,), float32)`` with ``k = k_nearest``: the
+    ego's state and goal, the k nearest agents in the ego's frame with a presence mask, and the
+    ego's light (see :mod:`fluids_bench.tasks.fluids.sim.sensors.explicit`). ``obs_noise`` adds zero-mean
+    Gaussian noise of that variance.
+
+    ``obs_type="birdseye"``: ``Box(0, 255, (S, S, 3), uint8)`` with ``S = birdseye_size``: a
+    top-down RGB image of the lanes, sidewalks, crosswalks, terrain, the light colours (a bar at
+    each signalised stop line and crosswalk end), cars (blue), pedestrians (orange), the ego
+    (magenta) and the ego's route (pink line). ``birdseye_frame="ego"`` centres a north-up square
+    of side ``birdseye_fov`` m on the ego, ``"ego_rotated"`` also turns it so the ego faces up,
+    ``"global"`` shows the whole layout (``birdseye_fov`` unused). ``pixel_noise`` (λ_p) adds
+    zero-mean Gaussian noise of that variance to every pixel value, clipped to [0, 255].
+
+    ``obs_type="qlidar"``: ``Box((m, 4), float32)`` with ``m = lidar_rays``: ray ``k`` leaves the
+    ego's centre at angle ``2πk/m`` from its heading (counter-clockwise) and reads
+    ``[d, label, ψ_r, v_r]``: the distance (m, ``lidar_range`` when nothing is hit), the label of
+    what it hit (0 nothing, 1 car, 2 pedestrian, 3 road edge), that object's heading relative to
+    the ego's (rad, in [-π, π]; a road edge's direction, in [-π/2, π/2)) and its speed minus the
+    ego's (m/s, in ±2·v_max). ``lidar_noise`` (λ_l) adds zero-mean Gaussian noise of that
+    variance to d, ψ_r and v_r; with probability ``lidar_dropout`` (ε) a ray reads as empty
+    ``[lidar_range, 0, 0, 0]``. See :mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`.
+
+    A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
+
+    ## Rewards
+    Progress: the metres of route gained this step divided by the route's length from the start
+    (an episode that reaches the goal earns 1 in total), minus 1 when the ego is in a collision.
+
+    ## Starting State
+    Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
+    other approaches (p(l_t | l_g) = 1/(K−1)); slots never overlap. Pedestrians start on their
+    walks' first legs. The light cycle starts at t = 0.
+
+    ## Episode End
+    ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
+    (with a car, a pedestrian, or leaving the road); ``info["is_success"]`` is True iff the ego
+    arrived and no collision happened in the episode. ``done_when="all"`` (the sensitivity
+    analysis' criterion): terminated when every car has arrived or on any collision;
+    ``is_success`` iff every car arrived without one (after the ego arrives, actions are ignored
+    and rewards are 0). Truncated by ``TimeLimit`` (400 steps = 40 s by default).
+
+    ## Info
+    ``supervisor_action`` (the supervisor's label for the ego at ``action_level`` in the new
+    state), ``collisions`` (this step's, as dicts), ``ego_arrived``, ``route``, ``lights``.
+
+    ## Arguments
+    * ``layout``: ``"four_way"`` (default), ``"t_junction"`` or ``"roundabout"``.
+    * ``lanes``: 1 or 2 lanes per direction (four-way, T-junction).
+    * ``lights``: traffic and crosswalk lights on (default) or off.
+    * ``num_cars``: background cars besides the ego (default 3).
+    * ``num_pedestrians``: default 2.
+    * ``action_level``: ``"behavior"``, ``"trajectory"``, ``"velocity"`` or ``"control"`` (default).
+    * ``obs_type``: ``"explicit"`` (default), ``"birdseye"``, ``"qlidar"`` or a list of them.
+    * ``obs_noise``: variance of the explicit observation's noise (default 0).
+    * ``k_nearest``: other agents in the explicit observation (default 8).
+    * ``birdseye_size``: image side in pixels, 16 to 1024 (default 84).
+    * ``birdseye_fov``: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
+    * ``birdseye_frame``: ``"ego"`` (default), ``"ego_rotated"`` or ``"global"``.
+    * ``pixel_noise``: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
+    * ``lidar_rays``: m, 1 to 4096 (default 64).
+    * ``lidar_range``: metres, 1 to 1000 (default 30).
+    * ``lidar_noise``: λ_l, noise variance on distance, angle and velocity, 0 to 100 (default 0).
+    * ``lidar_dropout``: ε, per-ray dropout probability, 0 to 1 (default 0).
+    * ``render_mode``: ``None``, ``"rgb_array"`` (a global view: routes, light states, this
+      step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
+      window; needs ``pip install "fluids-bench[human]"``: without it, asking for it raises an
+      ImportError that says so).
+    * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
+    * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
+    * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
+      waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
+    * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
+    * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
+      the velocity-level label, is held in between.
+    * ``dt``: seconds per step (default 0.1).
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    # "human" needs pygame (the ``human`` extra): asking for it without pygame is a clear error
+    metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
+
+    def __init__(
+        self,
+        layout: str = "four_way",
+        lanes: int = 1,
+        lights: bool = True,
+        num_cars: int = 3,
+        num_pedestrians: int = 2,
+        action_level: str = "control",
+        obs_type: str | list[str] = "explicit",
+        obs_noise: float = 0.0,
+        k_nearest: int = 8,
+        birdseye_size: int = 84,
+        birdseye_fov: float = 40.0,
+        birdseye_frame: str = "ego",
+        pixel_noise: float = 0.0,
+        lidar_rays: int = 64,
+        lidar_range: float = 30.0,
+        lidar_noise: float = 0.0,
+        lidar_dropout: float = 0.0,
+        waypoints: int = 5,
+        waypoint_spacing: float = 2.0,
+        car_mass: float = 1500.0,
+        planner_period: int = 5,
+        trajectory_planner: str = "bezier",
+        done_when: str = "ego",
+        dt: float = 0.1,
+        render_mode: str | None = None,
+    ) -> None:
+        if action_level not in LEVELS:
+            raise ValueError(
+                f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}"
+            )
+        if render_mode == "human":
+            from fluids_bench.tasks.fluids.sim.render import require_pygame
+
+            require_pygame()
+        if render_mode is not None and render_mode not in self.metadata["render_modes"]:
+            raise ValueError(
+                f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
+                f"allowed: {self.metadata['render_modes']} or None"
+            )
+        check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
+        if done_when not in ("ego", "all"):
+            raise ValueError(
+                f"FluidsEnv: field 'done_when' is {done_when!r}; allowed: ['ego', 'all']"
+            )
+        self.done_when = done_when
+        if trajectory_planner not in TRAJECTORY_PLANNERS:
+            raise ValueError(
+                f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
+                f"allowed: {list(TRAJECTORY_PLANNERS)}"
+            )
+        obs_config = ObservationConfig(
+            obs_type=obs_type,
+            obs_noise=obs_noise,
+            k_nearest=k_nearest,
+            birdseye_size=birdseye_size,
+            birdseye_fov=birdseye_fov,
+            birdseye_frame=birdseye_frame,
+            pixel_noise=pixel_noise,
+            lidar_rays=lidar_rays,
+            lidar_range=lidar_range,
+            lidar_noise=lidar_noise,
+            lidar_dropout=lidar_dropout,
+        )
+        self.scene = SceneConfig(
+            layout=layout,
+            lanes=lanes,
+            lights=lights,
+            num_cars=num_cars + 1,
+            num_pedestrians=num_pedestrians,
+            dt=dt,
+            car=CarConfig(mass=car_mass),
+            pedestrian=PedestrianConfig(),
+        )
+        self.supervisor_config = SupervisorConfig(
+            velocity=VelocityPlannerConfig(period=planner_period),
+            pid=PIDConfig(assumed_mass=CarConfig().mass),
+            waypoints=waypoints,
+            waypoint_spacing=waypoint_spacing,
+        )
+        self.action_level = action_level
+        self.render_mode = render_mode
+        self._renderer = self._window = None
+        spec = self.scene.layout_spec()
+        layout = (
+            ompl_layout(spec, self.scene.car)
+            if trajectory_planner == "ompl"
+            else compile_layout(spec)
+        )
+        self.world = World(self.scene, layout)
+        self.observer = Observer(obs_config, self.world)
+        self.observation_space = self.observer.space
+        self.action_space = levels.action_space(action_level, self.world, waypoints)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self._route_length = 1.0
+        self._last_s = 0.0
+        self._ended = False
+
+    # ------------------------------------------------------------------ gym API
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        self.world = World(self.scene, self.world.layout)
+        spawn(self.world, self.np_random)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.supervisor.prepare(self.world)
+        self._ended = False
+        self._last_s = float(self.world.route_s[0])
+        self._route_length = float(self.world.path_len[0]) - self._last_s
+        if self.render_mode == "human":
+            self.render()
+        return self._observe(), self._info([])
+
+    def step(self, action):
+        w, sup = self.world, self.supervisor
+        if self._ended:
+            raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
+        action = levels.validate(self.action_level, self.action_space, action, "FluidsEnv")
+        # after the ego arrived ("all" mode) the others drive on and the action is ignored
+        chosen = {0: action} if w.active[0] else {}
+        controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
+        if changed:
+            self._route_length = float(w.path_len[0]) - self._last_s
+        events = sup.execute(w, controls, memory)
+        ego_hit = any(e.a == 0 or e.b == 0 for e in events)
+        arrived = bool(w.reached[0])
+        s_now = float(w.path_len[0]) + float(w.offset[0]) if arrived else float(w.route_s[0])
+        reward = (s_now - self._last_s) / self._route_length - (
+            COLLISION_PENALTY if ego_hit else 0.0
+        )
+        self._last_s = s_now
+        if self.done_when == "ego":
+            terminated = arrived or ego_hit
+            success = arrived and not w.log
+        else:  # every car must arrive; any collision ends the episode
+            cars_done = bool(w.reached[w.is_car].all())
+            terminated = cars_done or bool(events)
+            success = cars_done and not w.log
+        self._ended = terminated
+        if not terminated:
+            sup.prepare(w)
+        info = self._info(events)
+        if terminated:
+            info["is_success"] = success
+        if self.render_mode == "human":
+            self.render()
+        return self._observe(), float(reward), terminated, False, info
+
+    def render(self):
+        """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in
+        ``"rgb_array"`` mode; in ``"human"`` mode the frame goes to a window (returns None)."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                "FluidsEnv.render() called without a render_mode; pass "
+                'render_mode="rgb_array" or "human" to gym.make'
+            )
+            return None
+        from fluids_bench.tasks.fluids.sim.render import HumanWindow, Renderer
+
+        if self._renderer is None or self._renderer.layout is not self.world.layout:
+            self._renderer = Renderer(self.world.layout)
+        frame = self._renderer.render(self.world)
+        if self.render_mode == "rgb_array":
+            return frame
+        if self._window is None:
+            self._window = HumanWindow("FLUIDS", self.metadata["render_fps"])
+        self._window.show(frame)
+        return None
+
+    def close(self) -> None:
+        if self._window is not None:
+            self._window.close()
+        self._renderer = self._window = None
+
+    # ------------------------------------------------------------------ supervisor protocol
+    def supervisor_action(self):
+        """The supervisor's action for the ego at ``action_level`` in the current state."""
+        return levels.label(self.supervisor, self.world, self.action_level, 0)
+
+    # ------------------------------------------------------------------ helpers
+    def _observe(self) -> np.ndarray:
+        return self.observer.observe(self.world, self.np_random)
+
+    def _info(self, events) -> dict[str, Any]:
+        w = self.world
+        return {
+            SUPERVISOR_ACTION_KEY: self.supervisor_action(),
+            "collisions": [e.as_dict() for e in events],
+            "ego_arrived": bool(w.reached[0]),
+            "route": w.layout.routes.names[w.route[0]],
+            "lights": w.lights.describe_states(w.light_state),
+        }

@@ -1,0 +1,458 @@
+"""FLUIDS as a PettingZoo ``ParallelEnv``: several controlled cars at once, everyone else supervised.
+
+Build it with :func:`parallel_env` (the PettingZoo convention), e.g.
+``fluids_bench.tasks.fluids.multi_agent.parallel_env(controlled_cars=6, num_cars=2)``.
+"""
+
+from __future__ import annotations
+
+import copy
+import inspect
+from collections.abc import Callable
+from dataclasses import fields
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from gymnasium.utils import seeding
+from pettingzoo import ParallelEnv
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.env import TRAJECTORY_PLANNERS
+from fluids_bench.tasks.fluids.observations import OBS_BOUND, ObservationConfig, Observer
+from fluids_bench.tasks.fluids.sim.config import (
+    CarConfig,
+    PedestrianConfig,
+    SceneConfig,
+    check_range,
+)
+from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
+from fluids_bench.tasks.fluids.sim.spawn import capacity, spawn
+from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
+from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, DrivingSupervisor, SupervisorConfig
+from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
+from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
+
+WHERE = "FluidsParallelEnv"
+COLLISION_PENALTY = 1.0
+# sensor options forwarded to ObservationConfig (everything but obs_type)
+SENSOR_OPTIONS = tuple(f.name for f in fields(ObservationConfig) if f.name != "obs_type")
+STATE_PER_AGENT = 6  # x, y, cos θ, sin θ, v, active
+STATE_PER_LIGHT = 3  # one-hot of go / caution / stop
+
+AgentObserver = Callable[[World, np.random.Generator, int], Any]
+
+
+def agent_name(index: int) -> str:
+    return f"car_{index}"
+
+
+def _takes_ego(fn: Callable[..., Any]) -> bool:
+    try:
+        return "ego" in inspect.signature(fn).parameters
+    except (TypeError, ValueError):
+        return False
+
+
+class _PartObserves:
+    """The family observes for any agent itself: ``part.observe(world, rng, ego=agent)``."""
+
+    def __init__(self, part: Any) -> None:
+        self.part = part
+
+    def __call__(self, world: World, rng: np.random.Generator, agent: int):
+        return self.part.observe(world, rng, ego=agent)
+
+
+class _SensorObserves:
+    """The family's sensor takes ``ego``: observe through it, clipped into the family's Box."""
+
+    def __init__(self, sensor: Any, space: spaces.Box) -> None:
+        self.sensor, self.space = sensor, space
+
+    def __call__(self, world: World, rng: np.random.Generator, agent: int):
+        out = np.clip(self.sensor.observe(world, rng, ego=agent), self.space.low, self.space.high)
+        return out.astype(self.space.dtype, copy=False)
+
+
+class _EgoOnly:
+    """A family that can only observe for agent 0."""
+
+    def __init__(self, part: Any) -> None:
+        self.part = part
+
+    def __call__(self, world: World, rng: np.random.Generator, agent: int):
+        return self.part.observe(world, rng)
+
+
+def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[str]]:
+    """For each family of ``observer``, a picklable function ``(world, rng, agent) ->
+    observation`` that observes from car ``agent``'s point of view, and the families that cannot.
+
+    Uses the family's ``observe(world, rng, ego=...)`` when it takes ``ego``, otherwise its
+    sensor's ``observe(..., ego=...)`` clipped into the family's Box. A family offering neither
+    is listed second; its function observes for agent 0 whatever agent it is asked for."""
+    out: dict[str, AgentObserver] = {}
+    ego_only: list[str] = []
+    for kind, part in observer.parts.items():
+        sensor = getattr(part, "sensor", None)
+        if _takes_ego(part.observe):
+            out[kind] = _PartObserves(part)
+        elif (
+            sensor is not None and _takes_ego(sensor.observe) and isinstance(part.space, spaces.Box)
+        ):
+            out[kind] = _SensorObserves(sensor, part.space)
+        else:
+            out[kind] = _EgoOnly(part)
+            ego_only.append(kind)
+    return out, ego_only
+
+
+class FluidsParallelEnv(ParallelEnv):
+    """
+    ## Description
+    FLUIDS (ch. 7 of the source dissertation) with ``controlled_cars`` learner-controlled cars,
+    the agents ``car_0 … car_{n-1}``, acting simultaneously at one signalised intersection.
+    ``num_cars`` background cars and ``num_pedestrians`` pedestrians are driven by the same
+    four-level supervisor as in ``FLUIDS-v0``, which also labels every state each agent visits
+    at the level the agents act at (``infos[agent]["supervisor_action"]``,
+    :meth:`supervisor_action`). The supervisor plans for all agents jointly, controlled or not.
+
+    ## Action Space
+    Per agent, as ``FLUIDS-v0``'s ``action_level``: ``"behavior"`` ``Discrete(n)`` (movement
+    from the car's entry lane), ``"trajectory"`` ``Box(-50, 50, (2K,))`` (next ``K`` path points
+    in the car's frame, m), ``"velocity"`` ``Box(0, v_max, (1,))`` (target speed, m/s) or
+    ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]). The supervisor fills the
+    levels below for each car. A live agent missing from the action dict follows its
+    supervisor this step; actions for agents that already left are ignored; unknown names,
+    malformed or non-finite actions raise ``ValueError``. Box actions are clipped to bounds.
+
+    ## Observation Space
+    Per agent, the ``FLUIDS-v0`` observation (``obs_type`` and the same sensor options) taken
+    from that car's point of view. A family whose sensor cannot observe for another car than
+    agent 0 raises ``NotImplementedError`` at construction when ``controlled_cars > 1``.
+
+    ## State
+    :meth:`state` is a global view for centralised training: ``Box(float32)`` of
+    ``6 * N + 3 * L`` values, for each of the ``N`` agents of the world (controlled cars,
+    background cars, pedestrians, in that order) ``[x, y, cos θ, sin θ, v, active]`` (m, m/s;
+    positions clipped to ±1000 m), then for each of the ``L`` lights a one-hot of go / caution /
+    stop. The space is :attr:`state_space`.
+
+    ## Rewards
+    Per agent, as ``FLUIDS-v0``: the metres of route gained this step divided by the route's
+    length from the start, minus 1 in a step where that car is in a collision.
+
+    ## Starting State
+    Every car starts at rest in its own entry-lane slot (slots never overlap), the lane uniform
+    and the movement uniform over the other approaches; pedestrians start on their walks. The
+    layout's slots bound the cars: ``controlled_cars + num_cars`` above the layout's capacity
+    raises ``ValueError`` naming the maximum (16 cars on the one-lane four-way, 32 on the
+    two-lane one, 12 / 24 on the T-junction, 16 on the roundabout).
+
+    ## Episode End
+    An agent terminates when it reaches its goal or is in a collision (with any car, a
+    pedestrian, or leaving the road). A car in a collision leaves the road: it is removed from
+    the world, so the others neither see it nor collide with its wreck. The episode goes on for
+    the remaining agents. All live agents are truncated after ``max_cycles`` steps. The episode
+    is over when ``agents`` is empty. A finishing agent's info has ``is_success`` (arrived
+    without any collision).
+
+    ## Info
+    Per agent: ``supervisor_action`` (its label in the new state), ``collisions`` (this step's
+    collisions it is part of, as dicts), ``arrived`` and ``route``.
+
+    ## Arguments
+    * ``controlled_cars``: learner-controlled cars (agents), default 4.
+    * ``num_cars``: supervised background cars besides them (default 0).
+    * ``max_cycles``: steps before truncation (default 400 = 40 s).
+    * ``layout``, ``lanes``, ``lights``, ``num_pedestrians``, ``action_level``, ``obs_type``,
+      the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
+      ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
+      ``trajectory_planner``, ``dt``: as ``FLUIDS-v0``.
+    * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
+      agent highlighted).
+
+    ## Version History
+    * v0: initial release.
+    """
+
+    metadata = {
+        "name": "fluids_multi_v0",
+        "render_modes": ["rgb_array"],
+        "render_fps": 10,
+        "is_parallelizable": True,
+    }
+
+    def __init__(
+        self,
+        controlled_cars: int = 4,
+        num_cars: int = 0,
+        max_cycles: int = 400,
+        layout: str = "four_way",
+        lanes: int = 1,
+        lights: bool = True,
+        num_pedestrians: int = 2,
+        action_level: str = "control",
+        obs_type: str | list[str] = "explicit",
+        waypoints: int = 5,
+        waypoint_spacing: float = 2.0,
+        car_mass: float = 1500.0,
+        planner_period: int = 5,
+        trajectory_planner: str = "bezier",
+        dt: float = 0.1,
+        render_mode: str | None = None,
+        **sensor_options: Any,
+    ) -> None:
+        if action_level not in LEVELS:
+            raise ValueError(
+                f"{WHERE}: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}"
+            )
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            raise ValueError(
+                f"{WHERE}: field 'render_mode' is {render_mode!r}; allowed: "
+                f"{self.metadata['render_modes']} or None"
+            )
+        unknown = sorted(set(sensor_options) - set(SENSOR_OPTIONS))
+        if unknown:
+            raise ValueError(
+                f"{WHERE}: unknown argument(s) {unknown}; allowed sensor options: "
+                f"{list(SENSOR_OPTIONS)}"
+            )
+        check_range(WHERE, "controlled_cars", controlled_cars, 1, 64, integer=True)
+        check_range(WHERE, "num_cars", num_cars, 0, 63, integer=True)
+        check_range(WHERE, "max_cycles", max_cycles, 1, 10**9, integer=True)
+        obs_config = ObservationConfig(obs_type=obs_type, **sensor_options)
+        if trajectory_planner not in TRAJECTORY_PLANNERS:
+            raise ValueError(
+                f"{WHERE}: field 'trajectory_planner' is {trajectory_planner!r}; allowed: "
+                f"{list(TRAJECTORY_PLANNERS)}"
+            )
+        car = CarConfig(mass=car_mass)
+        probe_scene = SceneConfig(
+            layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt, car=car
+        )
+        spec = probe_scene.layout_spec()
+        compiled = ompl_layout(spec, car) if trajectory_planner == "ompl" else compile_layout(spec)
+        probe = World(probe_scene, compiled)
+        max_cars, max_peds = capacity(probe)
+        if controlled_cars + num_cars > max_cars:
+            raise ValueError(
+                f"{WHERE}: controlled_cars + num_cars is {controlled_cars} + {num_cars} = "
+                f"{controlled_cars + num_cars}; the {layout!r} layout with lanes={lanes} holds at "
+                f"most {max_cars} cars (so controlled_cars <= {max(max_cars - num_cars, 0)} with "
+                f"num_cars={num_cars})"
+            )
+        if num_pedestrians > max_peds:
+            raise ValueError(
+                f"{WHERE}: field 'num_pedestrians' is {num_pedestrians}; the "
+                f"{layout!r} layout holds at most {max_peds}"
+            )
+        self.scene = SceneConfig(
+            layout=layout,
+            lanes=lanes,
+            lights=lights,
+            num_cars=controlled_cars + num_cars,
+            num_pedestrians=num_pedestrians,
+            dt=dt,
+            car=car,
+            pedestrian=PedestrianConfig(),
+        )
+        self.supervisor_config = SupervisorConfig(
+            velocity=VelocityPlannerConfig(period=planner_period),
+            pid=PIDConfig(assumed_mass=CarConfig().mass),
+            waypoints=waypoints,
+            waypoint_spacing=waypoint_spacing,
+        )
+        self.action_level = action_level
+        self.render_mode = render_mode
+        self._renderer = None
+        self.max_cycles = max_cycles
+        self.world = World(self.scene, probe.layout)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.observer = Observer(obs_config, self.world)
+        self._observers, ego_only = agent_observers(self.observer)
+        if controlled_cars > 1 and ego_only:
+            raise NotImplementedError(
+                f"{WHERE}: obs_type {ego_only} observes only for agent 0 (the sensor's observe() "
+                "takes no 'ego' argument); use controlled_cars=1 or another obs_type"
+            )
+
+        self.possible_agents = [agent_name(i) for i in range(controlled_cars)]
+        self._index = {a: i for i, a in enumerate(self.possible_agents)}
+        self.agents: list[str] = []
+        self._action_space = self._build_action_space()
+        # one space object per agent, so seeding one agent's space leaves the others' alone
+        self._action_spaces = {a: copy.deepcopy(self._action_space) for a in self.possible_agents}
+        self._observation_spaces = {
+            a: copy.deepcopy(self.observer.space) for a in self.possible_agents
+        }
+        self.state_space = self._build_state_space()
+        self._np_random: np.random.Generator | None = None
+        self.np_random_seed: int | None = None
+        self._cycles = 0
+        self._last_s = np.zeros(controlled_cars)
+        self._route_length = np.ones(controlled_cars)
+
+    # ------------------------------------------------------------------ spaces
+    def observation_space(self, agent: str) -> spaces.Space:
+        return self._observation_spaces[agent]
+
+    def action_space(self, agent: str) -> spaces.Space:
+        return self._action_spaces[agent]
+
+    def _build_action_space(self) -> spaces.Space:
+        return levels.action_space(self.action_level, self.world, self.supervisor_config.waypoints)
+
+    def _build_state_space(self) -> spaces.Box:
+        n, lights = self.world.n, len(self.world.lights)
+        low = np.tile(np.array([-OBS_BOUND, -OBS_BOUND, -1.0, -1.0, 0.0, 0.0], np.float32), n)
+        high = np.tile(np.array([OBS_BOUND, OBS_BOUND, 1.0, 1.0, 0.0, 1.0], np.float32), n)
+        high.reshape(n, STATE_PER_AGENT)[:, 4] = self.world.max_speed
+        low = np.concatenate([low, np.zeros(STATE_PER_LIGHT * lights, np.float32)])
+        high = np.concatenate([high, np.ones(STATE_PER_LIGHT * lights, np.float32)])
+        return spaces.Box(low, high, dtype=np.float32)
+
+    @property
+    def np_random(self) -> np.random.Generator:
+        if self._np_random is None:
+            self._np_random, self.np_random_seed = seeding.np_random()
+        return self._np_random
+
+    # ------------------------------------------------------------------ PettingZoo API
+    def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        if seed is not None:
+            self._np_random, self.np_random_seed = seeding.np_random(seed)
+        rng = self.np_random
+        self.world = World(self.scene, self.world.layout)
+        spawn(self.world, rng)
+        self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.supervisor.prepare(self.world)
+        self.agents = list(self.possible_agents)
+        self._cycles = 0
+        n = len(self.possible_agents)
+        self._last_s = self.world.route_s[:n].astype(np.float64)
+        self._route_length = self.world.path_len[:n] - self._last_s
+        observations = {a: self._observe(i) for i, a in enumerate(self.agents)}
+        infos = {a: self._info(i, []) for i, a in enumerate(self.agents)}
+        return observations, infos
+
+    def step(self, actions: dict[str, Any]):
+        if not self.agents:
+            raise RuntimeError(f"{WHERE}: step() called with no live agents; call reset()")
+        unknown = sorted(set(actions) - set(self.possible_agents), key=str)
+        if unknown:
+            raise ValueError(
+                f"{WHERE}: actions for unknown agents {unknown}; allowed: {self.possible_agents}"
+            )
+        live = [self._index[a] for a in self.agents]
+        chosen = {
+            i: self._validate(actions[agent_name(i)]) for i in live if agent_name(i) in actions
+        }
+        w, sup = self.world, self.supervisor
+        controls, memory = self._controls(chosen)
+        events = sup.execute(w, controls, memory)
+        self._cycles += 1
+
+        hit = {i: [e for e in events if i in (e.a, e.b)] for i in live}
+        rewards, terminations, truncations = {}, {}, {}
+        for i in live:
+            a = agent_name(i)
+            arrived = bool(w.reached[i])
+            s_now = float(w.path_len[i] + w.offset[i]) if arrived else float(w.route_s[i])
+            rewards[a] = (s_now - self._last_s[i]) / self._route_length[i] - (
+                COLLISION_PENALTY if hit[i] else 0.0
+            )
+            self._last_s[i] = s_now
+            terminations[a] = arrived or bool(hit[i])
+            truncations[a] = not terminations[a] and self._cycles >= self.max_cycles
+            if hit[i]:
+                w.active[i] = False  # the car leaves the road with its episode
+        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        if self.agents:
+            sup.prepare(w)
+        observations = {agent_name(i): self._observe(i) for i in live}
+        infos = {agent_name(i): self._info(i, hit[i]) for i in live}
+        for i in live:
+            a = agent_name(i)
+            if terminations[a] or truncations[a]:
+                infos[a]["is_success"] = bool(w.reached[i]) and not bool(w.collided[i])
+        return observations, rewards, terminations, truncations, infos
+
+    def state(self) -> np.ndarray:
+        w = self.world
+        per_agent = np.column_stack(
+            [
+                w.state[:, 0],
+                w.state[:, 1],
+                np.cos(w.state[:, 2]),
+                np.sin(w.state[:, 2]),
+                w.state[:, 3],
+                w.active,
+            ]
+        )
+        lights = np.eye(STATE_PER_LIGHT)[np.asarray(w.light_state, dtype=np.int64)]
+        flat = np.concatenate([per_agent.ravel(), lights.ravel()]).astype(np.float32)
+        return np.clip(flat, self.state_space.low, self.state_space.high)
+
+    def render(self) -> np.ndarray | None:
+        """``"rgb_array"``: the global view (H, W, 3) uint8, the first live agent highlighted."""
+        if self.render_mode is None:
+            gym.logger.warn(
+                f'{WHERE}.render() called without a render_mode; pass render_mode="rgb_array"'
+            )
+            return None
+        from fluids_bench.tasks.fluids.sim.render import Renderer
+
+        if self._renderer is None or self._renderer.layout is not self.world.layout:
+            self._renderer = Renderer(self.world.layout)
+        highlight = self._index[self.agents[0]] if self.agents else 0
+        return self._renderer.render(self.world, ego=highlight)
+
+    def close(self) -> None:
+        self._renderer = None
+
+    # ------------------------------------------------------------------ supervisor protocol
+    def supervisor_action(self, agent: str):
+        """The supervisor's action for ``agent`` at ``action_level`` in the current state."""
+        return self._label(self._index[agent])
+
+    def _label(self, i: int):
+        return levels.label(self.supervisor, self.world, self.action_level, i)
+
+    # ------------------------------------------------------------------ helpers
+    def _controls(self, chosen: dict[int, Any]) -> tuple[np.ndarray, tuple | None]:
+        """Every agent's controls with the chosen agents' actions at ``action_level``, the rest
+        supervised, and the PID memory to commit (None: the supervisor's own)."""
+        controls, memory, changed = levels.controls(
+            self.action_level, self.world, self.supervisor, chosen
+        )
+        for i in changed:
+            self._route_length[i] = float(self.world.path_len[i]) - self._last_s[i]
+        return controls, memory
+
+    def _validate(self, action):
+        return levels.validate(self.action_level, self._action_space, action, WHERE)
+
+    def _observe(self, i: int):
+        rng, w = self.np_random, self.world
+        if self.observer.single:
+            return next(iter(self._observers.values()))(w, rng, i)
+        return {kind: fn(w, rng, i) for kind, fn in self._observers.items()}
+
+    def _info(self, i: int, events) -> dict[str, Any]:
+        w = self.world
+        return {
+            SUPERVISOR_ACTION_KEY: self._label(i),
+            "collisions": [e.as_dict() for e in events],
+            "arrived": bool(w.reached[i]),
+            "route": w.layout.routes.names[w.route[i]],
+        }
+
+
+def parallel_env(**kwargs: Any) -> FluidsParallelEnv:
+    """Build the multi-agent FLUIDS env (see :class:`FluidsParallelEnv` for the arguments)."""
+    return FluidsParallelEnv(**kwargs)

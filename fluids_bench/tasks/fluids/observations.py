@@ -1,0 +1,138 @@
+"""Observation families of FLUIDS-v0, chosen by ``obs_type`` and combinable as a Dict.
+
+Each family is a sensor with a fixed space (built once in the env's ``__init__``) and an
+``observe(world, rng)`` that reads the world and draws any noise from ``rng`` (the env's
+``np_random``), so seeded episodes stay bit-identical with noise on.
+
+Families (ch. 7 of the source):
+
+* ``"explicit"``: the true state, a flat float32 vector (:mod:`fluids_bench.tasks.fluids.sim.sensors.explicit`).
+* ``"birdseye"``: a top-down RGB image, uint8 (H, W, 3) (:mod:`fluids_bench.tasks.fluids.sim.sensors.birdseye`).
+* ``"qlidar"``: quasi-LIDAR, float32 (m, 4) rows [d, label, ψ_r, v_r], one per ray
+  (:mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from gymnasium import spaces
+
+from fluids_bench.tasks.fluids.sim.config import check_range
+from fluids_bench.tasks.fluids.sim.sensors.explicit import ExplicitSensor
+from fluids_bench.tasks.fluids.sim.world import World
+
+OBS_TYPES = ("explicit", "birdseye", "qlidar")
+BIRDSEYE_FRAMES = ("ego", "ego_rotated", "global")
+OBS_BOUND = 1000.0  # explicit observations are clipped to ±this (noise could leave the space)
+
+
+@dataclass(frozen=True)
+class ObservationConfig:
+    """Every sensor option the env accepts (all JSON-friendly). Units: metres, variances in the
+    observation's own units squared (pixel values² for ``pixel_noise``)."""
+
+    obs_type: str | tuple[str, ...] = "explicit"
+    obs_noise: float = 0.0  # explicit: variance of the Gaussian noise
+    k_nearest: int = 8  # explicit: other agents listed
+    birdseye_size: int = 84  # birdseye: image height = width (pixels)
+    birdseye_fov: float = 40.0  # birdseye: side of the square seen (m), ego frames only
+    birdseye_frame: str = "ego"  # birdseye: "ego", "ego_rotated" or "global"
+    pixel_noise: float = 0.0  # birdseye: λ_p, variance of the per-pixel Gaussian noise
+    lidar_rays: int = 64  # qlidar: m rays, 2πk/m from the ego's heading
+    lidar_range: float = 30.0  # qlidar: m
+    lidar_noise: float = 0.0  # qlidar: λ_l, variance of the noise on d, ψ_r and v_r
+    lidar_dropout: float = 0.0  # qlidar: ε, probability that a ray reads as empty
+
+    def __post_init__(self) -> None:
+        obs_type = self.obs_type
+        kinds = (obs_type,) if isinstance(obs_type, str) else tuple(obs_type)
+        if not kinds or any(k not in OBS_TYPES for k in kinds) or len(set(kinds)) != len(kinds):
+            raise ValueError(
+                f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: one of "
+                f"{list(OBS_TYPES)} or a list of distinct ones"
+            )
+        object.__setattr__(self, "obs_type", obs_type if isinstance(obs_type, str) else kinds)
+        check_range("FluidsEnv", "obs_noise", self.obs_noise, 0.0, 100.0)
+        check_range("FluidsEnv", "k_nearest", self.k_nearest, 0, 64, integer=True)
+        check_range("FluidsEnv", "birdseye_size", self.birdseye_size, 16, 1024, integer=True)
+        check_range("FluidsEnv", "birdseye_fov", self.birdseye_fov, 5.0, 1000.0)
+        if self.birdseye_frame not in BIRDSEYE_FRAMES:
+            raise ValueError(
+                f"FluidsEnv: field 'birdseye_frame' is {self.birdseye_frame!r}; "
+                f"allowed: {list(BIRDSEYE_FRAMES)}"
+            )
+        check_range("FluidsEnv", "pixel_noise", self.pixel_noise, 0.0, 10000.0)
+        check_range("FluidsEnv", "lidar_rays", self.lidar_rays, 1, 4096, integer=True)
+        check_range("FluidsEnv", "lidar_range", self.lidar_range, 1.0, 1000.0)
+        check_range("FluidsEnv", "lidar_noise", self.lidar_noise, 0.0, 100.0)
+        check_range("FluidsEnv", "lidar_dropout", self.lidar_dropout, 0.0, 1.0)
+
+    @property
+    def kinds(self) -> tuple[str, ...]:
+        return (self.obs_type,) if isinstance(self.obs_type, str) else self.obs_type
+
+
+class _Explicit:
+    def __init__(self, cfg: ObservationConfig, world: World) -> None:
+        self.sensor = ExplicitSensor(cfg.k_nearest, cfg.obs_noise)
+        self.space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
+
+    def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
+        obs = self.sensor.observe(world, rng)
+        return np.minimum(np.maximum(obs, -OBS_BOUND, out=obs), OBS_BOUND, out=obs)
+
+
+class _BirdsEye:
+    def __init__(self, cfg: ObservationConfig, world: World) -> None:
+        from fluids_bench.tasks.fluids.sim.sensors.birdseye import BirdsEyeSensor
+
+        self.sensor = BirdsEyeSensor(
+            world.layout, cfg.birdseye_size, cfg.birdseye_fov, cfg.birdseye_frame, cfg.pixel_noise
+        )
+        self.space = spaces.Box(0, 255, self.sensor.shape, np.uint8)
+
+    def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
+        return self.sensor.observe(world, rng)
+
+
+class _QLidar:
+    def __init__(self, cfg: ObservationConfig, world: World) -> None:
+        from fluids_bench.tasks.fluids.sim.sensors.qlidar import QLidarSensor
+
+        self.sensor = QLidarSensor(
+            world.layout,
+            cfg.lidar_rays,
+            cfg.lidar_range,
+            cfg.lidar_noise,
+            cfg.lidar_dropout,
+            max_speed=float(world.max_speed.max()),
+        )
+        low, high = self.sensor.bounds
+        self.space = spaces.Box(low, high, dtype=np.float32)
+
+    def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
+        return self.sensor.observe(world, rng)
+
+
+_FACTORIES = {"explicit": _Explicit, "birdseye": _BirdsEye, "qlidar": _QLidar}
+
+
+class Observer:
+    """The env's observation: one family, or a Dict of several (keys are the family names)."""
+
+    def __init__(self, cfg: ObservationConfig, world: World) -> None:
+        self.config = cfg
+        self.parts = {kind: _FACTORIES[kind](cfg, world) for kind in cfg.kinds}
+        self.single = isinstance(cfg.obs_type, str)
+        self.space = (
+            next(iter(self.parts.values())).space
+            if self.single
+            else spaces.Dict({k: p.space for k, p in self.parts.items()})
+        )
+
+    def observe(self, world: World, rng: np.random.Generator):
+        if self.single:
+            return next(iter(self.parts.values())).observe(world, rng)
+        return {k: p.observe(world, rng) for k, p in self.parts.items()}

@@ -1,0 +1,112 @@
+"""Compiled per-step loops of the world (numba): progress along paths, the quick on-road test
+and the collision broad phase (the dynamics' loop is in :mod:`fluids_bench.tasks.fluids.sim.dynamics`).
+
+A FLUIDS scene has tens of agents, so each of these is a few dozen arithmetic operations per
+agent (or per pair). As numpy expressions they cost one call of 1–2 µs per operation on these
+machines, which made them most of a step; compiled they are plain loops. The arithmetic is the
+numpy formulation's, operation for operation in float64 with no fast-math (no fused
+multiply-add), so results are bit-identical to it: ``tests/sim/numpy_reference.py`` keeps those
+formulations and ``tests/sim/test_sim_kernels.py`` compares. Data stays in the world's arrays
+(struct of arrays over agents); nothing here allocates per agent.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from fluids_bench.tasks.fluids.sim.dynamics import wrap_angle
+
+
+@njit(cache=True, nogil=True)
+def progress(
+    state, s, active, path_z, path_heading, path_len, spacing, lo, hi
+):  # pragma: no cover (compiled)
+    """Each agent projected onto its path near its previous progress ``s``: the path samples
+    ``lo`` … ``hi − 1`` around it are searched (an agent moves a few samples per step at most).
+
+    Returns new arrays: progress (m; kept for inactive agents), the nearest sample, and the
+    signed lateral offset (m, left positive) and heading error (rad) from that sample.
+    """
+    n, width = path_z.shape
+    new_s, nearest = s.copy(), np.empty(n, np.int64)
+    lateral, heading_error = np.empty(n), np.empty(n)
+    for i in range(n):
+        x, y = state[i, 0], state[i, 1]
+        k0 = np.int64(np.rint(s[i] / spacing))
+        best, best_d = 0, np.inf
+        for w in range(lo, hi):
+            k = min(max(k0 + w, 0), width - 1)
+            dx, dy = path_z[i, k].real - x, path_z[i, k].imag - y
+            d = dx * dx + dy * dy
+            if d < best_d:  # the first of equal distances, as argmin
+                best, best_d = k, d
+        h = path_heading[i, best]
+        ox, oy = x - path_z[i, best].real, y - path_z[i, best].imag
+        ch, sh = math.cos(h), math.sin(h)
+        along = min(max(ox * ch + oy * sh, -spacing / 2), spacing / 2)
+        if active[i]:
+            new_s[i] = min(best * spacing + along, path_len[i])
+        nearest[i] = best
+        lateral[i] = oy * ch - ox * sh
+        heading_error[i] = wrap_angle(state[i, 2] - h)
+    return new_s, nearest, lateral, heading_error
+
+
+@njit(cache=True, nogil=True)
+def surely_on_road(
+    state, nearest, offsets, samples, radius, path_z, clearance
+):  # pragma: no cover (compiled)
+    """Agents each of whose covering circles (centred ``offsets`` (N, 3) m along the heading,
+    ``radius`` (N,) m) lies within the road clearance of the path sample nearest it (the agent's
+    nearest sample plus ``samples`` (N, 3)): their footprints are certainly on the road."""
+    n, width = path_z.shape
+    out = np.empty(n, np.bool_)
+    for i in range(n):
+        x, y = state[i, 0], state[i, 1]
+        c, s = math.cos(state[i, 2]), math.sin(state[i, 2])
+        out[i] = True
+        for j in range(3):
+            k = min(max(nearest[i] + samples[i, j], 0), width - 1)
+            gap = math.hypot(
+                x + offsets[i, j] * c - path_z[i, k].real, y + offsets[i, j] * s - path_z[i, k].imag
+            )
+            if not gap + radius[i] < clearance[i, k]:
+                out[i] = False
+                break
+    return out
+
+
+@njit(cache=True, nogil=True)
+def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
+    """Pairs (a, b), a < b, of active agents whose covering circles meet: first their
+    circumscribed circles (``reach2`` (N, N), the squared sum of their radii; negative for pairs
+    never checked), then the three circles along each (``offsets`` (N, 3) m along the heading,
+    ``radius`` (N,) m). Disjoint circles prove two footprints apart; the rest go to Shapely."""
+    n = state.shape[0]
+    first, second = [], []
+    for a in range(n):
+        if not active[a]:
+            continue
+        for b in range(a + 1, n):
+            if not active[b]:
+                continue
+            gx, gy = state[a, 0] - state[b, 0], state[a, 1] - state[b, 1]
+            if not gx * gx + gy * gy < reach2[a, b]:
+                continue
+            ca, sa = math.cos(state[a, 2]), math.sin(state[a, 2])
+            cb, sb = math.cos(state[b, 2]), math.sin(state[b, 2])
+            limit = (radius[a] + radius[b]) * (radius[a] + radius[b])
+            meet = False
+            for i in range(3):
+                xa, ya = state[a, 0] + offsets[a, i] * ca, state[a, 1] + offsets[a, i] * sa
+                for j in range(3):
+                    dx = xa - (state[b, 0] + offsets[b, j] * cb)
+                    dy = ya - (state[b, 1] + offsets[b, j] * sb)
+                    meet |= dx * dx + dy * dy < limit
+            if meet:
+                first.append(a)
+                second.append(b)
+    return np.array(first, dtype=np.int64), np.array(second, dtype=np.int64)

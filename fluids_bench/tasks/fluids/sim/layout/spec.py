@@ -1,0 +1,278 @@
+"""The declarative description of an intersection: pure data, validated, JSON round-trippable.
+
+A :class:`LayoutSpec` says what is where (lanes, sidewalks, crosswalks, lights, extra drivable
+areas, car routes and pedestrian walks). :mod:`fluids_bench.tasks.fluids.sim.layout.compiled` turns it into the
+geometry and route arrays the simulator uses. Coordinates are metres, headings radians, durations
+seconds. Errors name the element and field at fault.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+Point = tuple[float, float]
+
+TRAFFIC_STATES = ("green", "yellow", "red")
+CROSSWALK_STATES = ("white", "red")
+
+
+def _fail(where: str, field_name: str, value, allowed: str) -> None:
+    raise ValueError(f"{where}: field '{field_name}' is {value!r}; allowed: {allowed}")
+
+
+def _check_points(where: str, name: str, pts, minimum: int) -> tuple[Point, ...]:
+    try:
+        out = tuple((float(x), float(y)) for x, y in pts)
+    except (TypeError, ValueError):
+        _fail(where, name, pts, "a list of [x, y] pairs of numbers")
+    if len(out) < minimum:
+        _fail(where, name, pts, f"at least {minimum} points")
+    if not all(math.isfinite(c) for p in out for c in p):
+        _fail(where, name, pts, "finite coordinates")
+    return out
+
+
+def _check_positive(where: str, name: str, value) -> float:
+    if (
+        isinstance(value, bool)
+        or not isinstance(value, int | float)
+        or not math.isfinite(value)
+        or value <= 0
+    ):
+        _fail(where, name, value, "a finite number > 0")
+    return float(value)
+
+
+@dataclass(frozen=True)
+class Lane:
+    """A directed lane: cars drive along ``centerline`` from its first to its last point."""
+
+    name: str
+    centerline: tuple[Point, ...]
+    width: float = 3.5
+    speed_limit: float = 10.0  # m/s
+    light: str | None = None  # traffic light at the lane's end (its stop line)
+
+    def __post_init__(self) -> None:
+        where = f"lane '{self.name}'"
+        object.__setattr__(
+            self, "centerline", _check_points(where, "centerline", self.centerline, 2)
+        )
+        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+        object.__setattr__(
+            self, "speed_limit", _check_positive(where, "speed_limit", self.speed_limit)
+        )
+
+
+@dataclass(frozen=True)
+class Sidewalk:
+    name: str
+    centerline: tuple[Point, ...]
+    width: float = 2.5
+
+    def __post_init__(self) -> None:
+        where = f"sidewalk '{self.name}'"
+        object.__setattr__(
+            self, "centerline", _check_points(where, "centerline", self.centerline, 2)
+        )
+        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+
+
+@dataclass(frozen=True)
+class Crosswalk:
+    """A pedestrian crossing from ``start`` to ``end`` across a road, ``width`` wide."""
+
+    name: str
+    start: Point
+    end: Point
+    width: float = 3.0
+    light: str | None = None
+
+    def __post_init__(self) -> None:
+        where = f"crosswalk '{self.name}'"
+        a, b = _check_points(where, "start/end", (self.start, self.end), 2)
+        object.__setattr__(self, "start", a)
+        object.__setattr__(self, "end", b)
+        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+
+
+@dataclass(frozen=True)
+class Light:
+    """A looping light. ``phases`` is a sequence of (state, seconds); ``offset`` shifts the loop.
+
+    Traffic lights cycle through green/yellow/red, crosswalk lights through white/red, each state
+    held for its duration, so any synchronisation scheme is a choice of durations and offsets.
+    """
+
+    name: str
+    kind: str  # "traffic" or "crosswalk"
+    position: Point
+    phases: tuple[tuple[str, float], ...]
+    offset: float = 0.0
+
+    def __post_init__(self) -> None:
+        where = f"light '{self.name}'"
+        if self.kind not in ("traffic", "crosswalk"):
+            _fail(where, "kind", self.kind, "'traffic' or 'crosswalk'")
+        allowed = TRAFFIC_STATES if self.kind == "traffic" else CROSSWALK_STATES
+        object.__setattr__(
+            self, "position", _check_points(where, "position", [self.position], 1)[0]
+        )
+        phases = []
+        for state, seconds in self.phases:
+            if state not in allowed:
+                _fail(where, "phases", state, f"states {allowed}")
+            phases.append((str(state), _check_positive(where, "phases duration", seconds)))
+        if not phases:
+            _fail(where, "phases", self.phases, "at least one (state, seconds) pair")
+        object.__setattr__(self, "phases", tuple(phases))
+        if not isinstance(self.offset, int | float) or not math.isfinite(self.offset):
+            _fail(where, "offset", self.offset, "a finite number of seconds")
+        object.__setattr__(self, "offset", float(self.offset))
+
+
+@dataclass(frozen=True)
+class CarRoute:
+    """A legal movement: drive ``entry`` to its end, optionally through ``via``, then ``exit``."""
+
+    entry: str
+    exit: str
+    via: tuple[Point, ...] = ()  # intermediate points (e.g. around a roundabout), else a Bézier
+
+    def __post_init__(self) -> None:
+        via = _check_points(f"route '{self.name}'", "via", self.via, 0)
+        if len(via) == 1:
+            _fail(f"route '{self.name}'", "via", self.via, "no points, or at least 2")
+        object.__setattr__(self, "via", via)
+
+    @property
+    def name(self) -> str:
+        return f"{self.entry}->{self.exit}"
+
+
+@dataclass(frozen=True)
+class Walk:
+    """A pedestrian route: a polyline over sidewalks and crosswalks."""
+
+    name: str
+    waypoints: tuple[Point, ...]
+
+    def __post_init__(self) -> None:
+        object.__setattr__(
+            self, "waypoints", _check_points(f"walk '{self.name}'", "waypoints", self.waypoints, 2)
+        )
+
+
+@dataclass(frozen=True)
+class LayoutSpec:
+    """Everything static about a scene. ``areas`` are extra drivable polygons (junction cores);
+    ``curb_radius`` rounds the concave corners of the road network; ``islands`` are non-drivable
+    polygons cut out of it (a roundabout's centre); ``sidewalk_width`` > 0 borders every road with
+    a sidewalk band (``sidewalks`` adds explicit ones)."""
+
+    name: str
+    bounds: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
+    lanes: tuple[Lane, ...]
+    routes: tuple[CarRoute, ...]
+    sidewalks: tuple[Sidewalk, ...] = ()
+    crosswalks: tuple[Crosswalk, ...] = ()
+    lights: tuple[Light, ...] = ()
+    walks: tuple[Walk, ...] = ()
+    areas: tuple[tuple[Point, ...], ...] = ()
+    islands: tuple[tuple[Point, ...], ...] = ()
+    curb_radius: float = 3.0
+    sidewalk_width: float = 0.0  # > 0: a sidewalk band of this width borders all roads
+
+    def __post_init__(self) -> None:
+        where = f"layout '{self.name}'"
+        b = self.bounds
+        if len(b) != 4 or not all(math.isfinite(v) for v in b) or b[0] >= b[2] or b[1] >= b[3]:
+            _fail(where, "bounds", b, "[xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax")
+        object.__setattr__(self, "bounds", tuple(float(v) for v in b))
+        for group in ("lanes", "sidewalks", "crosswalks", "lights", "walks"):
+            names = [e.name for e in getattr(self, group)]
+            dup = {n for n in names if names.count(n) > 1}
+            if dup:
+                _fail(where, group, sorted(dup), "unique names")
+        lanes = {lane.name for lane in self.lanes}
+        lights = {light.name: light.kind for light in self.lights}
+        traffic = sorted(n for n, k in lights.items() if k == "traffic")
+        crossing = sorted(n for n, k in lights.items() if k == "crosswalk")
+        for lane in self.lanes:
+            if lane.light is not None and lights.get(lane.light) != "traffic":
+                _fail(f"lane '{lane.name}'", "light", lane.light, f"a traffic light of {traffic}")
+        for cw in self.crosswalks:
+            if cw.light is not None and lights.get(cw.light) != "crosswalk":
+                _fail(
+                    f"crosswalk '{cw.name}'", "light", cw.light, f"a crosswalk light of {crossing}"
+                )
+        if not self.routes:
+            _fail(where, "routes", self.routes, "at least one car route")
+        for r in self.routes:
+            for end in ("entry", "exit"):
+                if getattr(r, end) not in lanes:
+                    _fail(f"route '{r.name}'", end, getattr(r, end), f"a lane of {sorted(lanes)}")
+        object.__setattr__(
+            self, "areas", tuple(_check_points(where, "areas", a, 3) for a in self.areas)
+        )
+        object.__setattr__(
+            self, "islands", tuple(_check_points(where, "islands", a, 3) for a in self.islands)
+        )
+        _check_positive(where, "curb_radius", self.curb_radius)
+        self._check_inside_bounds()
+        if not isinstance(self.sidewalk_width, int | float) or not 0 <= self.sidewalk_width < 50:
+            _fail(where, "sidewalk_width", self.sidewalk_width, "a number in [0, 50) metres")
+
+    def _check_inside_bounds(self) -> None:
+        """Every point must lie within ``bounds`` (grown by 1 km of slack for kerbs and walks):
+        a stray coordinate would otherwise make compiling allocate without limit."""
+        xmin, ymin, xmax, ymax = self.bounds
+        slack = 1000.0
+        groups = [(f"lane '{e.name}'", "centerline", e.centerline) for e in self.lanes]
+        groups += [(f"sidewalk '{e.name}'", "centerline", e.centerline) for e in self.sidewalks]
+        groups += [
+            (f"crosswalk '{e.name}'", "start/end", (e.start, e.end)) for e in self.crosswalks
+        ]
+        groups += [(f"walk '{e.name}'", "waypoints", e.waypoints) for e in self.walks]
+        groups += [(f"route '{r.name}'", "via", r.via) for r in self.routes]
+        groups += [(f"layout '{self.name}'", f"areas[{i}]", a) for i, a in enumerate(self.areas)]
+        groups += [
+            (f"layout '{self.name}'", f"islands[{i}]", a) for i, a in enumerate(self.islands)
+        ]
+        for where, name, pts in groups:
+            for x, y in pts:
+                if not (xmin - slack <= x <= xmax + slack and ymin - slack <= y <= ymax + slack):
+                    _fail(
+                        where, name, (x, y), f"points within bounds {self.bounds} (± {slack:g} m)"
+                    )
+
+    def lane(self, name: str) -> Lane:
+        for lane in self.lanes:
+            if lane.name == name:
+                return lane
+        raise KeyError(name)
+
+    @property
+    def entry_lanes(self) -> tuple[str, ...]:
+        """Lanes some route starts from, in spec order."""
+        seen: dict[str, None] = {}
+        for r in self.routes:
+            seen.setdefault(r.entry)
+        return tuple(seen)
+
+    def routes_from(self, entry: str) -> tuple[CarRoute, ...]:
+        return tuple(r for r in self.routes if r.entry == entry)
+
+
+__all__ = [
+    "CROSSWALK_STATES",
+    "TRAFFIC_STATES",
+    "CarRoute",
+    "Crosswalk",
+    "LayoutSpec",
+    "Lane",
+    "Light",
+    "Sidewalk",
+    "Walk",
+]

@@ -1,0 +1,268 @@
+"""The FLUIDS world: struct-of-arrays state of every agent, one vectorised ``step``.
+
+Agent 0 is always the ego car; cars come first, pedestrians after. Each agent follows its own
+copy of a path (its route's, or a recovery path planned back to it), stored resampled every
+``PATH_SPACING`` metres so that progress ``s`` (m along the path) indexes it directly.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.sim import kernels
+from fluids_bench.tasks.fluids.sim.collision import (
+    covering_circles,
+    find_collisions,
+    footprint_corners,
+)
+from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.sim.dynamics import advance
+from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.lights import LightProgram
+
+GOAL_TOLERANCE = 0.5  # m between an arriving agent's front and the end of its path
+RECOVERY_ROOM = 160  # extra path samples per agent, for recovery paths longer than the route
+PROGRESS_WINDOW = (-3, 9)  # path samples searched around the last progress: 3 back, 8 ahead
+
+
+@dataclass(frozen=True)
+class Collision:
+    step: int
+    a: int
+    b: int  # -1 for offroad
+    kind: str
+
+    def as_dict(self) -> dict:
+        return {"step": self.step, "a": self.a, "b": self.b, "kind": self.kind}
+
+
+class World:
+    """All agents of one scene on one compiled layout. Mutated only by :meth:`step` and the
+    placement methods; readers (sensors, renderers, supervisors) must not write to its arrays."""
+
+    def __init__(self, scene: SceneConfig, layout: Layout | None = None) -> None:
+        self.scene = scene
+        self.layout = layout if layout is not None else compile_layout(scene.layout_spec())
+        self.dt = scene.dt
+        n_cars, n_peds = scene.num_cars, scene.num_pedestrians
+        n = n_cars + n_peds
+        self.n = n
+        self.kind = np.array([CAR] * n_cars + [PEDESTRIAN] * n_peds, dtype=np.int8)
+        self.is_car = self.kind == CAR
+        car, ped = scene.car, scene.pedestrian
+        self.length = np.where(self.is_car, car.length, 2 * ped.radius)
+        self.width = np.where(self.is_car, car.width, 2 * ped.radius)
+        self.max_speed = np.where(self.is_car, car.max_speed, ped.max_speed)
+        # dynamics parameters [mass, l_f, l_r, max_speed]; pedestrians ignore the first three
+        self.params = np.column_stack(
+            [
+                np.where(self.is_car, car.mass, 1.0),
+                np.full(n, car.lf),
+                np.full(n, car.lr),
+                self.max_speed,
+            ]
+        )
+        self.lights = LightProgram(self.layout.spec.lights)
+        width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
+        # paths as complex numbers x + iy (the ``path`` property shows them as (n, width, 2))
+        self.path_z = np.zeros((n, width), dtype=np.complex128)
+        self.path_heading = np.zeros((n, width))
+        self.path_clearance = np.zeros((n, width))  # m from each path point to the road's edge
+        # single-precision complex copies (x + iy, unit tangent e^{iθ}) for the planner's large
+        # pairwise arrays: they stay in cache, and centimetres need no more precision
+        self.path_c64 = np.zeros((n, width), dtype=np.complex64)
+        self.path_dir = np.zeros((n, width), dtype=np.complex64)
+        self.path_len = np.zeros(n)
+        self.state = np.zeros((n, 4))  # x, y, θ, v
+        self.route = np.full(n, -1, dtype=np.int64)
+        self.s = np.zeros(n)
+        self.offset = np.zeros(n)  # route arc length minus path arc length (recovery paths)
+        self.lateral_error = np.zeros(n)
+        self.heading_error = np.zeros(n)
+        self.active = np.zeros(n, dtype=bool)
+        self.reached = np.zeros(n, dtype=bool)
+        self.collided = np.zeros(n, dtype=bool)
+        self.recovering = np.zeros(n, dtype=bool)  # following a planned path back to the route
+        self.time = 0.0
+        self.steps = 0
+        self.log: list[Collision] = []
+        self.light_state = self.lights.states(0.0)
+        self.nearest = np.zeros(n, dtype=np.int64)  # path sample nearest each agent (progress)
+        self._row_start = np.arange(n)[:, None] * width  # flat index of each agent's path start
+        # the footprints' covering circles (as the collision check's), and the path sample
+        # offset nearest each, for the quick on-road test
+        circles = covering_circles(self.is_car, self.length, self.width)
+        _, self._circle_offsets, self._circle_radius = circles
+        self._circle_samples = np.rint(self._circle_offsets / PATH_SPACING).astype(np.int64)
+
+    # ----------------------------------------------------------------------------- placement
+    def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
+        """Put ``agent`` on ``route`` at arc length ``s`` (m), heading along it."""
+        table = self.layout.routes
+        if table.kind[route] != self.kind[agent]:
+            raise ValueError(
+                f"agent {agent} is a {'car' if self.is_car[agent] else 'pedestrian'}; "
+                f"route '{table.names[route]}' is not"
+            )
+        self.follow_route(agent, route)
+        k = int(round(s / PATH_SPACING))
+        self.state[agent] = [*table.path[route, k], table.heading[route, k], speed]
+        self.s[agent] = k * PATH_SPACING
+        self.lateral_error[agent] = self.heading_error[agent] = 0.0
+        self.offset[agent] = 0.0
+        self.active[agent] = True
+        self.reached[agent] = self.collided[agent] = self.recovering[agent] = False
+
+    def follow_route(self, agent: int, route: int) -> None:
+        """Make route ``route``'s path the one ``agent`` follows (progress is kept)."""
+        table = self.layout.routes
+        self.route[agent] = route
+        self.set_path(
+            agent,
+            table.path[route],
+            table.heading[route],
+            float(table.length[route]),
+            self.layout.route_clearance[route],
+        )
+
+    def set_path(
+        self,
+        agent: int,
+        path: np.ndarray,
+        heading: np.ndarray,
+        length: float,
+        clearance: np.ndarray | None = None,
+    ) -> None:
+        """Give ``agent`` a new path to follow (its route's, or a recovery path). ``clearance``
+        (m from each point to the road's edge) is computed when not given."""
+        if clearance is None:
+            clearance = self.layout.road_clearance(path)
+        m = min(len(path), self.path_z.shape[1])
+        for row, values in (
+            (self.path_z[agent], path[:, 0] + 1j * path[:, 1]),
+            (self.path_heading[agent], heading),
+            (self.path_clearance[agent], clearance),
+        ):
+            row[:m] = values[:m]
+            row[m:] = values[m - 1]
+        self.path_dir[agent] = np.exp(1j * self.path_heading[agent])
+        self.path_c64[agent] = self.path_z[agent]
+        self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
+
+    # ----------------------------------------------------------------------------- queries
+    @property
+    def path(self) -> np.ndarray:
+        """Every agent's path as points (n, width, 2) (m); a view of :attr:`path_z`."""
+        return self.path_z.view(np.float64).reshape(*self.path_z.shape, 2)
+
+    @property
+    def position(self) -> np.ndarray:
+        """Positions as complex numbers x + iy (n,); a view of :attr:`state`."""
+        return self.state.view(np.complex128)[:, 0]
+
+    @property
+    def route_s(self) -> np.ndarray:
+        """Progress (m) in the coordinates of each agent's route (for stop lines and zones)."""
+        return self.s + self.offset
+
+    def corners(self, idx: np.ndarray | None = None) -> np.ndarray:
+        """Footprint corners (len(idx), 4, 2) of the given agents (all by default)."""
+        idx = np.arange(self.n) if idx is None else idx
+        x, y, th, _ = self.state[idx].T
+        return footprint_corners(x, y, th, self.length[idx], self.width[idx])
+
+    def path_points(
+        self, s: np.ndarray, agents: np.ndarray | None = None
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Points and headings at arc lengths ``s`` (shape (n,) or (n, ...)) on each agent's path."""
+        k = np.rint(s / PATH_SPACING).astype(np.int64)
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        starts = self._row_start if agents is None else self._row_start[agents]
+        k += starts.reshape((-1,) + (1,) * (k.ndim - 1))  # flat indices
+        points = self.path_z.ravel().take(k)
+        return points.view(np.float64).reshape(*k.shape, 2), self.path_heading.ravel().take(k)
+
+    def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Points and unit tangents at arc lengths ``s`` (len(agents), ...), as complex64."""
+        k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
+        np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
+        k += self._row_start[agents].reshape((-1,) + (1,) * (k.ndim - 1))  # flat indices
+        return self.path_c64.ravel().take(k), self.path_dir.ravel().take(k)
+
+    def tracking_error(self) -> tuple[np.ndarray, np.ndarray]:
+        """Lateral offset (m, left positive) and heading error (rad) of every agent from the
+        nearest sample of its path, as of the last progress update."""
+        return self.lateral_error, self.heading_error
+
+    # ----------------------------------------------------------------------------- stepping
+    def step(self, controls: np.ndarray) -> list[Collision]:
+        """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
+        act = self.active
+        advance(
+            self.state,
+            np.ascontiguousarray(controls, dtype=np.float64),
+            self.is_car,
+            self.params,
+            self.dt,
+            act,
+        )
+        self.time = round(self.time + self.dt, 9)
+        self.steps += 1
+        self.light_state = self.lights.states(self.time)
+        self._update_progress()
+        arrived = act & (self.s >= self.path_len - self.length / 2 - GOAL_TOLERANCE)
+        self.reached |= arrived
+        self.active &= ~arrived
+        events = self._collisions()
+        self.log.extend(events)
+        return events
+
+    def _update_progress(self) -> None:
+        """Project each agent onto its path near its previous progress (a local window: an
+        agent moves at most a few samples per step); see :func:`kernels.progress`."""
+        self.s, self.nearest, self.lateral_error, self.heading_error = kernels.progress(
+            self.state,
+            self.s,
+            self.active,
+            self.path_z,
+            self.path_heading,
+            self.path_len,
+            PATH_SPACING,
+            *PROGRESS_WINDOW,
+        )
+
+    def surely_on_road(self) -> np.ndarray:
+        """Cars whose footprint is certainly inside the (tolerant) drivable area: each of its
+        three covering circles lies within the clearance of the path point nearest it. Cheap,
+        and true for nearly every car following its path; the others get the exact test."""
+        return kernels.surely_on_road(
+            self.state,
+            self.nearest,
+            self._circle_offsets,
+            self._circle_samples,
+            self._circle_radius,
+            self.path_z,
+            self.path_clearance,
+        )
+
+    def _collisions(self) -> list[Collision]:
+        found = find_collisions(
+            self.state,
+            self.length,
+            self.width,
+            self.is_car,
+            self.active,
+            self.layout.drivable_tolerant,
+            self.layout.tolerant_boundary_vertices,
+            offroad_candidates=self.is_car & self.active & ~self.surely_on_road(),
+        )
+        out = []
+        for a, b, kind in found:
+            self.collided[a] = True
+            if b >= 0:
+                self.collided[b] = True
+            out.append(Collision(self.steps, a, b, kind))
+        return out

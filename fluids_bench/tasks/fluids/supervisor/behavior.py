@@ -1,0 +1,46 @@
+"""Level 1 of the supervisor: which movement (target lane) each car takes.
+
+The source's behaviour planner samples a start lane uniformly and then a target uniformly over
+the other approaches, p(l_t | l_g) = 1/(K−1) (ch. 7); :mod:`fluids_bench.tasks.fluids.sim.spawn` draws exactly
+that. A behaviour-level action picks among the movements of the car's entry lane, in the layout's
+order (counter-clockwise from the entry: right, straight, left on a four-way).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.sim.world import World
+
+
+def movement_count(world: World) -> int:
+    """The largest number of movements any entry lane offers (the behaviour action's size)."""
+    return int(
+        max(len(world.layout.routes_from_entry(e)) for e in range(len(world.layout.entry_lanes)))
+    )
+
+
+def current_movement(world: World, agent: int) -> int:
+    """Index of ``agent``'s route among its entry lane's movements (the supervisor's label)."""
+    routes = world.layout.routes
+    options = world.layout.routes_from_entry(int(routes.entry[world.route[agent]]))
+    return int(np.flatnonzero(options == world.route[agent])[0])
+
+
+def choose_movement(world: World, agent: int, movement: int) -> bool:
+    """Switch ``agent`` to movement ``movement`` (taken modulo the lane's count) if it has not
+    reached the junction yet; returns whether its route changed. The entry lane is shared by all
+    of its movements, so the car keeps its place and progress."""
+    routes = world.layout.routes
+    route = int(world.route[agent])
+    options = world.layout.routes_from_entry(int(routes.entry[route]))
+    new = int(options[int(movement) % len(options)])
+    front = world.length[agent] / 2
+    if (
+        new == route
+        or world.route_s[agent] + front >= routes.enter_s[route]
+        or world.offset[agent] != 0
+    ):
+        return False
+    world.follow_route(agent, new)
+    return True

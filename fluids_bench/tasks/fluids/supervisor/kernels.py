@@ -1,0 +1,164 @@
+"""Compiled inner loops of the driving supervisor (numba): velocity planner and PID.
+
+The planner's pairwise check visits every pair of agents, every pair of candidate speeds and
+every projected time, and stops at the first time the two footprints come too close. In numpy
+that is a few large temporary arrays per plan and no early exit; compiled, it is a loop that
+touches only what it needs. The PID loops are a few dozen scalar operations per agent, cheaper
+compiled than as numpy calls on 16-element arrays. The arithmetic is the numpy version's,
+operation for operation and in the same precision (float32 positions, float64 thresholds, no
+fused multiply-add), so results are bit-identical to it
+(``tests/supervisors/test_supervisor_kernels.py`` keeps those references). The simulator's own
+loops are in :mod:`fluids_bench.tasks.fluids.sim.kernels`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+
+@njit(cache=True, nogil=True)
+def conflict_tables(
+    px, py, ux, uy, now_x, now_y, bound, offs, first, second, reach2, thresh2
+):  # pragma: no cover (compiled)
+    """conflict[p, a, b]: agents ``first[p]`` at candidate a and ``second[p]`` at candidate b
+    come too close at some projected time.
+
+    px, py, ux, uy: (A, K, T) float32 positions and unit tangents of the projections; now_x,
+    now_y: (A,) float32 positions now; bound: (A,) bounding-circle radius (m); offs: (A, 3)
+    float32 offsets of each agent's footprint circles along its heading; reach2: (P,) float32
+    squared bounding-circle reach of each pair (broad phase); thresh2: (P,) float64 squared
+    clearance between footprint circles (narrow phase). Pairs whose swept boxes (every
+    candidate, every time, and now) do not overlap are skipped.
+    """
+    n_agents, n_cand, n_t = px.shape
+    lo_x, hi_x = np.empty(n_agents), np.empty(n_agents)
+    lo_y, hi_y = np.empty(n_agents), np.empty(n_agents)
+    for i in range(n_agents):
+        x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
+        for a in range(n_cand):
+            for t in range(n_t):
+                x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
+                y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
+        lo_x[i], hi_x[i], lo_y[i], hi_y[i] = (
+            x0 - bound[i],
+            x1 + bound[i],
+            y0 - bound[i],
+            y1 + bound[i],
+        )
+    out = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
+    for p in range(len(first)):
+        i, j = first[p], second[p]
+        if lo_x[i] > hi_x[j] or lo_x[j] > hi_x[i] or lo_y[i] > hi_y[j] or lo_y[j] > hi_y[i]:
+            continue
+        for a in range(n_cand):
+            for b in range(n_cand):
+                for t in range(n_t):
+                    dx = px[i, a, t] - px[j, b, t]
+                    dy = py[i, a, t] - py[j, b, t]
+                    if not dx * dx + dy * dy < reach2[p]:
+                        continue
+                    nearest = np.float32(np.inf)
+                    for ci in range(3):
+                        xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
+                        yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
+                        for cj in range(3):
+                            ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
+                            ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
+                            nearest = min(nearest, ex * ex + ey * ey)
+                    if nearest < thresh2[p]:
+                        out[p, a, b] = True
+                        break
+    return out
+
+
+@njit(cache=True, nogil=True)
+def projected_arc_lengths(
+    s0, v0, targets, decay, steps, every, dt, max_accel, max_decel, gain
+):  # pragma: no cover (compiled)
+    """Arc lengths (A, K, T) travelled from ``s0`` (A,) at speed ``v0`` (A,) toward each target
+    speed (A, K) under the PID's discrete speed law, sampled every ``every`` of ``steps`` steps.
+
+    A saturated, linear phase of ``n1`` steps, then a geometric approach: ``decay[n + steps]``
+    is (1 - gain·dt)^n. Speeds are integrated with the trapezoid rule, as a cumulative sum.
+    """
+    n_agents, n_cand = targets.shape
+    out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    for a in range(n_agents):
+        for k in range(n_cand):
+            e0 = v0[a] - targets[a, k]
+            sign = 1.0 if e0 > 0 else (-1.0 if e0 < 0 else 0.0)
+            lim = max_accel if e0 < 0 else max_decel
+            n1 = max(0.0, np.ceil((abs(e0) - lim / gain) / (lim * dt)))
+            slope = sign * lim * dt
+            e1 = e0 - slope * n1
+            prev, travelled = v0[a], 0.0
+            for m in range(1, steps + 1):
+                n = float(m)
+                v = (
+                    v0[a] - slope * n
+                    if n <= n1
+                    else targets[a, k] + e1 * decay[int(n - n1) + steps]
+                )
+                v = max(v, 0.0)
+                travelled += 0.5 * (prev + v) * dt
+                prev = v
+                if m % every == 0:
+                    out[a, k, m // every - 1] = s0[a] + travelled
+    return out
+
+
+@njit(cache=True, nogil=True)
+def lookahead_points(path, s, speed, path_len, min_ahead, ahead_time, spacing):  # pragma: no cover
+    """The point (N, 2) of each agent's path (N, M, 2) a look-ahead distance ahead of its
+    progress ``s``: max(min_ahead, ahead_time · speed) metres, capped at the path's end."""
+    out = np.empty((len(s), 2))
+    last = path.shape[1] - 1
+    for i in range(len(s)):
+        k = np.rint(min(s[i] + max(min_ahead[i], ahead_time[i] * speed[i]), path_len[i]) / spacing)
+        k = min(max(int(k), 0), last)
+        out[i, 0], out[i, 1] = path[i, k, 0], path[i, k, 1]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def pid_controls(
+    state,
+    aim,
+    is_car,
+    target_speed,
+    steer_prev,
+    steer_int,
+    speed_int,
+    dt,
+    gains,
+    limits,
+    gain,
+    low,
+    high,
+):  # pragma: no cover (compiled)
+    """Controls (N, 2) of the two PID loops and their new memory (error, integrators).
+
+    gains: steering kp, ki, kd/dt, speed kp, ki; limits: max steer (rad), max decel, max accel
+    (m/s²); gain, low, high (N,): acceleration to actuator units, and the actuator's range.
+    """
+    steer_kp, steer_ki, steer_kd_dt, speed_kp, speed_ki = gains
+    max_steer, max_decel, max_accel = limits
+    n = len(state)
+    out, err, integ, v_int = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n)
+    for i in range(n):
+        desired = np.arctan2(aim[i, 1] - state[i, 1], aim[i, 0] - state[i, 0])
+        e = (desired - state[i, 2] + np.pi) % (2 * np.pi) - np.pi
+        err[i], integ[i] = e, steer_int[i] + e * dt
+        steer = steer_kp * e + steer_kd_dt * (e - steer_prev[i])
+        if steer_ki:
+            steer += steer_ki * integ[i]
+        v_err = target_speed[i] - state[i, 3]
+        v_int[i] = speed_int[i] + v_err * dt
+        accel = speed_kp * v_err
+        if speed_ki:
+            accel += speed_ki * v_int[i]
+        out[i, 0] = min(max(steer, -max_steer), max_steer) if is_car[i] else desired
+        accel = min(max(accel, -max_decel), max_accel)
+        out[i, 1] = min(max(accel * gain[i], low[i]), high[i])
+    return out, err, integ, v_int

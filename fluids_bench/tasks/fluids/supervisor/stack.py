@@ -1,0 +1,115 @@
+"""The four supervisor levels wired together for every agent of a world.
+
+Each step, :meth:`DrivingSupervisor.prepare` reads the true world state (never an observation),
+plans any needed recovery paths, runs the velocity planner at its rate and proposes controls for
+every agent. The env then overrides what the ego's chosen level decides and executes with
+:meth:`DrivingSupervisor.execute`. The labels of every level for any agent come from the same
+proposal, so the label is what the supervisor would do in the current state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.sim.config import check_range
+from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.behavior import current_movement
+from fluids_bench.tasks.fluids.supervisor.control import PIDConfig, PIDController
+from fluids_bench.tasks.fluids.supervisor.trajectory import (
+    RecoveryPlanner,
+    off_route,
+    waypoints_ego_frame,
+)
+from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner, VelocityPlannerConfig
+
+LEVELS = ("behavior", "trajectory", "velocity", "control")
+
+
+@dataclass(frozen=True)
+class SupervisorConfig:
+    velocity: VelocityPlannerConfig = field(default_factory=VelocityPlannerConfig)
+    pid: PIDConfig = field(default_factory=PIDConfig)
+    waypoints: int = 5  # trajectory level: how many points
+    waypoint_spacing: float = 2.0  # m between them
+    recovery: bool = True  # plan back to the route with OMPL when off it
+
+    def __post_init__(self) -> None:
+        check_range("SupervisorConfig", "waypoints", self.waypoints, 1, 50, integer=True)
+        check_range("SupervisorConfig", "waypoint_spacing", self.waypoint_spacing, 0.5, 20.0)
+
+
+class DrivingSupervisor:
+    """Plans for all agents of ``world``; holds the planner's and controllers' memory."""
+
+    def __init__(self, world: World, config: SupervisorConfig | None = None) -> None:
+        self.config = config or SupervisorConfig()
+        self.planner = VelocityPlanner(self.config.velocity)
+        self.pid = PIDController(world, self.config.pid)
+        self._recovery: RecoveryPlanner | None = None
+        self.targets = np.zeros(world.n)
+        self.proposed = np.zeros((world.n, 2))
+        self._memory: tuple = ()
+        self.recoveries = 0
+
+    def __getstate__(self) -> dict:
+        state = self.__dict__.copy()
+        state["_recovery"] = None  # OMPL objects do not pickle; rebuilt on first need
+        return state
+
+    def recovery_planner(self, world: World) -> RecoveryPlanner:
+        if self._recovery is None:  # OMPL set-up only when first needed
+            self._recovery = RecoveryPlanner(world)
+        return self._recovery
+
+    def prepare(self, world: World) -> None:
+        """Recover off-route cars, re-plan velocities when due, propose every agent's controls."""
+        if self.config.recovery:
+            for agent in off_route(world).nonzero()[0]:
+                if self.recovery_planner(world).plan(world, int(agent)):
+                    self.recoveries += 1
+        if world.steps % self.config.velocity.period == 0:
+            self.targets = self.planner.plan(world)
+        self.proposed, self._memory = self.pid.controls(world, self.targets)
+
+    def execute(
+        self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None
+    ):
+        """Step ``world`` with ``controls`` (the proposal by default); returns new collisions."""
+        self.pid.commit(self._memory if memory is None else memory)
+        return world.step(self.proposed if controls is None else controls)
+
+    def step(self, world: World):
+        """One fully supervised step (every agent follows the supervisor)."""
+        self.prepare(world)
+        return self.execute(world)
+
+    # ------------------------------------------------------------------ labels
+    def label(self, world: World, level: str, agent: int = 0):
+        """What the supervisor does for ``agent`` at ``level`` in the current (prepared) state."""
+        if level == "behavior":
+            return current_movement(world, agent)
+        if level == "trajectory":
+            return waypoints_ego_frame(
+                world, agent, self.config.waypoints, self.config.waypoint_spacing
+            )
+        if level == "velocity":
+            return float(self.targets[agent])
+        if level == "control":
+            return self.normalise(world, self.proposed[agent])
+        raise ValueError(f"level is {level!r}; allowed: {list(LEVELS)}")
+
+    @staticmethod
+    def normalise(world: World, control: np.ndarray) -> np.ndarray:
+        """Car controls [ψ, F] as the control-level action in [-1, 1]²."""
+        car = world.scene.car
+        steer, force = control.tolist()  # Python floats: same arithmetic, less overhead
+        force /= car.max_force if force >= 0 else car.max_brake_force
+        return np.array([min(max(steer / car.max_steer, -1.0), 1.0), min(max(force, -1.0), 1.0)])
+
+    @staticmethod
+    def denormalise(world: World, action: np.ndarray) -> np.ndarray:
+        car = world.scene.car
+        f = action[1] * (car.max_force if action[1] >= 0 else car.max_brake_force)
+        return np.array([action[0] * car.max_steer, f])

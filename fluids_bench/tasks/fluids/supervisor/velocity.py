@@ -1,0 +1,272 @@
+"""Level 3 of the supervisor: a velocity planner posed as a constraint-satisfaction problem.
+
+For every agent and every candidate target velocity (fractions of what its path allows there),
+the planner projects the agent forward along its path for ``horizon`` seconds under the same
+speed law the controller follows. Pairs of agents whose projections at a pair of candidates come
+closer than their footprints allow are a binary constraint; lights and crosswalks prune the
+domains (unary constraints). python-constraint2 then assigns every agent a velocity.
+
+* Higher velocities first: domains are listed ascending, and the solver tries a domain's values
+  from the end.
+* Priority: variables are assigned in a fixed order (agents in or past the junction first, the
+  furthest along first; then the others, nearest the junction first; then by index), so the
+  agent that committed first keeps its right of way and the plan is deterministic.
+* Always feasible: a candidate pair conflicts only when it brings the agents closer than both
+  their clearance and their distance now; both braking never conflicts and braking is never
+  pruned from a domain, so everyone braking satisfies every constraint.
+* Pedestrians are agents like cars: they obey crosswalk lights (unary constraints) and, having
+  no right of way over a car already in the crosswalk, wait for it (priority order). Pairs of
+  pedestrians are not constrained: they step round each other.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+from constraint import FunctionConstraint, OptimizedBacktrackingSolver, Problem
+
+from fluids_bench.tasks.fluids.sim.config import check_range
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
+from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.kernels import conflict_tables, projected_arc_lengths
+
+
+@dataclass(frozen=True)
+class VelocityPlannerConfig:
+    horizon: float = 4.0  # s of forward projection
+    sample_every: int = 2  # compare positions every this many sim steps of the projection
+    fractions: tuple[float, ...] = (0.0, 0.25, 0.5, 0.75, 1.0)  # of the agent's allowed speed
+    margin: float = 0.5  # m of clearance kept between footprint circles
+    pedestrian_margin: float = 0.25  # m between a car and a walker on a crossing (cars creep past)
+    lateral_accel: float = 2.5  # m/s², sets the speed allowed on curves
+    speed_gain: float = 2.0  # 1/s, the controller's speed loop gain (projection mirrors it)
+    max_accel: float = 2.5  # m/s² the controller asks for at most
+    max_decel: float = 5.0  # m/s² the controller brakes at most
+    period: int = 5  # plan every this many steps (0.5 s at dt = 0.1); hold the plan in between
+
+    def __post_init__(self) -> None:
+        check_range("VelocityPlannerConfig", "horizon", self.horizon, 0.5, 20.0)
+        check_range("VelocityPlannerConfig", "sample_every", self.sample_every, 1, 10, integer=True)
+        check_range("VelocityPlannerConfig", "margin", self.margin, 0.0, 5.0)
+        check_range("VelocityPlannerConfig", "pedestrian_margin", self.pedestrian_margin, 0.0, 5.0)
+        check_range("VelocityPlannerConfig", "period", self.period, 1, 50, integer=True)
+        fr = self.fractions
+        if not fr or fr[0] != 0.0 or list(fr) != sorted(set(fr)) or fr[-1] > 1.0:
+            raise ValueError(
+                f"VelocityPlannerConfig: field 'fractions' is {fr!r}; allowed: "
+                "ascending distinct values in [0, 1] starting at 0.0"
+            )
+
+
+class _PrioritySolver(OptimizedBacktrackingSolver):
+    """Backtracking with a caller-given variable order (the priority order)."""
+
+    def __init__(self, order: list[int]) -> None:
+        super().__init__()
+        self.order = order
+
+    def getSortedVariables(self, domains, vconstraints):  # noqa: N802 (library's name)
+        return [v for v in self.order if v in domains]
+
+
+def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
+    """Three circles per agent along its length: offsets (N, 3) and radius (N,)."""
+    offs = np.column_stack([-world.length / 3, np.zeros(world.n), world.length / 3])
+    offs = np.where(world.is_car[:, None], offs, 0.0)
+    radius = np.where(world.is_car, np.hypot(world.length / 6, world.width / 2), world.width / 2)
+    return offs, radius
+
+
+class VelocityPlanner:
+    """Assigns every active agent a target velocity (m/s) each planning tick."""
+
+    def __init__(self, config: VelocityPlannerConfig | None = None) -> None:
+        self.config = config or VelocityPlannerConfig()
+        self.fractions = np.asarray(self.config.fractions)
+        self._pair_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
+
+    def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
+        """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
+        curvature of the next 12 m of its route."""
+        routes = world.layout.routes
+        r = world.route[agents]
+        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
+        k = np.minimum(np.maximum(k0[:, None] + self._look, 0), routes.path.shape[1] - 1)
+        kappa = routes.curvature[r[:, None], k].max(axis=1)
+        limit = routes.speed_limit[r, k[:, 0]]
+        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
+        out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
+        return np.where(world.is_car[agents], out, world.max_speed[agents])
+
+    # ------------------------------------------------------------------ projection
+    def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
+        """Path arc lengths (A, K, T) of ``agents`` under each candidate target speed (A, K).
+
+        The speed law is the PID's, in the simulator's discrete time:
+        v[n+1] = v[n] + clip(gain · (v_target − v[n]), −decel, accel) · dt. It is solved in closed
+        form: a saturated, linear phase of ``n1`` steps, then a geometric approach at rate
+        (1 − gain · dt) per step. Positions are sampled every ``sample_every`` steps.
+        """
+        cfg, dt = self.config, world.dt
+        return projected_arc_lengths(
+            world.s[agents],
+            world.state[agents, 3],
+            targets,
+            self._decay,
+            int(round(cfg.horizon / dt)),
+            cfg.sample_every,
+            dt,
+            cfg.max_accel,
+            cfg.max_decel,
+            cfg.speed_gain,
+        )
+
+    # ------------------------------------------------------------------ constraints
+    def domains(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
+        """Unary constraints: allowed[a, k] is False where candidate k runs a stop light.
+
+        Stop (red, or "don't walk"): the agent's front may not pass its stop line within the
+        horizon. Yellow: the same, unless it is too close to stop comfortably. An agent already
+        committed past the line (or unable to stop before it) is not held back.
+        """
+        routes = world.layout.routes
+        allowed = np.ones(s_proj.shape[:2], dtype=bool)
+        r = world.route[agents]
+        light = routes.light[r]
+        if not len(world.light_state) or (light < 0).all():
+            return allowed
+        stop_s = routes.stop_s[r]
+        front = self._front[agents]
+        gap = stop_s - (world.route_s[agents] + front)
+        state = world.light_state[np.maximum(light, 0)]
+        v = world.state[agents, 3]
+        brake = v**2 / (2 * 0.6 * self.config.max_decel)  # comfortable braking distance
+        holds = (
+            (light >= 0) & (gap > -0.5) & ((state == STOP) | ((state == CAUTION) & (brake < gap)))
+        )
+        if not holds.any():
+            return allowed
+        crosses = (s_proj[:, :, -1] + (world.offset[agents] + front)[:, None]) > stop_s[:, None]
+        blocked = holds[:, None] & crosses
+        can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
+        return allowed & ~(blocked & can_stop[:, None])
+
+    def conflicts(
+        self, world: World, agents: np.ndarray, s_proj: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
+
+        Only pairs with a car are checked (pedestrians step round each other). The per-pair,
+        per-candidate, per-time loop is compiled (:func:`kernels.conflict_tables`).
+        """
+        k = len(self.fractions)
+        empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
+        cars = world.is_car[agents]
+        ii, jj = self._pairs(len(agents))
+        with_car = cars[ii] | cars[jj]
+        ii, jj = ii[with_car], jj[with_car]
+        if not len(ii):
+            return empty
+        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
+        bound = self._reach[agents]
+        pos = world.position[agents].astype(np.complex64)
+        offs, radius = self._offs32[agents], self._radius[agents]
+        now = (
+            pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]
+        )  # (A, 3)
+        d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
+        # the smaller car-pedestrian clearance applies once the walker is on the crossing
+        # (so a car can creep past it); a walker still at the kerb keeps the full one
+        crossing = ~cars & (
+            world.route_s[agents] + self._front[agents]
+            >= world.layout.routes.enter_s[world.route[agents]]
+        )
+        margin = np.where(
+            crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
+        )
+        thresh = np.maximum(np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05), 0.0)
+        reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
+        conflict = conflict_tables(
+            pts.real,
+            pts.imag,
+            dirs.real,
+            dirs.imag,
+            pos.real,
+            pos.imag,
+            bound,
+            offs,
+            ii,
+            jj,
+            reach2,
+            thresh * thresh,
+        )
+        conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
+        keep = conflict.reshape(len(ii), -1).any(axis=1)
+        return np.column_stack([ii, jj])[keep], conflict[keep]
+
+    def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
+        if n not in self._pair_cache:
+            self._pair_cache[n] = np.triu_indices(n, k=1)
+        return self._pair_cache[n]
+
+    def priority(self, world: World, agents: np.ndarray) -> list[int]:
+        """Positions in ``agents`` in the order the solver assigns them (right of way first)."""
+        enter = world.layout.routes.enter_s[world.route[agents]]
+        rs = world.route_s[agents] + self._front[agents]
+        inside = rs >= enter
+        key_inside = np.where(inside, enter - rs, np.inf)  # furthest past the entry first
+        key_out = np.where(inside, -np.inf, enter - rs)  # then nearest to it
+        return np.lexsort((agents, key_out, key_inside, ~inside)).tolist()
+
+    # ------------------------------------------------------------------ solve
+    def _bind(self, world: World) -> None:
+        """Per-world constants (footprint circles), computed once."""
+        if getattr(self, "_bound_world", None) is world:
+            return
+        self._bound_world = world
+        self._offs, self._radius = _circle_layout(world)
+        self._offs32 = self._offs.astype(np.float32)
+        bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
+        self._reach = bound + self.config.margin / 2  # bounding circle plus half the clearance
+        self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
+        steps = int(round(self.config.horizon / world.dt))
+        self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
+            -steps, steps + 1, dtype=float
+        )
+
+    def plan(self, world: World) -> np.ndarray:
+        """Target velocity (m/s) of every agent; 0 for inactive ones."""
+        self._bind(world)
+        out = np.zeros(world.n)
+        agents = world.active.nonzero()[0]
+        if not len(agents):
+            return out
+        vmax = self.allowed_speed(world, agents)
+        targets = vmax[:, None] * self.fractions[None, :]
+        s_proj = self.project(world, agents, targets)
+        allowed = self.domains(world, agents, s_proj)
+        pairs, conflict = self.conflicts(world, agents, s_proj)
+        k = len(self.fractions)
+        choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
+        # the CSP only matters when some constraint binds at everyone's fastest allowed speed
+        if (
+            len(pairs)
+            and conflict[np.arange(len(pairs)), choice[pairs[:, 0]], choice[pairs[:, 1]]].any()
+        ):
+            problem = Problem(_PrioritySolver(self.priority(world, agents)))
+            for a in np.unique(pairs).tolist():
+                problem.addVariable(a, allowed[a].nonzero()[0].tolist())
+            for (a, b), table in zip(pairs.tolist(), conflict.tolist(), strict=True):
+                problem.addConstraint(
+                    FunctionConstraint(lambda x, y, bad=table: not bad[x][y]), [a, b]
+                )
+            solution = problem.getSolution()
+            if solution is None:  # cannot happen (all-stop is feasible); fail loudly if it does
+                raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
+            for a, c in solution.items():
+                choice[a] = c
+        out[agents] = targets[np.arange(len(agents)), choice]
+        return out

@@ -1,0 +1,1 @@
+"""The stochastic gridworld of ch. 3 with an exact value-iteration supervisor."""

@@ -1,0 +1,226 @@
+"""GridWorld-v0: the stochastic gridworld of the source's on- vs off-policy experiment (ch. 3)."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import gymnasium as gym
+import numpy as np
+from gymnasium import spaces
+from scipy import sparse
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import check_choice, check_float, check_int
+from fluids_bench.tasks.gridworld.supervisor import value_iteration
+
+WHERE = "GridWorld-v0"
+
+LEFT, RIGHT, FORWARD, BACKWARD, STAY = range(5)
+ACTION_NAMES = ("left", "right", "forward", "backward", "stay")
+# (dx, dy) of each action, in action order
+MOVES = np.array([(-1, 0), (1, 0), (0, 1), (0, -1), (0, 0)], dtype=np.int64)
+
+FREE, PENALTY, GOAL = 0, 1, 2
+# RGB colours of free, penalty and goal cells and of the robot, for rgb_array rendering
+COLOURS = np.array([(235, 235, 235), (200, 40, 40), (40, 170, 60)], dtype=np.uint8)
+ROBOT_COLOUR = np.array((40, 80, 220), dtype=np.uint8)
+CELL_PIXELS = 16
+
+
+class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
+    """
+    ## Description
+
+    A robot on a square grid must reach the single goal cell and stay there, while avoiding the
+    penalty cells that cover a fixed fraction of the grid. Its moves slip: with probability
+    `slip_probability` the executed move is replaced by one of the *other* four moves (stay
+    included), drawn uniformly. This is the world of the dissertation's ch. 3 experiment
+    ("Off-Policy vs. On-Policy"), used to show that on-policy sampling wins over off-policy when
+    the policy class is not expressive, and that the gap closes when it is.
+
+    Each `world_seed` generates a new world (goal and penalty cells), fixed for the lifetime of
+    the env; `reset(seed=...)` seeds only the episode (start cell and slips). Algorithms can
+    therefore keep one world across iterations while varying episode seeds, and a study over
+    many worlds varies `world_seed`.
+
+    The supervisor (`supervisor_action()` and `info["supervisor_action"]`) is the optimal
+    stationary policy of the discounted problem, solved exactly by value iteration on the
+    explicit transition table (`transitions`), see `fluids_bench.tasks.gridworld.supervisor`.
+
+    ## Action Space
+
+    `Discrete(5)`:
+
+    - 0: left (x - 1)
+    - 1: right (x + 1)
+    - 2: forward (y + 1)
+    - 3: backward (y - 1)
+    - 4: stay
+
+    A move into the border leaves the robot where it is.
+
+    ## Observation Space
+
+    `Box(0, size - 1, (2,), float32)`: the robot's cell `(x, y)`, integers stored as floats.
+
+    ## Rewards
+
+    Every step pays the reward of the cell the robot enters: `goal_reward` (+10) at the goal,
+    `penalty_reward` (-10) on a penalty cell, 0 elsewhere. Staying on the goal keeps paying.
+
+    ## Starting State
+
+    A cell drawn uniformly from the cells that are neither a penalty nor the goal.
+
+    ## Episode End
+
+    No termination: the robot should reach the goal and stay. Truncation after 30 steps
+    (`max_episode_steps` of the registration, the source's T = 30).
+
+    ## Arguments
+
+    | Parameter          | Type  | Default | Description                                            |
+    |--------------------|-------|---------|--------------------------------------------------------|
+    | `size`             | int   | 15      | side of the square grid, in [2, 100]                   |
+    | `penalty_fraction` | float | 0.08    | share of cells that are penalties, in [0, 0.5]         |
+    | `slip_probability` | float | 0.16    | chance a move is replaced by another, in [0, 1]        |
+    | `goal_reward`      | float | 10.0    | reward per step on the goal, > 0                       |
+    | `penalty_reward`   | float | -10.0   | reward per step on a penalty cell, <= 0                |
+    | `discount`         | float | 0.95    | discount of the supervisor's value iteration, in (0, 1) |
+    | `world_seed`       | int   | 0       | seed of the world's layout, >= 0                       |
+    | `render_mode`      | str   | None    | None or "rgb_array"                                    |
+
+    ```python
+    >>> import gymnasium as gym, fluids_bench
+    >>> env = gym.make("GridWorld-v0", world_seed=3)
+    >>> obs, info = env.reset(seed=0)
+    >>> action = info["supervisor_action"]
+    ```
+
+    ## Version History
+
+    * v0: Initial version.
+    """
+
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    def __init__(
+        self,
+        size: int = 15,
+        penalty_fraction: float = 0.08,
+        slip_probability: float = 0.16,
+        goal_reward: float = 10.0,
+        penalty_reward: float = -10.0,
+        discount: float = 0.95,
+        world_seed: int = 0,
+        render_mode: str | None = None,
+    ) -> None:
+        self.size = check_int(WHERE, "size", size, 2, 100)
+        self.penalty_fraction = check_float(WHERE, "penalty_fraction", penalty_fraction, 0.0, 0.5)
+        self.slip_probability = check_float(WHERE, "slip_probability", slip_probability, 0.0, 1.0)
+        self.goal_reward = check_float(WHERE, "goal_reward", goal_reward, 0.0, lo_open=True)
+        self.penalty_reward = check_float(WHERE, "penalty_reward", penalty_reward, hi=0.0)
+        self.discount = check_float(
+            WHERE, "discount", discount, 0.0, 1.0, lo_open=True, hi_open=True
+        )
+        self.world_seed = check_int(WHERE, "world_seed", world_seed, 0)
+        self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
+
+        self.action_space = spaces.Discrete(len(MOVES))
+        self.observation_space = spaces.Box(0.0, float(self.size - 1), (2,), np.float32)
+
+        self.cells = self._generate_world(np.random.default_rng(self.world_seed))
+        self.next_state = self._next_state_table()
+        self.transitions = self.transition_matrix()
+        flat_cells = self.cells.reshape(-1)
+        self.state_rewards = np.where(
+            flat_cells == GOAL,
+            self.goal_reward,
+            np.where(flat_cells == PENALTY, self.penalty_reward, 0.0),
+        )
+        solution = value_iteration(self.transitions, self.state_rewards, self.discount)
+        self.supervisor_policy = solution.policy
+        self.supervisor_values = solution.values
+        self._start_states = np.flatnonzero(flat_cells == FREE)
+        self._state = int(self._start_states[0])
+
+    # -- the world ---------------------------------------------------------------------------
+
+    def _generate_world(self, rng: np.random.Generator) -> np.ndarray:
+        """``cells[x, y]`` in {FREE, PENALTY, GOAL}: one goal, then penalties among the rest."""
+        n = self.size * self.size
+        order = rng.permutation(n)
+        cells = np.full(n, FREE, dtype=np.int64)
+        cells[order[0]] = GOAL
+        n_penalties = min(int(round(self.penalty_fraction * n)), n - 2)  # keep a start cell
+        cells[order[1 : 1 + n_penalties]] = PENALTY
+        return cells.reshape(self.size, self.size)
+
+    def _next_state_table(self) -> np.ndarray:
+        """``next_state[s, a]``: the cell reached by executing move ``a`` exactly from ``s``."""
+        xs, ys = np.divmod(np.arange(self.size * self.size), self.size)
+        nx = np.clip(xs[:, None] + MOVES[None, :, 0], 0, self.size - 1)
+        ny = np.clip(ys[:, None] + MOVES[None, :, 1], 0, self.size - 1)
+        return nx * self.size + ny
+
+    def transition_matrix(self) -> sparse.csr_array:
+        """The explicit table ``P`` of the slip dynamics: row ``s * 5 + a`` is ``P(. | s, a)``.
+
+        Sparse (at most five reachable cells per row): a dense table of a 100 x 100 grid
+        would take 4 GB.
+        """
+        n_states, n_actions = self.next_state.shape
+        p_other = self.slip_probability / (n_actions - 1)
+        rows, cols, weights = [], [], []
+        for intended in range(n_actions):
+            for executed in range(n_actions):
+                rows.append(np.arange(n_states) * n_actions + intended)
+                cols.append(self.next_state[:, executed])
+                weight = 1.0 - self.slip_probability if executed == intended else p_other
+                weights.append(np.full(n_states, weight))
+        shape = (n_states * n_actions, n_states)
+        # duplicate (row, col) entries (moves into the border) are summed
+        return sparse.csr_array(
+            (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=shape
+        )
+
+    def _observation(self) -> np.ndarray:
+        return np.array(divmod(self._state, self.size), dtype=np.float32)
+
+    def _info(self) -> dict[str, Any]:
+        return {SUPERVISOR_ACTION_KEY: self.supervisor_action()}
+
+    # -- the Gymnasium API ------------------------------------------------------------------
+
+    def supervisor_action(self) -> np.int64:
+        """The value-iteration supervisor's move in the current cell."""
+        return np.int64(self.supervisor_policy[self._state])
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[np.ndarray, dict[str, Any]]:
+        super().reset(seed=seed)
+        self._state = int(self.np_random.choice(self._start_states))
+        return self._observation(), self._info()
+
+    def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
+        executed = int(action)
+        if executed != action or not 0 <= executed < len(MOVES):  # cheaper than Space.contains
+            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        if self.np_random.random() < self.slip_probability:
+            # one of the other moves, uniformly: shift by 1..n-1 modulo n
+            shift = int(self.np_random.integers(1, len(MOVES)))
+            executed = (executed + shift) % len(MOVES)
+        self._state = int(self.next_state[self._state, executed])
+        reward = float(self.state_rewards[self._state])
+        return self._observation(), reward, False, False, self._info()
+
+    def render(self) -> np.ndarray | None:
+        if self.render_mode != "rgb_array":
+            return None
+        image = COLOURS[self.cells].copy()
+        x, y = divmod(self._state, self.size)
+        image[x, y] = ROBOT_COLOUR
+        # rows of the image are y from top to bottom, so forward (y + 1) points up
+        image = np.flipud(image.transpose(1, 0, 2))
+        return np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
