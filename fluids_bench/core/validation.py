@@ -6,8 +6,10 @@ allowed, in the same shape across the suite: ``"<where>: field 'x' is 3; allowed
 
 from __future__ import annotations
 
+import functools
+import inspect
 import math
-from collections.abc import Iterable
+from collections.abc import Callable, Iterable
 from typing import Any
 
 
@@ -56,3 +58,27 @@ def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> A
     if value not in options:
         fail(where, name, value, f"one of {options}")
     return value
+
+
+def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
+    """Decorate an env's ``__init__`` so a misspelled keyword argument (``action_levle=...``, as
+    ``gym.make`` passes them) raises ``ValueError`` naming it and listing the allowed ones, instead
+    of Python's bare ``TypeError``."""
+    params = inspect.signature(init).parameters.values()
+    allowed = [
+        p.name
+        for p in params
+        if p.name != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    ]
+
+    @functools.wraps(init)
+    def checked(self, *args: Any, **kwargs: Any) -> None:
+        unknown = sorted(set(kwargs) - set(allowed))
+        if unknown:
+            names = ", ".join(repr(k) for k in unknown)
+            raise ValueError(
+                f"{type(self).__name__}: unknown argument(s) {names}; allowed: {sorted(allowed)}"
+            )
+        init(self, *args, **kwargs)
+
+    return checked
