@@ -1,4 +1,4 @@
-"""The supervisor protocol every environment in the suite honours.
+"""The supervisor protocol every environment in the suite honours, and a way to bring your own.
 
 An imitation learner needs, in any state it visits, the action the supervisor would take there.
 Every env therefore offers two equivalent ways to ask:
@@ -10,11 +10,17 @@ Every env therefore offers two equivalent ways to ask:
 
 Labels live in the env's action space (at the level the user acts at). The supervisor reads the
 true state of the simulator, never the observation.
+
+A supervisor does not have to live in the base env: :func:`supervisor_action` asks through the
+wrapper chain (outermost first, as Gymnasium's ``get_wrapper_attr`` does), and
+:class:`SupervisorWrapper` attaches any callable ``supervisor(env) -> action`` to any env, so
+the algorithm layer runs on tasks and experts the suite does not own.
 """
 
 from __future__ import annotations
 
-from typing import Any, Protocol, runtime_checkable
+from collections.abc import Callable
+from typing import Any, Protocol, SupportsFloat, runtime_checkable
 
 import gymnasium as gym
 
@@ -30,12 +36,76 @@ class SupervisedEnv(Protocol):
         ...
 
 
+def find_supervisor(env: gym.Env) -> Callable[[], Any] | None:
+    """The ``supervisor_action`` method nearest the outside of ``env``'s wrapper chain, or None.
+
+    A wrapper that defines ``supervisor_action`` answers before the envs it wraps (Gymnasium's
+    ``get_wrapper_attr`` order); the base env answers last.
+    """
+    try:
+        method = env.get_wrapper_attr(SUPERVISOR_ACTION_KEY)
+    except AttributeError:
+        return None
+    return method if callable(method) else None
+
+
+def has_supervisor(env: gym.Env) -> bool:
+    """Whether ``env`` or a wrapper around it implements ``supervisor_action()``."""
+    return find_supervisor(env) is not None
+
+
 def supervisor_action(env: gym.Env) -> Any:
     """Ask ``env`` (wrapped or not) for its supervisor's label in the current state."""
-    inner = env.unwrapped
-    if not isinstance(inner, SupervisedEnv):
+    method = find_supervisor(env)
+    if method is None:
         raise TypeError(
-            f"{type(inner).__name__} has no supervisor: fluids-bench algorithms need an env "
-            "implementing supervisor_action() (see fluids_bench.core.supervisor)"
+            f"{type(env.unwrapped).__name__} has no supervisor: fluids-bench algorithms need an "
+            "env (or a wrapper) implementing supervisor_action(); attach one with "
+            "fluids_bench.core.supervisor.SupervisorWrapper(env, supervisor)"
         )
-    return inner.supervisor_action()
+    return method()
+
+
+class SupervisorWrapper(gym.Wrapper):
+    """Attach a supervisor to any env: ``supervisor(env) -> action`` for the current state.
+
+    ``supervisor`` receives this wrapper (so it can read ``env.unwrapped``'s true state) and
+    must return an action of the env's action space. The wrapper answers
+    ``supervisor_action()`` and puts the same label in ``info["supervisor_action"]`` after every
+    ``reset`` and ``step``, which is all the algorithm layer needs. Example, a hand-written
+    CartPole expert::
+
+        env = SupervisorWrapper(gym.make("CartPole-v1"), lambda e: int(e.unwrapped.state[2] > 0))
+
+    To use it by id (``RunConfig(env_id=...)``), register an entry point that returns the
+    wrapped env (a module-level function, so worker processes can import it).
+    """
+
+    def __init__(self, env: gym.Env, supervisor: Callable[[gym.Env], Any]) -> None:
+        if not callable(supervisor):
+            raise ValueError(
+                f"SupervisorWrapper: supervisor is {supervisor!r}; allowed: a callable "
+                "supervisor(env) -> action"
+            )
+        super().__init__(env)
+        self.supervisor = supervisor
+
+    def supervisor_action(self) -> Any:
+        """The attached supervisor's action in the current state."""
+        return self.supervisor(self)
+
+    def reset(
+        self, *, seed: int | None = None, options: dict[str, Any] | None = None
+    ) -> tuple[Any, dict[str, Any]]:
+        observation, info = self.env.reset(seed=seed, options=options)
+        return observation, {**info, SUPERVISOR_ACTION_KEY: self.supervisor_action()}
+
+    def step(self, action: Any) -> tuple[Any, SupportsFloat, bool, bool, dict[str, Any]]:
+        observation, reward, terminated, truncated, info = self.env.step(action)
+        return (
+            observation,
+            reward,
+            terminated,
+            truncated,
+            {**info, SUPERVISOR_ACTION_KEY: self.supervisor_action()},
+        )
