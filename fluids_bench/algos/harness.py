@@ -8,7 +8,11 @@ timer and the evaluation protocol of one run:
   model ``random_state``s (one per training-set size, so evaluating more often never changes
   what the algorithm learns);
 - evaluation: the learner and (once, up front) the supervisor are rolled out on the same
-  ``eval_episodes`` seeds; normalised performance is their ratio after ``return_floor``.
+  ``eval_episodes`` seeds; normalised performance is their ratio after ``return_floor``;
+  success and collisions are summarised too where the env reports them
+  (:mod:`~fluids_bench.algos.evaluation`);
+- compute: ``fit_seconds`` (fitting) and the wall clock of everything but evaluation
+  (collection, labelling, fitting), see :class:`~fluids_bench.algos.results.IterationRecord`.
 """
 
 from __future__ import annotations
@@ -26,9 +30,11 @@ import fluids_bench  # noqa: F401  (registers the suite's env ids)
 from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
+from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
 from fluids_bench.algos.policies import Policy, check_action_space, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.supervisor import has_supervisor
 from fluids_bench.registration import ENV_SPECS
 
 SEED_BOUND = 2**31 - 1
@@ -52,10 +58,12 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
             "allowed: a Box observation space"
         )
     check_action_space(env.action_space)
-    if not hasattr(env.unwrapped, "supervisor_action"):
+    if not has_supervisor(env):  # asked through the wrapper chain, not only the base env
+        env.close()
         raise ValueError(
-            f"env {env_id!r} has no supervisor_action(); allowed: envs implementing "
-            "fluids_bench.core.supervisor.SupervisedEnv"
+            f"env {env_id!r} has no supervisor_action(); allowed: envs (or wrappers) "
+            "implementing fluids_bench.core.supervisor.SupervisedEnv, e.g. any env wrapped in "
+            "fluids_bench.core.supervisor.SupervisorWrapper(env, supervisor)"
         )
     return env
 
@@ -93,7 +101,13 @@ class Harness:
         self.policy: Policy | None = None
         self._policy_pairs = -1  # training-set size the current policy was fit on
         self.records: list[IterationRecord] = []
-        self.supervisor_return = self.evaluate_actor(SUPERVISOR)
+        self._reports_success = False  # an evaluation episode has ended with info["is_success"]
+        supervisor = self.evaluate(SUPERVISOR)
+        self.supervisor_return = supervisor.mean_return
+        self.supervisor_metrics = supervisor.metrics()
+        # wall clock of the algorithm's own work: evaluation time is taken back out
+        self._start = time.perf_counter()
+        self._excluded_seconds = 0.0
 
     # -- data --------------------------------------------------------------------------------
 
@@ -110,17 +124,19 @@ class Harness:
         *,
         heldout_fraction: float = 0.0,
         keep_heldout: bool = False,
+        subsample: bool = True,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Add the supervisor's labels of some visited states to the training set.
 
         ``candidates`` are the step indices whose labels the algorithm requests (default all);
-        they are split by the ch. 3 protocol (:func:`split_pairs`). Held-out pairs are kept in
-        :attr:`heldout` (and counted) only when ``keep_heldout``. Returns the training pairs.
+        they are split by the ch. 3 protocol (:func:`split_pairs`), capped at
+        ``samples_per_demo`` unless ``subsample=False`` (SHIV's queried states are all kept).
+        Held-out pairs are kept in :attr:`heldout` (and counted) only when ``keep_heldout``.
+        Returns the training pairs.
         """
         steps = np.arange(len(trajectory)) if candidates is None else np.asarray(candidates)
-        train, heldout = split_pairs(
-            len(steps), self.config.samples_per_demo, heldout_fraction, self._split_rng
-        )
+        cap = self.config.samples_per_demo if subsample else None
+        train, heldout = split_pairs(len(steps), cap, heldout_fraction, self._split_rng)
         observations, labels = trajectory.states[steps[train]], trajectory.labels[steps[train]]
         self.train.add(observations, labels)
         self.labels_requested += len(train)
@@ -166,12 +182,16 @@ class Harness:
     def _policy_is_current(self) -> bool:
         return self.policy is not None and self._policy_pairs == len(self.train)
 
+    def evaluate(self, actor: Actor) -> Evaluation:
+        """``actor`` over the evaluation seeds: return, success, collisions."""
+        episodes = [rollout(self.env, actor, s, self.config.max_steps) for s in self.eval_seeds]
+        summary = evaluate_trajectories(episodes, self._reports_success)
+        self._reports_success = summary.success_rate is not None
+        return summary
+
     def evaluate_actor(self, actor: Actor) -> float:
         """Mean return of ``actor`` over the evaluation seeds."""
-        returns = [
-            rollout(self.env, actor, s, self.config.max_steps).total_return for s in self.eval_seeds
-        ]
-        return float(np.mean(returns))
+        return self.evaluate(actor).mean_return
 
     def normalise(self, value: float) -> float | None:
         floor = self.config.return_floor
@@ -188,27 +208,40 @@ class Harness:
         **extras: float,
     ) -> IterationRecord:
         """Log an iteration; evaluate a learner trained on all data when one is due."""
+        wall = time.perf_counter() - self._start - self._excluded_seconds
         seconds = self.fit_seconds
-        eval_return = normalised = None
+        evaluation = normalised = None
         if self.config.evaluates_at(iteration):
+            excluded_from = time.perf_counter()
+            extra_seconds = 0.0
             if not self._policy_is_current():
                 # a fit only the evaluation needs: it counts for this record, not later ones
                 self.policy, extra_seconds = self._fit()
                 self._policy_pairs = len(self.train)
                 seconds += extra_seconds
+                wall += extra_seconds
             assert self.policy is not None
-            eval_return = self.evaluate_actor(LearnerActor(self.policy))
-            normalised = self.normalise(eval_return)
+            evaluation = self.evaluate(LearnerActor(self.policy))
+            normalised = self.normalise(evaluation.mean_return)
+            self._excluded_seconds += time.perf_counter() - excluded_from
         record = IterationRecord(
             iteration=iteration,
             demonstrations=self.demonstrations,
             labels_requested=self.labels_requested,
             train_seconds=seconds,
             collection_return=float(np.mean([t.total_return for t in trajectories])),
-            eval_return=eval_return,
+            eval_return=None if evaluation is None else evaluation.mean_return,
             normalised_performance=normalised,
             extras={k: float(v) for k, v in extras.items()},
+            training_labels=len(self.train),
+            estimation_labels=len(self.heldout),
+            wall_seconds=wall,
         )
+        if evaluation is not None:
+            record.eval_return_se = evaluation.return_se
+            record.eval_success_rate = evaluation.success_rate
+            record.eval_success_se = evaluation.success_se
+            record.eval_collisions = evaluation.collisions
         self.records.append(record)
         if self.progress is not None:
             self.progress(record)
@@ -224,6 +257,7 @@ class Harness:
             config=self.config.to_dict(),
             supervisor_return=self.supervisor_return,
             records=self.records,
+            supervisor_metrics=self.supervisor_metrics,
             policy=self.policy,
             dataset=self.train,
         )

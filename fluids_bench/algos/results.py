@@ -15,15 +15,31 @@ from fluids_bench.algos.policies import Policy
 
 @dataclass
 class IterationRecord:
-    """The state of a run after one iteration.
+    """The state of a run after one iteration; every count and time is cumulative.
 
-    ``labels_requested`` counts the supervisor labels the algorithm has used so far (training
-    and held-out pairs; labels of states it chose not to query, or discarded by subsampling,
-    do not count). ``train_seconds`` is the compute spent fitting to produce the policy
-    evaluated here: every fit the algorithm needed so far plus, when the algorithm had not
-    just fitted on all its data, the fit of the evaluated policy. ``collection_return`` is the
-    mean return of the policy that acted while collecting this iteration's data (the bottom
-    rows of the source's Fig. 3.3).
+    Data counters:
+
+    - ``demonstrations``: rollouts collected so far (the source's trajectory-level x-axis);
+    - ``training_labels``: state–label pairs in the training set (the source's state-level
+      x-axis: labelled examples used for training);
+    - ``estimation_labels``: labelled pairs kept out of training to estimate DART's noise;
+    - ``labels_requested``: every supervisor label the algorithm used, the sum of the two above
+      (labels of states it chose not to query, or discarded by subsampling, do not count).
+
+    Compute (seconds; evaluation is never counted):
+
+    - ``train_seconds``: fitting the learner (and SHIV's risk model, DART's noise estimate)
+      to produce the policy evaluated here: every fit so far plus, when the algorithm had not
+      just fitted on all its data, the fit of the evaluated policy;
+    - ``wall_seconds``: everything the algorithm did so far (collection, the supervisor's
+      labelling, fitting), the source's "total computation time", plus that same extra fit.
+
+    ``collection_return`` is the mean return of the policy that acted while collecting this
+    iteration's data (the bottom rows of the source's Fig. 3.3). At an evaluation,
+    ``eval_return`` is the learner's mean return over the evaluation episodes and
+    ``eval_return_se`` its standard error; ``eval_success_rate`` (with its standard error) and
+    ``eval_collisions`` (mean collision events per episode) are filled for envs that report
+    ``info["is_success"]`` and ``info["collisions"]`` (e.g. FLUIDS), else None.
     """
 
     iteration: int
@@ -34,6 +50,13 @@ class IterationRecord:
     eval_return: float | None = None
     normalised_performance: float | None = None
     extras: dict[str, float] = field(default_factory=dict)
+    training_labels: int = 0
+    estimation_labels: int = 0
+    wall_seconds: float = 0.0
+    eval_return_se: float | None = None
+    eval_success_rate: float | None = None
+    eval_success_se: float | None = None
+    eval_collisions: float | None = None
 
 
 @dataclass
@@ -47,6 +70,8 @@ class RunResult:
     config: dict[str, Any]
     supervisor_return: float
     records: list[IterationRecord]
+    # the supervisor on the evaluation seeds: return_se, success_rate, collisions (or None)
+    supervisor_metrics: dict[str, float | None] = field(default_factory=dict)
     policy: Policy | None = field(default=None, repr=False, compare=False)
     dataset: Dataset | None = field(default=None, repr=False, compare=False)  # training pairs
 
@@ -56,10 +81,12 @@ class RunResult:
         if not include_timing:
             for r in records:
                 r.pop("train_seconds")
+                r.pop("wall_seconds")
         return {
             "algo": self.algo,
             "config": self.config,
             "supervisor_return": self.supervisor_return,
+            "supervisor_metrics": dict(self.supervisor_metrics),
             "records": records,
         }
 

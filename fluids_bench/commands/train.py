@@ -18,22 +18,39 @@ from typing import Any
 ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
     "--beta": ("beta", float, "dagger: probability of executing the supervisor's action"),
     "--beta-schedule": ("beta_schedule", str, "dagger: constant or exponential (beta^k)"),
-    "--initial-demos": ("initial_demos", int, "on-policy algorithms: supervisor demos first"),
+    "--initial-demos": (
+        "initial_demos",
+        int,
+        "dagger, shiv: supervisor demos first; dart: demos under the initial noise first",
+    ),
     "--retrain-at": ("retrain_at", int, "dagger_b: iterations after which to refit (list)"),
+    "--retrain-every": ("retrain_every", int, "dagger_b: refit every k iterations"),
     "--noise-std": ("noise_std", float, "noise: Gaussian std for Box actions"),
     "--epsilon": (
         "epsilon",
         float,
-        "noise: chance of another action (Discrete); shiv: allowed squared-L2 loss (Box)",
+        "noise: chance of another action (Discrete); shiv: allowed L2 error (Box)",
     ),
     "--alpha": ("alpha", float, "dart: target trace of the noise covariance (Box)"),
+    "--alpha-relative": (
+        "alpha_relative",
+        float,
+        "dart: target trace as a multiple of an estimate's trace (the source's 'alpha = 3')",
+    ),
+    "--alpha-reference": ("alpha_reference", str, "dart: first or current estimate"),
     "--update-at": ("update_at", int, "dart: iterations after which to refit the noise (list)"),
+    "--update-every": ("update_every", int, "dart: refit the noise every k iterations"),
     "--heldout-fraction": ("heldout_fraction", float, "dart: share of each demo held out"),
     "--initial-noise-std": ("initial_noise_std", float, "dart: noise of the first demos (Box)"),
     "--initial-epsilon": ("initial_epsilon", float, "dart: noise of the first demos (Discrete)"),
     "--selector": ("selector", str, "shiv: shiv, novelty, confidence, qbc or mmd"),
     "--nu": ("nu", float, "shiv: One-Class SVM nu of the well-predicted states"),
-    "--sigma": ("sigma", float, "shiv: kernel bandwidth of the well-predicted states"),
+    "--sigma": (
+        "sigma",
+        float,
+        "shiv: kernel bandwidth of the well-predicted states, raw units (default: median "
+        "heuristic on standardised features)",
+    ),
     "--nu-r": ("nu_r", float, "shiv: One-Class SVM nu of the mispredicted states"),
     "--sigma-r": ("sigma_r", float, "shiv: kernel bandwidth of the mispredicted states"),
     "--learning-rate": ("learning_rate", float, "ogd: gradient step size eta"),
@@ -86,6 +103,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--out", type=Path, default=Path("out/train"), help="output folder")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
+    parser.add_argument(
+        "--x-axis",
+        choices=("training_labels", "demonstrations", "labels_requested"),
+        default="training_labels",
+        help="learning-curve x-axis (the source: demonstrations at the trajectory level, "
+        "training labels at the state level)",
+    )
     group = parser.add_argument_group("algorithm options (only for the algorithms named)")
     for option, (dest, kind, text) in ALGO_OPTIONS.items():
         nargs = "+" if dest in LIST_FIELDS else None
@@ -143,7 +167,8 @@ def main(args: argparse.Namespace) -> int:
 
     name, config = build_config(args)
     make_env(config.env_id, dict(config.env_kwargs)).close()  # fail before the progress bar
-    total = config.iterations + (1 if hasattr(config, "initial_demos") else 0)
+    # iteration 0 exists when the algorithm starts with initial demonstrations
+    total = config.iterations + (1 if getattr(config, "initial_demos", 0) else 0)
     with tqdm(total=total, desc=f"{name} on {config.env_id}", disable=args.no_progress) as bar:
 
         def progress(record: Any) -> None:
@@ -157,11 +182,18 @@ def main(args: argparse.Namespace) -> int:
     stem = f"{name}_{config.env_id}_seed{config.seed}"
     json_path, png_path = args.out / f"{stem}.json", args.out / f"{stem}.png"
     write_json_atomic(json_path, result.to_dict())
-    plot_learning_curves([result], png_path)
+    plot_learning_curves([result], png_path, args.x_axis)
     final = result.final
+    success = (
+        ""
+        if final.eval_success_rate is None
+        else f"success {final.eval_success_rate:.2f} ± {final.eval_success_se or 0.0:.2f}, "
+    )
     print(
         f"{name} on {config.env_id}: normalised performance {final.normalised_performance}, "
-        f"{final.labels_requested} labels, {final.train_seconds:.3f} s training"
+        f"{success}{final.training_labels} training labels "
+        f"(+{final.estimation_labels} for noise estimation), "
+        f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s total"
     )
     print(f"wrote {json_path} and {png_path}")
     return 0
