@@ -7,8 +7,11 @@ states of a new rollout as risky (ask) or safe (do not ask):
   the states the learner predicts well and one ``g_r`` (``nu_r``, ``sigma_r``) on those it
   mispredicts; a state is safe only if it lies strictly inside the well-predicted level set
   and outside the mispredicted one. "Well predicted" means a loss ``<= epsilon``: 0/1 loss with
-  ``epsilon = 0`` for Discrete actions, squared L2 loss for Box actions, where ``epsilon=None``
-  takes the median training loss (the source's choice for grasping);
+  ``epsilon = 0`` for Discrete actions, the L2 distance between predicted and supervisor
+  action for Box actions, where ``epsilon=None`` takes the median training error (the
+  source's choice for grasping). When the learner predicts every training state within
+  ``epsilon`` (a deep tree on consistent Discrete labels) there is no mispredicted set and SHIV
+  *is* novelty detection (:class:`NoveltySelector` on the same states);
 - :class:`NoveltySelector`: the plain One-Class SVM on all training states (no holes carved);
 - :class:`ConfidenceSelector`: distance to a linear SVM's hyperplane (Tong & Koller); risky
   below the mean margin of the misclassified training states;
@@ -20,8 +23,15 @@ states of a new rollout as risky (ask) or safe (do not ask):
   ``nu = 0.1``).
 
 The confidence and committee baselines need class labels: they accept Discrete actions only.
-The Gaussian kernel is ``k(x, x') = exp(-|x - x'|^2 / (2 sigma^2))`` on raw observations, i.e.
-scikit-learn's ``gamma = 1 / (2 sigma^2)``.
+The Gaussian kernel is ``k(x, x') = exp(-|x - x'|^2 / (2 sigma^2))``, i.e. scikit-learn's
+``gamma = 1 / (2 sigma^2)``. Bandwidths (:class:`KernelSpace`): an explicit ``sigma`` is in the
+units of the raw observation, as the source states its values (200 on HOG features, 5 and 6 on
+the grasping state); ``sigma=None`` standardises every feature on the first training set a
+selector is fit on (in SHIV, the initial demonstrations, where the source tunes its bandwidths)
+and takes the median distance between its distinct states (the "median heuristic"), then keeps
+both for the rest of the run. So the default means the same on a gridworld's cells and on
+FLUIDS' metres and radians, and does not drift when the learner's rollouts pile up near-identical
+states (a car standing still).
 """
 
 from __future__ import annotations
@@ -30,12 +40,14 @@ from typing import Any, Protocol
 
 import numpy as np
 from gymnasium import spaces
-from sklearn.metrics.pairwise import rbf_kernel
+from sklearn.metrics.pairwise import euclidean_distances, rbf_kernel
 from sklearn.svm import OneClassSVM
 
 from fluids_bench.algos.policies import Policy, PolicySpec, features, fit_policy
 
 SELECTORS = ("shiv", "novelty", "confidence", "qbc", "mmd")
+# distinct training states used for the median heuristic (the median of ~125k distances)
+MEDIAN_HEURISTIC_STATES = 500
 
 
 class QuerySelector(Protocol):
@@ -54,11 +66,54 @@ def gamma_of(sigma: float) -> float:
 
 
 def surrogate_loss(predicted: np.ndarray, labels: np.ndarray, discrete: bool) -> np.ndarray:
-    """Per-pair loss: 0/1 for Discrete actions, squared L2 for Box actions."""
+    """Per-pair error: 0/1 for Discrete actions, the L2 distance for Box actions."""
     if discrete:
         return (np.asarray(predicted).reshape(-1) != np.asarray(labels).reshape(-1)).astype(float)
     diff = np.asarray(predicted, dtype=np.float64) - np.asarray(labels, dtype=np.float64)
-    return np.sum(diff.reshape(len(diff), -1) ** 2, axis=1)
+    return np.sqrt(np.sum(diff.reshape(len(diff), -1) ** 2, axis=1))
+
+
+def median_distance(X: np.ndarray) -> float:
+    """Median Euclidean distance between distinct rows of ``X`` (1.0 if there are none).
+
+    At most :data:`MEDIAN_HEURISTIC_STATES` rows, evenly spaced, so the cost stays bounded.
+    """
+    distinct = np.unique(X, axis=0)
+    if len(distinct) < 2:
+        return 1.0
+    if len(distinct) > MEDIAN_HEURISTIC_STATES:
+        keep = np.linspace(0, len(distinct) - 1, MEDIAN_HEURISTIC_STATES).round().astype(int)
+        distinct = distinct[keep]
+    distances = euclidean_distances(distinct)
+    return float(np.median(distances[np.triu_indices(len(distinct), k=1)]))
+
+
+class KernelSpace:
+    """The feature space and bandwidth a kernel selector works in.
+
+    ``sigma`` given: raw observations, that bandwidth. ``sigma=None``: features standardised on
+    the first training set (constant features keep scale 1), bandwidth by the median
+    heuristic on it; later fits keep both.
+    """
+
+    def __init__(self, sigma: float | None) -> None:
+        self.requested = sigma
+        self.sigma = 1.0 if sigma is None else float(sigma)
+        self.mean: np.ndarray | float = 0.0
+        self.scale: np.ndarray | float = 1.0
+        self.fitted = False
+
+    def fit(self, X: np.ndarray) -> KernelSpace:
+        if self.requested is None and not self.fitted:
+            self.fitted = True
+            self.mean = X.mean(axis=0)
+            std = X.std(axis=0)
+            self.scale = np.where(std > 0.0, std, 1.0)
+            self.sigma = median_distance(self.transform(X))
+        return self
+
+    def transform(self, X: np.ndarray) -> np.ndarray:
+        return (X - self.mean) / self.scale
 
 
 class _LevelSet:
@@ -68,8 +123,10 @@ class _LevelSet:
         self.nu, self.sigma = nu, sigma
         self.model: OneClassSVM | None = None
 
-    def fit(self, X: np.ndarray) -> _LevelSet:
+    def fit(self, X: np.ndarray, sigma: float | None = None) -> _LevelSet:
         self.model = None
+        if sigma is not None:
+            self.sigma = sigma
         if len(X):
             self.model = OneClassSVM(nu=self.nu, gamma=gamma_of(self.sigma)).fit(X)
         return self
@@ -81,25 +138,52 @@ class _LevelSet:
         return self.model.decision_function(X)
 
 
+def check_bandwidths(where: str, sigma: float | None, sigma_r: float | None) -> None:
+    """``sigma_r`` alone has no units to live in: an explicit bandwidth is in raw units."""
+    if sigma is None and sigma_r is not None:
+        raise ValueError(
+            f"{where}: field 'sigma_r' is {sigma_r!r} while 'sigma' is None; allowed: None, or "
+            "give 'sigma' too (explicit bandwidths are in raw observation units, sigma=None "
+            "standardises the features and picks both bandwidths by the median heuristic)"
+        )
+
+
 class ShivSelector:
-    """SHIV's risk, Eq. 8: safe iff ``g_s(x) = 1`` (strictly inside) and ``g_r(x) = -1``."""
+    """SHIV's risk, Eq. 8: safe iff ``g_s(x) = 1`` (strictly inside) and ``g_r(x) = -1``.
+
+    Defaults are the source's (ch. 6): ``nu = 0.1``, ``nu_r = 1e-3``, ``epsilon`` = the median
+    training error for Box actions; ``sigma=None`` is the scale-aware bandwidth of
+    :class:`KernelSpace` and ``sigma_r=None`` equals ``sigma``.
+    """
 
     def __init__(
         self,
         discrete: bool,
         nu: float = 0.1,
-        sigma: float = 1.0,
-        nu_r: float = 0.1,
-        sigma_r: float = 1.0,
+        sigma: float | None = None,
+        nu_r: float = 1e-3,
+        sigma_r: float | None = None,
         epsilon: float | None = None,
     ) -> None:
+        check_bandwidths("ShivSelector", sigma, sigma_r)
         self.discrete = discrete
         self.epsilon = epsilon
-        self.safe_set = _LevelSet(nu, sigma)
-        self.mispredicted_set = _LevelSet(nu_r, sigma_r)
+        self.space = KernelSpace(sigma)
+        self.requested_sigma_r = sigma_r
+        self.safe_set = _LevelSet(nu, self.space.sigma)
+        self.mispredicted_set = _LevelSet(nu_r, self.space.sigma if sigma_r is None else sigma_r)
+        self.mispredicted = 0  # training states outside epsilon at the last fit: |D_r|
+
+    @property
+    def sigma(self) -> float:
+        return self.safe_set.sigma
+
+    @property
+    def sigma_r(self) -> float:
+        return self.mispredicted_set.sigma
 
     def fit(self, observations: np.ndarray, labels: np.ndarray, policy: Policy) -> None:
-        X = features(observations)
+        X = self.space.fit(features(observations)).transform(features(observations))
         loss = surrogate_loss(policy.predict(observations), labels, self.discrete)
         if self.discrete:
             threshold = 0.0
@@ -108,11 +192,13 @@ class ShivSelector:
         else:
             threshold = self.epsilon
         well_predicted = loss <= threshold  # Eq. 7: y_i = 1
-        self.safe_set.fit(X[well_predicted])
-        self.mispredicted_set.fit(X[~well_predicted])
+        self.mispredicted = int(np.count_nonzero(~well_predicted))
+        sigma_r = self.space.sigma if self.requested_sigma_r is None else self.requested_sigma_r
+        self.safe_set.fit(X[well_predicted], self.space.sigma)
+        self.mispredicted_set.fit(X[~well_predicted], sigma_r)
 
     def risky(self, observations: np.ndarray) -> np.ndarray:
-        X = features(observations)
+        X = self.space.transform(features(observations))
         inside_safe = self.safe_set.decision(X) > 0.0
         # the boundary of a mispredicted level set belongs to the hole: with few mispredicted
         # states the One-Class SVM puts them exactly on it
@@ -123,14 +209,17 @@ class ShivSelector:
 class NoveltySelector:
     """Risky iff outside the One-Class SVM level set of all training states."""
 
-    def __init__(self, nu: float = 0.1, sigma: float = 1.0) -> None:
-        self.level_set = _LevelSet(nu, sigma)
+    def __init__(self, nu: float = 0.1, sigma: float | None = None) -> None:
+        self.space = KernelSpace(sigma)
+        self.level_set = _LevelSet(nu, self.space.sigma)
 
     def fit(self, observations: np.ndarray, labels: np.ndarray, policy: Policy) -> None:
-        self.level_set.fit(features(observations))
+        X = self.space.fit(features(observations)).transform(features(observations))
+        self.level_set.fit(X, self.space.sigma)
 
     def risky(self, observations: np.ndarray) -> np.ndarray:
-        return ~(self.level_set.decision(features(observations)) > 0.0)
+        X = self.space.transform(features(observations))
+        return ~(self.level_set.decision(X) > 0.0)
 
 
 def _linear_svm(
@@ -210,8 +299,9 @@ class MMDSelector:
     kernel density estimate.
     """
 
-    def __init__(self, nu: float = 0.1, sigma: float = 1.0) -> None:
-        self.nu, self.sigma = nu, sigma
+    def __init__(self, nu: float = 0.1, sigma: float | None = None) -> None:
+        self.nu = nu
+        self.space = KernelSpace(sigma)
         self.X = np.empty((0, 0))
         self.offset = 0.0  # 1/n^2 sum_ij k(x_i, x_j)
         self.threshold = np.inf
@@ -219,16 +309,17 @@ class MMDSelector:
     def _density(self, X: np.ndarray) -> np.ndarray:
         """``1/n sum_i k(x, x_i)`` per row of ``X``, in chunks to bound memory."""
         chunks = [
-            rbf_kernel(X[i : i + 1024], self.X, gamma=gamma_of(self.sigma)).mean(axis=1)
+            rbf_kernel(X[i : i + 1024], self.X, gamma=gamma_of(self.space.sigma)).mean(axis=1)
             for i in range(0, len(X), 1024)
         ]
         return np.concatenate(chunks) if chunks else np.empty(0)
 
     def mmd2(self, observations: np.ndarray) -> np.ndarray:
-        return 1.0 - 2.0 * self._density(features(observations)) + self.offset
+        X = self.space.transform(features(observations))
+        return 1.0 - 2.0 * self._density(X) + self.offset
 
     def fit(self, observations: np.ndarray, labels: np.ndarray, policy: Policy) -> None:
-        self.X = features(observations)
+        self.X = self.space.fit(features(observations)).transform(features(observations))
         self.offset = float(np.mean(self._density(self.X)))
         self.threshold = float(np.quantile(self.mmd2(observations), 1.0 - self.nu))
 

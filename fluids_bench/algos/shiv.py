@@ -1,13 +1,27 @@
 """SHIV: SVM-based reduction in Human InterVention (ch. 6).
 
-DAgger with stream-based active learning. Each iteration:
+DAgger with stream-based active learning. Before the loop, ``initial_demos`` supervisor
+demonstrations (subsampled by ``samples_per_demo`` like every demonstration) form ``D_0``.
+Each iteration:
 
 1. Step 1 (Eq. 9): fit ``theta_k = argmin_theta sum_n l(pi_theta(x_n), u_n)`` on the aggregate
    data ``D_k`` (initially the supervisor's demonstrations);
 2. fit the risk model on ``D_k`` and ``theta_k`` (Eq. 7–8, :class:`~fluids_bench.algos.query.ShivSelector`);
 3. Step 2: roll out ``pi_theta_k`` (the learner always acts; the supervisor never takes over)
-   and ask the supervisor only about the risky visited states:
+   and ask the supervisor only about the risky visited states, every one of them (no
+   ``samples_per_demo`` cap: the number queried is SHIV's measure of supervisor burden):
    ``D_{k+1} = D_k ∪ {(x_t, u*_t) : g(x_t) = -1}``.
+
+Defaults are the source's: ``nu = 0.1``, ``nu_r = 1e-3``, ``epsilon`` = the median L2 training
+error (Box actions; 0/1 loss with ``epsilon = 0`` for Discrete ones). The source tunes
+``sigma`` and ``sigma_r`` by a grid search (3 iterations of one trial); the default here,
+``sigma=None``, standardises the features and uses the median distance between distinct
+training states (:class:`~fluids_bench.algos.query.KernelSpace`), and ``sigma_r=None`` follows
+``sigma``. Explicit values are in raw observation units (the source's 200 for HOG features).
+A bandwidth far below the typical distance between states makes every new state novel and
+SHIV queries what DAgger queries. With a learner that predicts all its training states within
+``epsilon`` (a deep tree on Discrete labels) the mispredicted set is empty and SHIV reduces to
+novelty detection (``selector="novelty"``); the ``mispredicted`` extra reports ``|D_r|``.
 
 The risk model stays fixed during a rollout, so deciding after the rollout is the same as
 deciding state by state. ``selector`` swaps in one of the ch. 6 baselines (novelty only,
@@ -33,6 +47,7 @@ from fluids_bench.algos.query import (
     NoveltySelector,
     QuerySelector,
     ShivSelector,
+    check_bandwidths,
 )
 from fluids_bench.algos.results import RunResult
 from fluids_bench.core.validation import check_choice, check_float, check_int
@@ -40,14 +55,15 @@ from fluids_bench.core.validation import check_choice, check_float, check_int
 
 @dataclass(frozen=True, kw_only=True)
 class SHIVConfig(RunConfig):
-    """``(nu, sigma)``: the well-predicted level set; ``(nu_r, sigma_r)``: the mispredicted one;
-    ``epsilon``: allowed squared-L2 loss for Box actions (None: the median training loss)."""
+    """``(nu, sigma)``: the well-predicted level set; ``(nu_r, sigma_r)``: the mispredicted one
+    (``sigma=None``: scale-aware bandwidth; ``sigma_r=None``: same as ``sigma``); ``epsilon``:
+    allowed L2 error for Box actions (None: the median training error)."""
 
     selector: str = "shiv"
     nu: float = 0.1
-    sigma: float = 1.0
-    nu_r: float = 0.1
-    sigma_r: float = 1.0
+    sigma: float | None = None
+    nu_r: float = 1e-3
+    sigma_r: float | None = None
     epsilon: float | None = None
     initial_demos: int = 1
 
@@ -56,9 +72,12 @@ class SHIVConfig(RunConfig):
         where = type(self).__name__
         check_choice(where, "selector", self.selector, SELECTORS)
         check_float(where, "nu", self.nu, 0.0, 1.0, lo_open=True)
-        check_float(where, "sigma", self.sigma, 0.0, lo_open=True)
+        if self.sigma is not None:
+            check_float(where, "sigma", self.sigma, 0.0, lo_open=True)
         check_float(where, "nu_r", self.nu_r, 0.0, 1.0, lo_open=True)
-        check_float(where, "sigma_r", self.sigma_r, 0.0, lo_open=True)
+        if self.sigma_r is not None:
+            check_float(where, "sigma_r", self.sigma_r, 0.0, lo_open=True)
+        check_bandwidths(where, self.sigma, self.sigma_r)
         if self.epsilon is not None:
             check_float(where, "epsilon", self.epsilon, 0.0)
         check_int(where, "initial_demos", self.initial_demos, 1)
@@ -99,8 +118,16 @@ def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResu
             visited = queried = 0
             for trajectory in rollouts:
                 risky = np.flatnonzero(selector.risky(trajectory.states))
-                queried += len(harness.aggregate(trajectory, risky)[0])
+                queried += len(harness.aggregate(trajectory, risky, subsample=False)[0])
                 visited += len(trajectory)
             policy = harness.fit()
-            harness.record(iteration, rollouts, queried=queried, visited=visited)
+            extras = {"queried": queried, "visited": visited}
+            if isinstance(selector, ShivSelector):
+                # the risk model this iteration's queries came from
+                extras.update(
+                    mispredicted=selector.mispredicted,
+                    sigma=selector.sigma,
+                    sigma_r=selector.sigma_r,
+                )
+            harness.record(iteration, rollouts, **extras)
         return harness.result()

@@ -94,7 +94,7 @@ def test_shiv_asks_for_fewer_states_than_dagger_on_a_fixed_rollout() -> None:
     assert risky[novel].all()
 
 
-def test_box_actions_use_the_median_squared_l2_loss_as_epsilon() -> None:
+def test_box_actions_use_the_median_l2_error_as_epsilon() -> None:
     rng = np.random.default_rng(6)
     X = np.concatenate([rng.normal(-1.0, 0.3, 60), rng.normal(1.5, 0.2, 20)])[:, None]
     labels = 0.1 * X
