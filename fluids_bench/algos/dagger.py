@@ -14,8 +14,11 @@ demonstrations (``initial_demos``, the source always uses one) and a beta schedu
 - ``exponential``: ``beta_k = beta^k`` (Ross et al.'s ``p^{k-1}`` decay, shifted because the
   initial demonstrations already play the role of ``beta_1 = 1``).
 
-DAgger-B (ch. 3) refits the learner only after the iterations listed in ``retrain_at`` (and
-after the initial demonstrations), trading performance for compute.
+DAgger-B (ch. 3) refits the learner only after the iterations listed in ``retrain_at``, or
+after every ``retrain_every``-th iteration (which then replaces ``retrain_at``), and after the
+initial demonstrations, trading performance for compute. The source's Humanoid protocol, "60
+initial demonstrations, then an update every 15 iterations", is ``initial_demos=60,
+retrain_every=15``; its ch. 3 DAgger is ``beta=0.5, beta_schedule="exponential"``.
 """
 
 from __future__ import annotations
@@ -33,12 +36,14 @@ BETA_SCHEDULES = ("constant", "exponential")
 
 @dataclass(frozen=True, kw_only=True)
 class DAggerConfig(RunConfig):
-    """``retrain_at=None`` refits every iteration (DAgger); a tuple gives DAgger-B."""
+    """``retrain_at=None`` and ``retrain_every=None`` refit every iteration (DAgger); either
+    gives DAgger-B (``retrain_every`` wins when both are set)."""
 
     beta: float = 0.0
     beta_schedule: str = "constant"
     initial_demos: int = 1
     retrain_at: tuple[int, ...] | None = None
+    retrain_every: int | None = None
 
     def __post_init__(self) -> None:
         super().__post_init__()
@@ -48,6 +53,13 @@ class DAggerConfig(RunConfig):
         check_int(where, "initial_demos", self.initial_demos, 1)
         if self.retrain_at is not None:
             check_iterations(where, "retrain_at", self.retrain_at)
+        if self.retrain_every is not None:
+            check_int(where, "retrain_every", self.retrain_every, 1)
+
+    @property
+    def batched(self) -> bool:
+        """DAgger-B: the learner is not refit after every iteration."""
+        return self.retrain_at is not None or self.retrain_every is not None
 
 
 def beta_at(config: DAggerConfig, iteration: int) -> float:
@@ -57,8 +69,15 @@ def beta_at(config: DAggerConfig, iteration: int) -> float:
     return config.beta
 
 
+def refits_at(config: DAggerConfig, iteration: int) -> bool:
+    """Whether the learner is refit after ``iteration`` (>= 1)."""
+    if config.retrain_every is not None:
+        return iteration % config.retrain_every == 0
+    return config.retrain_at is None or iteration in config.retrain_at
+
+
 def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunResult:
-    algo = "dagger" if config.retrain_at is None else "dagger_b"
+    algo = "dagger_b" if config.batched else "dagger"
     with Harness(algo, config, progress) as harness:
         # iteration 0: supervisor demonstrations initialise the aggregate dataset
         demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
@@ -73,7 +92,7 @@ def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunRe
             rollouts = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
             for trajectory in rollouts:
                 harness.aggregate(trajectory)  # the supervisor labels every visited state
-            if config.retrain_at is None or iteration in config.retrain_at:
+            if refits_at(config, iteration):
                 policy = harness.fit()
             harness.record(iteration, rollouts, beta=beta)
         return harness.result()

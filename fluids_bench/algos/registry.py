@@ -28,7 +28,7 @@ ALGORITHMS: dict[str, Algorithm] = {
     "dagger_b": Algorithm(
         dagger.DAggerConfig,
         dagger.run,
-        "DAgger-B (refit only at --retrain-at iterations)",
+        "DAgger-B (refit only at --retrain-at iterations, or every --retrain-every)",
         {"retrain_at": (2, 8)},
     ),
     "noise": Algorithm(noise.NoiseConfig, noise.run, "isotropic noise injection (off-policy)"),
