@@ -8,8 +8,10 @@
 - shared pieces: :mod:`~fluids_bench.algos.rollout` (the one rollout function),
   :mod:`~fluids_bench.algos.actors`, :mod:`~fluids_bench.algos.dataset`,
   :mod:`~fluids_bench.algos.policies`, :mod:`~fluids_bench.algos.harness`,
-  :mod:`~fluids_bench.algos.results`; :mod:`~fluids_bench.algos.registry` names them all.
+  :mod:`~fluids_bench.algos.evaluation`, :mod:`~fluids_bench.algos.results`;
+  :mod:`~fluids_bench.algos.registry` names them all.
 
-Every algorithm runs on any env that implements :mod:`fluids_bench.core.supervisor` with a Box
+Every algorithm runs on any env that implements :mod:`fluids_bench.core.supervisor` (in the
+env or in a wrapper, e.g. :class:`~fluids_bench.core.supervisor.SupervisorWrapper`) with a Box
 observation space and a Discrete or Box action space.
 """
