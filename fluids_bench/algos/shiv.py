@@ -23,6 +23,10 @@ SHIV queries what DAgger queries. With a learner that predicts all its training 
 ``epsilon`` (a deep tree on Discrete labels) the mispredicted set is empty and SHIV reduces to
 novelty detection (``selector="novelty"``); the ``mispredicted`` extra reports ``|D_r|``.
 
+:func:`grid_search_bandwidths` is the source's tuning procedure: one trial of SHIV for 3
+iterations per candidate ``(sigma, sigma_r)``, scored by the learner's surrogate loss on the
+states its own policy visits.
+
 The risk model stays fixed during a rollout, so deciding after the rollout is the same as
 deciding state by state. ``selector`` swaps in one of the ch. 6 baselines (novelty only,
 confidence, query-by-committee, MMD) to compare query selection methods under one loop.
@@ -30,7 +34,8 @@ confidence, query-by-committee, MMD) to compare query selection methods under on
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Sequence
+from dataclasses import dataclass, replace
 from typing import Any
 
 import numpy as np
@@ -38,7 +43,7 @@ from gymnasium import spaces
 
 from fluids_bench.algos.actors import SUPERVISOR, LearnerActor
 from fluids_bench.algos.config import RunConfig
-from fluids_bench.algos.harness import Harness, ProgressCallback
+from fluids_bench.algos.harness import Harness, ProgressCallback, make_env
 from fluids_bench.algos.query import (
     SELECTORS,
     CommitteeSelector,
@@ -48,8 +53,10 @@ from fluids_bench.algos.query import (
     QuerySelector,
     ShivSelector,
     check_bandwidths,
+    surrogate_loss,
 )
 from fluids_bench.algos.results import RunResult
+from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
 
@@ -131,3 +138,67 @@ def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResu
                 )
             harness.record(iteration, rollouts, **extras)
         return harness.result()
+
+
+@dataclass(frozen=True)
+class BandwidthTrial:
+    sigma: float
+    sigma_r: float
+    surrogate_loss: float  # mean loss of the final learner on states its own policy visits
+    labels: int  # labels SHIV asked for in the trial
+
+
+def grid_search_bandwidths(
+    config: SHIVConfig,
+    sigmas: Sequence[float],
+    sigma_rs: Sequence[float] | None = None,
+    iterations: int = 3,
+    episodes: int = 5,
+) -> tuple[SHIVConfig, list[BandwidthTrial]]:
+    """The source's choice of ``sigma`` and ``sigma_r`` (ch. 6): a grid search "on the surrogate
+    loss for a single trial of SHIV for 3 iterations".
+
+    Every pair of ``sigmas`` x ``sigma_rs`` (raw units; ``sigma_rs=None`` pairs each sigma with
+    itself) runs SHIV from ``config`` for ``iterations`` iterations (same seed, so the same
+    initial demonstrations); its final learner is rolled out for ``episodes`` episodes and
+    scored by its surrogate loss against the supervisor's labels of the states it visited.
+    Returns ``config`` with the lowest-loss pair (ties: fewer labels, then the larger sigma)
+    and every trial.
+    """
+    if not sigmas:
+        raise ValueError("grid_search_bandwidths: 'sigmas' is empty; allowed: bandwidths > 0")
+    pairs = (
+        [(s, s) for s in sigmas] if sigma_rs is None else [(s, r) for s in sigmas for r in sigma_rs]
+    )
+    env = make_env(config.env_id, dict(config.env_kwargs))
+    discrete = isinstance(env.action_space, spaces.Discrete)
+    seeds = [
+        int(x)
+        for x in np.random.default_rng([config.seed, 0x5161]).integers(2**31 - 1, size=episodes)
+    ]
+    trials = []
+    try:
+        for sigma, sigma_r in pairs:
+            trial = replace(
+                config,
+                sigma=float(sigma),
+                sigma_r=float(sigma_r),
+                iterations=iterations,
+                eval_at=(),
+            )
+            result = run(trial)
+            visited = [
+                rollout(env, LearnerActor(result.policy), s, config.max_steps) for s in seeds
+            ]
+            states = np.concatenate([t.states for t in visited])
+            labels = np.concatenate([t.labels for t in visited])
+            loss = surrogate_loss(result.policy.predict(states), labels, discrete)
+            trials.append(
+                BandwidthTrial(
+                    float(sigma), float(sigma_r), float(loss.mean()), result.final.labels_requested
+                )
+            )
+    finally:
+        env.close()
+    best = min(trials, key=lambda t: (t.surrogate_loss, t.labels, -t.sigma))
+    return replace(config, sigma=best.sigma, sigma_r=best.sigma_r), trials

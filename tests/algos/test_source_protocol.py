@@ -450,3 +450,18 @@ def test_algorithms_run_on_gymnasium_envs_with_an_attached_supervisor() -> None:
     )
     assert noisy.records[0].extras["noise_level"] > 0.0
     assert noisy.final.estimation_labels == 100
+
+
+def test_grid_search_picks_the_bandwidths_with_the_lowest_on_policy_surrogate_loss() -> None:
+    config = shiv.SHIVConfig(**GRID, policy=PolicySpec("linear_svm"), eval_episodes=1, seed=1)
+    tuned, trials = shiv.grid_search_bandwidths(config, sigmas=(0.3, 3.0, 30.0), episodes=3)
+    assert [(t.sigma, t.sigma_r) for t in trials] == [(0.3, 0.3), (3.0, 3.0), (30.0, 30.0)]
+    best = min(trials, key=lambda t: (t.surrogate_loss, t.labels, -t.sigma))
+    assert (tuned.sigma, tuned.sigma_r) == (best.sigma, best.sigma_r)
+    assert tuned.iterations == config.iterations  # only the bandwidths change
+    # a wide kernel calls more states safe: fewer labels than a narrow one
+    assert trials[2].labels < trials[0].labels
+    again = shiv.grid_search_bandwidths(config, sigmas=(0.3, 3.0, 30.0), episodes=3)[1]
+    assert again == trials
+    with pytest.raises(ValueError, match="'sigmas' is empty"):
+        shiv.grid_search_bandwidths(config, sigmas=())
