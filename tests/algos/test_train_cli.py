@@ -77,3 +77,23 @@ def test_samples_per_demo_all_and_json_env_kwargs(tmp_path: Path) -> None:
     assert code == 0
     config = json.loads((tmp_path / "dart_DAG-v0_seed0.json").read_text())["config"]
     assert config["samples_per_demo"] is None and config["env_kwargs"] == {"mu": 0.5}
+
+
+def test_train_accepts_the_protocol_knobs_and_reports_both_label_counts(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from point_mass_env import ENV_ID
+
+    code = train(
+        "--env", ENV_ID, "--algo", "dart", "--iterations", "4", "--eval-episodes", "1",
+        "--samples-per-demo", "10", "--initial-demos", "2", "--update-every", "2",
+        "--alpha-relative", "3", "--alpha-reference", "first", "--x-axis", "demonstrations",
+        "--out", str(tmp_path),
+    )  # fmt: skip
+    assert code == 0
+    payload = json.loads((tmp_path / f"dart_{ENV_ID}_seed0.json").read_text())
+    assert payload["config"]["update_every"] == 2 and payload["config"]["alpha_relative"] == 3.0
+    final = payload["records"][-1]
+    assert final["training_labels"] == final["estimation_labels"] == 60
+    out = capsys.readouterr().out
+    assert "60 training labels (+60 for noise estimation)" in out and "s total" in out
