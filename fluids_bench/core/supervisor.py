@@ -9,7 +9,8 @@ Every env therefore offers two equivalent ways to ask:
   state the env is now in (the state the next action will be taken from).
 
 Labels live in the env's action space (at the level the user acts at). The supervisor reads the
-true state of the simulator, never the observation.
+true state of the simulator, never the observation. A PettingZoo ``ParallelEnv`` of the suite
+answers per agent: ``env.supervisor_action(agent)`` and ``infos[agent]["supervisor_action"]``.
 """
 
 from __future__ import annotations
