@@ -18,7 +18,8 @@ from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.tasks.dag.env import DAGEnv
-from fluids_bench.tasks.dag.supervisor import L, R, expected_return, greedy_action
+from fluids_bench.tasks.dag.model import L, R
+from fluids_bench.tasks.dag.supervisor import expected_return, greedy_action
 
 CONSTANT = PolicySpec("constant")
 ROOT = np.zeros(2, dtype=np.float32)
