@@ -20,6 +20,7 @@ import gymnasium as gym
 import pettingzoo
 import pytest
 from exact_compare import exactly_equal
+from gymnasium.envs.registration import load_env_creator
 from gymnasium.utils.env_checker import check_env
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -57,7 +58,12 @@ def _steps(env_id: str) -> int:
 
 
 def _renders_rgb(env_id: str) -> bool:
-    return "rgb_array" in gym.make(env_id).metadata.get("render_modes", [])
+    """Whether the id's env class declares rgb_array rendering (read without building it)."""
+    creator = load_env_creator(gym.spec(env_id).entry_point)
+    metadata = getattr(creator, "metadata", None)
+    if metadata is None:  # a factory function, not a class: ask a built env
+        metadata = gym.make(env_id).metadata
+    return "rgb_array" in metadata.get("render_modes", [])
 
 
 def _rollout(env_id: str, steps: int, *, ask_supervisor: bool = False) -> list:
