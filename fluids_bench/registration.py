@@ -10,6 +10,7 @@ import importlib
 from typing import Any
 
 import gymnasium as gym
+import pettingzoo
 
 # id -> (entry point, max_episode_steps, default kwargs)
 ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
@@ -32,11 +33,18 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
 }
 
-# PettingZoo ParallelEnv ids (not Gymnasium envs, so not registered with gym):
-# id -> (factory "module:function", default kwargs); build with make_parallel_env(id, **kwargs)
+# PettingZoo ParallelEnv ids, registered with PettingZoo's own registry:
+# id -> (factory "module:function", default kwargs). Build with
+# pettingzoo.make("parallel", id, **kwargs) or make_parallel_env(id, **kwargs). Factories take
+# PettingZoo's ``max_cycles`` keyword (the registry tests shorten episodes with it).
 PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
 }
+
+# Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or
+# construction are expensive may declare fewer here; every id still gets every check.
+DEFAULT_TEST_STEPS = 20
+TEST_STEPS: dict[str, int] = {}
 
 
 def make_parallel_env(env_id: str, **kwargs: Any):
@@ -51,7 +59,8 @@ def make_parallel_env(env_id: str, **kwargs: Any):
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_SPECS` with Gymnasium (idempotent)."""
+    """Register every id of :data:`ENV_SPECS` with Gymnasium and every id of
+    :data:`PARALLEL_ENV_SPECS` with PettingZoo (idempotent)."""
     for env_id, (entry_point, max_steps, kwargs) in ENV_SPECS.items():
         if env_id in gym.registry:
             continue
@@ -61,3 +70,7 @@ def register_envs() -> None:
             max_episode_steps=max_steps,
             kwargs=dict(kwargs),
         )
+    for env_id, (factory, kwargs) in PARALLEL_ENV_SPECS.items():
+        if env_id in pettingzoo.parallel_registry:
+            continue
+        pettingzoo.register("parallel", env_id, entry_point=factory, kwargs=dict(kwargs))

@@ -29,7 +29,8 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
-from fluids_bench.tasks.dag.supervisor import R, expected_return
+from fluids_bench.tasks.dag.model import R
+from fluids_bench.tasks.dag.supervisor import expected_return
 
 ROOT = np.zeros(2, dtype=np.float32)
 CONSTANT = PolicySpec("constant")

@@ -9,7 +9,8 @@ Every env therefore offers two equivalent ways to ask:
   state the env is now in (the state the next action will be taken from).
 
 Labels live in the env's action space (at the level the user acts at). The supervisor reads the
-true state of the simulator, never the observation.
+true state of the simulator, never the observation. A PettingZoo ``ParallelEnv`` of the suite
+answers per agent: ``env.supervisor_action(agent)`` and ``infos[agent]["supervisor_action"]``.
 
 A supervisor does not have to live in the base env: :func:`supervisor_action` asks through the
 wrapper chain (outermost first, as Gymnasium's ``get_wrapper_attr`` does), and

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import contextlib
 import os
+import re
 import shutil
 import uuid
 import warnings
@@ -37,10 +38,9 @@ import gymnasium as gym
 import minari
 import numpy as np
 from gymnasium import spaces
-from minari.data_collector.episode_buffer import EpisodeBuffer
-from minari.dataset.minari_dataset import DATASET_ID_RE
+from minari.data_collector import EpisodeBuffer
 from minari.namespace import create_namespace, list_local_namespaces
-from minari.storage.datasets_root_dir import get_dataset_path
+from minari.storage import get_dataset_path
 
 from fluids_bench import __version__
 from fluids_bench.algos.dataset import Trajectory
@@ -53,6 +53,13 @@ STAGING_DIR = ".fluids-bench-staging"  # hidden: Minari skips dot-folders when l
 DATA_FORMATS = ("arrow", "hdf5")
 # Minari reminds about unset optional fields; an export without them is deliberate
 _OPTIONAL_FIELD_WARNINGS = r"`(author|author_email|code_permalink)` is set to None"
+
+
+# Minari's dataset id rule, ``[NAMESPACE/]NAME-vK`` (it has no public validator; its own regex
+# is private). tests/data/test_minari_export.py checks that Minari parses the same ids.
+DATASET_ID_RE = re.compile(
+    r"^(?:(?P<namespace>[-_\w][-_\w/]*[-_\w]+)/)?(?P<dataset>[-_\w]+?)(?:-v(?P<version>\d+))?$"
+)
 
 
 def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:

@@ -1,4 +1,5 @@
 import pytest
+
 from fluids_bench.core.validation import reject_unknown_kwargs
 
 

@@ -6,7 +6,6 @@ The Ray tests need Ray installed (the ``ray`` extra): without it they fail, by d
 
 from __future__ import annotations
 
-import pickle
 import sys
 
 import gymnasium as gym
@@ -56,22 +55,6 @@ def test_make_vec_sync_and_async_agree(env_id):
     sync, asynchronous = _vector_rollout(env_id, "sync"), _vector_rollout(env_id, "async")
     for a, b in zip(sync, asynchronous, strict=True):
         assert a.dtype == b.dtype and np.array_equal(a, b)
-
-
-@pytest.mark.parametrize("env_id", IDS)
-def test_env_pickles_mid_episode(env_id):
-    env = gym.make(env_id)
-    _, info = env.reset(seed=3)
-    for _ in range(2):
-        *_, info = env.step(info["supervisor_action"])
-    clone = pickle.loads(pickle.dumps(env))
-    for _ in range(3):
-        action = info["supervisor_action"]
-        a, b = env.step(action), clone.step(action)
-        assert np.array_equal(a[0], b[0]) and a[1:4] == b[1:4]
-        info = a[4]
-        if a[2] or a[3]:
-            break
 
 
 @pytest.mark.parametrize("env_id", IDS)

@@ -218,6 +218,27 @@ def test_malformed_ids_are_refused_before_writing(minari_root):
     assert not minari_root.exists() or not any(minari_root.rglob("data"))
 
 
+@pytest.mark.parametrize(
+    "dataset_id",
+    ["fluids/velocity-v0", "a/b/c-v12", "name-v3", "name", "x/name-v0", "ab/-v0", "a b-v0",
+     "ns/na-me_2-v1", "ns//x-v0", "-v0", "ns/x-v", "/x-v0", "ns/x-v0/"],
+)  # fmt: skip
+def test_dataset_id_rule_is_minaris(dataset_id):
+    """Minari keeps its id rule private; ours must accept exactly the versioned ids Minari
+    parses, with the same parts (this fails if a Minari release changes the rule)."""
+    from minari.dataset.minari_dataset import parse_dataset_id
+
+    try:
+        theirs = parse_dataset_id(dataset_id)
+    except (ValueError, TypeError):  # TypeError: Minari's answer to a missing version
+        theirs = None
+    try:
+        ours = check_dataset_id(dataset_id)
+    except ValueError:
+        ours = None
+    assert ours == theirs
+
+
 def _cli(argv: list[str]) -> int:
     parser = argparse.ArgumentParser(prog="fluids-bench")
     collect_command.add_parser(parser.add_subparsers(dest="command", required=True))

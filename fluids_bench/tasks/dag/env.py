@@ -10,7 +10,8 @@ from gymnasium import spaces
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_float
-from fluids_bench.tasks.dag.supervisor import DEPTH, EDGE_REWARDS, L, R, greedy_action
+from fluids_bench.tasks.dag.model import DEPTH, L, R, transition
+from fluids_bench.tasks.dag.supervisor import greedy_action
 
 WHERE = "DAG-v0"
 
@@ -23,11 +24,12 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
     directed acyclic graph from its root, choosing the left (L) or right (R) child at each node
     and collecting the reward on each branch. Only the root is stochastic: choosing L there
     reaches the right child with probability `mu`. A greedy supervisor labels every node (see
-    `fluids_bench.tasks.dag.supervisor`). With the constant policy class {L, R} (the `"constant"`
-    policy of `fluids_bench.algos.policies`), off-policy learning (behaviour cloning) converges
-    to the best constant policy L, while on-policy learning (DAgger, beta = 0) stays at R forever
-    whenever its initial demonstrations happen to vote R, which happens with probability at
-    least c e^{-m} for m initial demonstrations.
+    `fluids_bench.tasks.dag.supervisor`; the DAG itself is `fluids_bench.tasks.dag.model`). With
+    the constant policy class {L, R} (the `"constant"` policy of `fluids_bench.algos.policies`),
+    off-policy learning (behaviour cloning) converges to the best constant policy L, while
+    on-policy learning (DAgger, beta = 0) stays at R forever whenever its initial demonstrations
+    happen to vote R, which happens with probability at least c e^{-m} for m initial
+    demonstrations.
 
     ## Action Space
 
@@ -103,10 +105,6 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
         # draw on every step, not only at the root, so the random stream does not depend on
         # the actions taken before
         slipped = self.np_random.random() < self.mu
-        if self._level == 0 and move == L and slipped:
-            move = R
-        reward = EDGE_REWARDS[self._level][self._index][move]
-        self._level += 1
-        self._index += move
+        self._level, self._index, reward = transition(self._level, self._index, move, slipped)
         terminated = self._level == DEPTH
         return self._observation(), float(reward), terminated, False, self._info()

@@ -1,10 +1,8 @@
-"""The decision DAG of the source's Theorem 1 (ch. 4, Fig. 4.1) and its greedy supervisor.
+"""The greedy supervisor of the decision DAG of the source's Theorem 1 (ch. 4, Fig. 4.1).
 
-Nodes are ``(level, index)`` with levels 0..3 and ``index <= level``; from ``(l, i)`` action L
-leads to ``(l + 1, i)`` and action R to ``(l + 1, i + 1)``, so middle nodes are shared (a DAG,
-not a tree). Every edge carries a reward. The supervisor is greedy: at each node it takes the
-branch with the larger immediate reward (the source's "acts greedily according to the given
-rewards"). The rewards below make the supervisor's labels
+The DAG itself is :mod:`fluids_bench.tasks.dag.model`. The supervisor is greedy: at each node it
+takes the branch with the larger immediate reward (the source's "acts greedily according to the
+given rewards"). The model's edge rewards make the supervisor's labels
 
     root: L      (1, 0): L   (1, 1): R      (2, 0): L   (2, 1): R   (2, 2): R
 
@@ -16,16 +14,7 @@ mu < 1/2, while R is what on-policy learning keeps if its first majority vote sa
 
 from __future__ import annotations
 
-L, R = 0, 1
-ACTION_NAMES = ("L", "R")
-DEPTH = 3  # levels below the root: an episode is exactly three decisions
-
-# EDGE_REWARDS[level][index] = (reward of the L branch, reward of the R branch)
-EDGE_REWARDS: tuple[tuple[tuple[float, float], ...], ...] = (
-    ((2.0, 0.0),),
-    ((2.0, 0.0), (0.0, 1.0)),
-    ((2.0, 0.0), (0.0, 1.0), (0.0, 1.0)),
-)
+from fluids_bench.tasks.dag.model import ACTION_NAMES, DEPTH, EDGE_REWARDS, L, R
 
 
 def greedy_action(level: int, index: int) -> int:

@@ -7,24 +7,13 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
-from scipy import sparse
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_float, check_int
+from fluids_bench.tasks.gridworld.model import MOVES, GridWorld
 from fluids_bench.tasks.gridworld.supervisor import value_iteration
 
 WHERE = "GridWorld-v0"
-
-LEFT, RIGHT, FORWARD, BACKWARD, STAY = range(5)
-ACTION_NAMES = ("left", "right", "forward", "backward", "stay")
-# (dx, dy) of each action, in action order
-MOVES = np.array([(-1, 0), (1, 0), (0, 1), (0, -1), (0, 0)], dtype=np.int64)
-
-FREE, PENALTY, GOAL = 0, 1, 2
-# RGB colours of free, penalty and goal cells and of the robot, for rgb_array rendering
-COLOURS = np.array([(235, 235, 235), (200, 40, 40), (40, 170, 60)], dtype=np.uint8)
-ROBOT_COLOUR = np.array((40, 80, 220), dtype=np.uint8)
-CELL_PIXELS = 16
 
 
 class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
@@ -46,6 +35,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     The supervisor (`supervisor_action()` and `info["supervisor_action"]`) is the optimal
     stationary policy of the discounted problem, solved exactly by value iteration on the
     explicit transition table (`transitions`), see `fluids_bench.tasks.gridworld.supervisor`.
+    The world itself (generation, slips, the table, the picture) is
+    `fluids_bench.tasks.gridworld.model.GridWorld` (`env.world`); `cells`, `next_state`,
+    `transitions` and `state_rewards` are its arrays.
 
     ## Action Space
 
@@ -129,63 +121,24 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
         self.action_space = spaces.Discrete(len(MOVES))
         self.observation_space = spaces.Box(0.0, float(self.size - 1), (2,), np.float32)
 
-        self.cells = self._generate_world(np.random.default_rng(self.world_seed))
-        self.next_state = self._next_state_table()
-        self.transitions = self.transition_matrix()
-        flat_cells = self.cells.reshape(-1)
-        self.state_rewards = np.where(
-            flat_cells == GOAL,
+        self.world = GridWorld.generate(
+            self.size,
+            self.penalty_fraction,
+            self.slip_probability,
             self.goal_reward,
-            np.where(flat_cells == PENALTY, self.penalty_reward, 0.0),
+            self.penalty_reward,
+            self.world_seed,
         )
+        self.cells, self.next_state = self.world.cells, self.world.next_state
+        self.state_rewards = self.world.state_rewards
+        self.transitions = self.world.transition_matrix()
         solution = value_iteration(self.transitions, self.state_rewards, self.discount)
         self.supervisor_policy = solution.policy
         self.supervisor_values = solution.values
-        self._start_states = np.flatnonzero(flat_cells == FREE)
-        self._state = int(self._start_states[0])
-
-    # -- the world ---------------------------------------------------------------------------
-
-    def _generate_world(self, rng: np.random.Generator) -> np.ndarray:
-        """``cells[x, y]`` in {FREE, PENALTY, GOAL}: one goal, then penalties among the rest."""
-        n = self.size * self.size
-        order = rng.permutation(n)
-        cells = np.full(n, FREE, dtype=np.int64)
-        cells[order[0]] = GOAL
-        n_penalties = min(int(round(self.penalty_fraction * n)), n - 2)  # keep a start cell
-        cells[order[1 : 1 + n_penalties]] = PENALTY
-        return cells.reshape(self.size, self.size)
-
-    def _next_state_table(self) -> np.ndarray:
-        """``next_state[s, a]``: the cell reached by executing move ``a`` exactly from ``s``."""
-        xs, ys = np.divmod(np.arange(self.size * self.size), self.size)
-        nx = np.clip(xs[:, None] + MOVES[None, :, 0], 0, self.size - 1)
-        ny = np.clip(ys[:, None] + MOVES[None, :, 1], 0, self.size - 1)
-        return nx * self.size + ny
-
-    def transition_matrix(self) -> sparse.csr_array:
-        """The explicit table ``P`` of the slip dynamics: row ``s * 5 + a`` is ``P(. | s, a)``.
-
-        Sparse (at most five reachable cells per row): a dense table of a 100 x 100 grid
-        would take 4 GB.
-        """
-        n_states, n_actions = self.next_state.shape
-        p_other = self.slip_probability / (n_actions - 1)
-        rows, cols, weights = [], [], []
-        for intended in range(n_actions):
-            for executed in range(n_actions):
-                rows.append(np.arange(n_states) * n_actions + intended)
-                cols.append(self.next_state[:, executed])
-                weight = 1.0 - self.slip_probability if executed == intended else p_other
-                weights.append(np.full(n_states, weight))
-        shape = (n_states * n_actions, n_states)
-        # duplicate (row, col) entries (moves into the border) are summed
-        return sparse.csr_array(
-            (np.concatenate(weights), (np.concatenate(rows), np.concatenate(cols))), shape=shape
-        )
+        self._state = int(self.world.start_states[0])
 
     def _observation(self) -> np.ndarray:
-        return np.array(divmod(self._state, self.size), dtype=np.float32)
+        return np.array(self.world.cell(self._state), dtype=np.float32)
 
     def _info(self) -> dict[str, Any]:
         return {SUPERVISOR_ACTION_KEY: self.supervisor_action()}
@@ -200,27 +153,17 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
         super().reset(seed=seed)
-        self._state = int(self.np_random.choice(self._start_states))
+        self._state = self.world.start(self.np_random)
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
         executed = int(action)
         if executed != action or not 0 <= executed < len(MOVES):  # cheaper than Space.contains
             raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
-        if self.np_random.random() < self.slip_probability:
-            # one of the other moves, uniformly: shift by 1..n-1 modulo n
-            shift = int(self.np_random.integers(1, len(MOVES)))
-            executed = (executed + shift) % len(MOVES)
-        self._state = int(self.next_state[self._state, executed])
-        reward = float(self.state_rewards[self._state])
+        self._state, reward = self.world.step(self._state, executed, self.np_random)
         return self._observation(), reward, False, False, self._info()
 
     def render(self) -> np.ndarray | None:
         if self.render_mode != "rgb_array":
             return None
-        image = COLOURS[self.cells].copy()
-        x, y = divmod(self._state, self.size)
-        image[x, y] = ROBOT_COLOUR
-        # rows of the image are y from top to bottom, so forward (y + 1) points up
-        image = np.flipud(image.transpose(1, 0, 2))
-        return np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
+        return self.world.draw(self._state)

@@ -31,10 +31,6 @@ def test_check_env_every_level(level):
     _check(gym.make("FLUIDS-v0", action_level=level))
 
 
-def test_check_env_sensitivity_variant():
-    _check(gym.make("FLUIDS-Sensitivity-v0"))
-
-
 def _perturb(env, info, rng, k):
     """The supervisor's label, perturbed on some steps so the episode leaves the nominal path."""
     a = info["supervisor_action"]

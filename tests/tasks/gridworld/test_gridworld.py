@@ -16,7 +16,8 @@ import fluids_bench  # noqa: F401
 from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.tasks.gridworld.env import GOAL, MOVES, PENALTY, GridWorldEnv
+from fluids_bench.tasks.gridworld.env import GridWorldEnv
+from fluids_bench.tasks.gridworld.model import GOAL, MOVES, PENALTY
 from fluids_bench.tasks.gridworld.supervisor import value_iteration
 
 

@@ -9,7 +9,8 @@ with steering ψ (rad) and force F (N). Pedestrians follow the point model: they
 
 The loop over agents is compiled (numba): a few dozen operations per agent cost less as a
 loop than as numpy calls on arrays of tens of elements. Its arithmetic is the array
-formulation's, operation for operation (``tests/sim/numpy_reference.py``).
+formulation's, operation for operation (``tests/tasks/fluids/sim/numpy_reference.py``), with the
+C library's scalar trigonometric functions.
 """
 
 from __future__ import annotations

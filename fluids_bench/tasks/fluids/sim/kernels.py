@@ -5,8 +5,9 @@ A FLUIDS scene has tens of agents, so each of these is a few dozen arithmetic op
 agent (or per pair). As numpy expressions they cost one call of 1–2 µs per operation on these
 machines, which made them most of a step; compiled they are plain loops. The arithmetic is the
 numpy formulation's, operation for operation in float64 with no fast-math (no fused
-multiply-add), so results are bit-identical to it: ``tests/sim/numpy_reference.py`` keeps those
-formulations and ``tests/sim/test_sim_kernels.py`` compares. Data stays in the world's arrays
+multiply-add); only sin/cos/hypot are the C library's scalar functions, which numpy's vectorised
+ones may differ from in the last bit on some CPUs. ``tests/tasks/fluids/sim/numpy_reference.py``
+keeps those formulations and ``tests/tasks/fluids/sim/test_sim_kernels.py`` compares. Data stays in the world's arrays
 (struct of arrays over agents); nothing here allocates per agent.
 """
 

@@ -6,8 +6,9 @@ that is a few large temporary arrays per plan and no early exit; compiled, it is
 touches only what it needs. The PID loops are a few dozen scalar operations per agent, cheaper
 compiled than as numpy calls on 16-element arrays. The arithmetic is the numpy version's,
 operation for operation and in the same precision (float32 positions, float64 thresholds, no
-fused multiply-add), so results are bit-identical to it
-(``tests/supervisors/test_supervisor_kernels.py`` keeps those references). The simulator's own
+fused multiply-add), except that atan2 is the C library's scalar function, which numpy's
+vectorised one may differ from in the last bit on some CPUs
+(``tests/tasks/fluids/supervisor/test_supervisor_kernels.py`` keeps those references). The simulator's own
 loops are in :mod:`fluids_bench.tasks.fluids.sim.kernels`.
 """
 

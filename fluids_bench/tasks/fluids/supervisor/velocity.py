@@ -51,6 +51,11 @@ class VelocityPlannerConfig:
         check_range("VelocityPlannerConfig", "sample_every", self.sample_every, 1, 10, integer=True)
         check_range("VelocityPlannerConfig", "margin", self.margin, 0.0, 5.0)
         check_range("VelocityPlannerConfig", "pedestrian_margin", self.pedestrian_margin, 0.0, 5.0)
+        # all four divide in the projection (max_decel = 0 divided by zero)
+        check_range("VelocityPlannerConfig", "lateral_accel", self.lateral_accel, 0.1, 20.0)
+        check_range("VelocityPlannerConfig", "speed_gain", self.speed_gain, 0.1, 10.0)
+        check_range("VelocityPlannerConfig", "max_accel", self.max_accel, 0.1, 50.0)
+        check_range("VelocityPlannerConfig", "max_decel", self.max_decel, 0.1, 50.0)
         check_range("VelocityPlannerConfig", "period", self.period, 1, 50, integer=True)
         fr = self.fractions
         if not fr or fr[0] != 0.0 or list(fr) != sorted(set(fr)) or fr[-1] > 1.0:
@@ -61,7 +66,14 @@ class VelocityPlannerConfig:
 
 
 class _PrioritySolver(OptimizedBacktrackingSolver):
-    """Backtracking with a caller-given variable order (the priority order)."""
+    """Backtracking with a caller-given variable order (the priority order).
+
+    python-constraint2 has no public way to fix the order in which variables are assigned; its
+    ``OptimizedBacktrackingSolver`` asks ``getSortedVariables`` for it, which we override. The
+    pin in pyproject.toml (>=2.9, <3) covers the versions this was checked on, and
+    ``test_priority_order_is_honoured_by_the_installed_solver`` fails if a release stops
+    consulting the override.
+    """
 
     def __init__(self, order: list[int]) -> None:
         super().__init__()

@@ -1,6 +1,6 @@
 """The simulator's per-step loops as the numpy array expressions they were before being compiled
-(``fluids_bench/tasks/fluids/sim/kernels.py``). ``tests/sim/test_sim_kernels.py`` holds the kernels to these,
-bit for bit."""
+(``fluids_bench/tasks/fluids/sim/kernels.py``). ``test_sim_kernels.py`` holds the kernels to
+these, to the tolerance stated in ``tests/kernel_compare.py``."""
 
 from __future__ import annotations
 

@@ -3,8 +3,8 @@
 ``cast`` is ``QLidarSensor.cast`` of commit b78cce7 (with its ``_agent_buffer``, ``_hit_agents``
 and ``_hit_edges``) turned into a plain function of the sensor's parameters and the world, with
 the arithmetic unchanged; ``observe`` is the sensor's ``observe`` around it. The compiled
-version (``fluids_bench.tasks.fluids.sim.sensors.kernels``) must give the same readings bit for bit
-(``tests/sim/test_sensor_kernels.py``).
+version (``fluids_bench.tasks.fluids.sim.sensors.kernels``) must give the same readings up to the
+stated tolerance (``test_sensor_kernels.py``, ``tests/kernel_compare.py``).
 """
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ from fluids_bench.tasks.fluids.sim.lights import STOP
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.episode import make_world, run_supervised
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+from fluids_bench.tasks.fluids.supervisor.trajectory import RecoveryPlanner
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner, VelocityPlannerConfig
 
 
@@ -76,6 +77,35 @@ def test_planner_config_is_validated():
         VelocityPlannerConfig(period=0)
 
 
+@pytest.mark.parametrize("field", ["lateral_accel", "speed_gain", "max_accel", "max_decel"])
+@pytest.mark.parametrize("value", [0.0, -1.0, float("nan"), float("inf"), True, "2"])
+def test_planner_dynamics_fields_are_validated(field, value):
+    """They divide in the projection: max_decel = 0 used to divide by zero mid-episode."""
+    with pytest.raises(ValueError, match=f"'{field}' is {value!r}"):
+        VelocityPlannerConfig(**{field: value})
+
+
+def test_priority_order_is_honoured_by_the_installed_solver():
+    """The planner fixes python-constraint2's variable order by overriding the solver's
+    getSortedVariables (no public API for it): the installed version must still consult it.
+    The solver tries a domain's values from the end, so whichever variable comes first takes
+    the larger value of a + b <= 1; the library's own order (most constraints first) would
+    put "b" first here."""
+    from constraint import FunctionConstraint, Problem
+
+    from fluids_bench.tasks.fluids.supervisor.velocity import _PrioritySolver
+
+    def solve(order):
+        problem = Problem(_PrioritySolver(order))
+        problem.addVariables(["a", "b", "c"], [0, 1])
+        problem.addConstraint(FunctionConstraint(lambda a, b: a + b <= 1), ["a", "b"])
+        problem.addConstraint(FunctionConstraint(lambda b, c: b + c <= 2), ["b", "c"])
+        return problem.getSolution()
+
+    assert solve(["a", "b", "c"]) == {"a": 1, "b": 0, "c": 1}
+    assert solve(["b", "a", "c"]) == {"a": 0, "b": 1, "c": 1}
+
+
 # ---------------------------------------------------------------------------- PID tracking
 def test_pid_tracks_generated_trajectories():
     """ch. 7: the PID tracks over 99% of 200 generated trajectories. Ours: within 0.5 m laterally
@@ -133,6 +163,35 @@ def test_displaced_car_is_planned_back_by_ompl_and_rejoins():
     rejoined = np.flatnonzero(dist < 0.3)
     assert len(rejoined) and (dist[rejoined[0] :] < 0.5).all()  # back on the route, and stays
     assert info["is_success"]
+
+
+def test_rrt_connect_fallback_plans_a_valid_way_back():
+    """A car on the two-lane four-way turned 130 degrees off its lane: no direct Dubins curve to
+    any rejoin point stays on the road, so recovery falls back to OMPL's RRT-Connect search,
+    which finds a way back (in 30 of 30 trials, each under 0.2 s of the 1 s budget). The
+    adopted path starts at the car, reaches the first rejoin point, follows the route to its end,
+    and the footprint stays in the drivable area along the bridge."""
+    world = make_world(SceneConfig(num_cars=1, num_pedestrians=0, lanes=2), seed=0)
+    world.state[0] = (3.2952288441078945, -26.642980601547176, -0.7361855607055166, 0.0)
+    world.route_s[0] = 20.5
+    planner = RecoveryPlanner(world)
+    searches = []
+    search = planner.search
+    planner.search = lambda a, b, seconds: searches.append(search(a, b, seconds)) or searches[-1]
+    assert planner.plan(world, 0, search_time=1.0)
+    assert len(searches) == 1 and searches[0] is not None  # the direct curves all failed
+    assert world.recovering[0]
+    routes, r = world.layout.routes, int(world.route[0])
+    path = world.path[0, : int(round(world.path_len[0] / 0.5)) + 1]
+    rejoin = routes.path[r, int(round((20.5 + 8.0) / 0.5))]
+    assert np.hypot(*(path[0] - world.state[0, :2])) < 0.5  # starts at the car
+    assert np.hypot(*(path - rejoin).T).min() < 0.5  # reaches the rejoin point
+    assert np.hypot(*(path[-1] - routes.path[r, int(round(routes.length[r] / 0.5))])) < 1.0
+    bridge = searches[0]
+    head = np.arctan2(*np.diff(bridge, axis=0).T[::-1])
+    assert all(
+        planner.valid(planner.state(x, y, h)) for (x, y), h in zip(bridge[:-1], head, strict=True)
+    )
 
 
 def test_recovery_is_deterministic():

@@ -12,10 +12,11 @@ that touch each value once, an order of magnitude faster.
 
 The arithmetic is the numpy version's, operation for operation and in the same precision
 (float64, a multiply by the reciprocal where numpy multiplied by one, no fused multiply-add, no
-fastmath; numba's ``math.sin``/``cos``/``hypot`` and float ``%`` are the C library's, as numpy's
-are), and the minimum and maximum keep numpy's rules (NaN propagates, the second operand on a
-tie), so readings are bit-identical to it (``tests/sim/qlidar_reference.py`` keeps that
-reference and ``tests/sim/test_sensor_kernels.py`` compares the two).
+fastmath), and the minimum and maximum keep numpy's rules (NaN propagates, the second operand on
+a tie). numba's ``math.sin``/``cos``/``hypot`` are the C library's scalar functions, which
+numpy's vectorised ones may differ from in the last bit on some CPUs, so readings equal the
+numpy version's to that (``tests/tasks/fluids/sim/qlidar_reference.py`` keeps the reference and
+``tests/tasks/fluids/sim/test_sensor_kernels.py`` compares, see ``tests/kernel_compare.py``).
 """
 
 from __future__ import annotations

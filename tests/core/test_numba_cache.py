@@ -1,0 +1,75 @@
+"""numba's kernel cache goes to a user cache directory, never into the installed package.
+
+A cache written next to the sources (numba's default when that folder is writable) ends up in
+``site-packages/fluids_bench/**/__pycache__``, which pip does not own: after
+``pip install . && fluids-bench demo`` a later ``pip install -e .`` left those folders behind as an
+empty namespace package and ``fluids-bench --help`` failed outside the repository.
+"""
+
+from __future__ import annotations
+
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import fluids_bench
+from fluids_bench.core.numba_cache import default_cache_dir, use_user_cache_dir
+
+PACKAGE = Path(fluids_bench.__file__).parent
+
+# Compiles (or loads) every kernel family: world, dynamics, explicit + quasi-LIDAR sensors,
+# velocity planner and PID.
+SCRIPT = """
+import gymnasium as gym
+import fluids_bench
+env = gym.make("FLUIDS-v0", obs_type=["explicit", "qlidar"], action_level="control")
+_, info = env.reset(seed=0)
+for _ in range(12):
+    *_, info = env.step(info["supervisor_action"])
+print(fluids_bench.__file__)
+"""
+
+
+def _cache_files(root: Path) -> list[Path]:
+    return sorted(p for p in root.rglob("*") if p.suffix in (".nbi", ".nbc"))
+
+
+def test_compiling_the_kernels_writes_nothing_into_the_package(tmp_path):
+    src = tmp_path / "src"
+    shutil.copytree(PACKAGE, src / "fluids_bench", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env |= {
+        "HOME": str(tmp_path / "home"),
+        "XDG_CACHE_HOME": str(tmp_path / "xdg"),
+        "PYTHONPATH": str(src),
+        "PYTHONDONTWRITEBYTECODE": "1",  # so any __pycache__ below would be numba's
+    }
+    out = subprocess.run(
+        [sys.executable, "-c", SCRIPT], env=env, cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.strip().startswith(str(src))  # the copy ran, not the checkout
+    assert _cache_files(src) == []
+    assert [p for p in src.rglob("__pycache__")] == []
+    # ...and the kernels were cached, in the user cache directory
+    assert len(_cache_files(tmp_path / "xdg" / "fluids-bench" / "numba")) >= 10
+
+
+def test_cache_dir_follows_xdg_and_home_and_respects_the_users_choice():
+    assert use_user_cache_dir({"NUMBA_CACHE_DIR": "/mine"}) == "/mine"
+    env = {"XDG_CACHE_HOME": "/x"}
+    assert use_user_cache_dir(env) == os.path.join("/x", "fluids-bench", "numba")
+    assert env["NUMBA_CACHE_DIR"] == os.path.join("/x", "fluids-bench", "numba")
+    home = os.path.join(os.path.expanduser("~"), ".cache", "fluids-bench", "numba")
+    assert default_cache_dir({}) == home
+    assert default_cache_dir({"XDG_CACHE_HOME": "relative/dir"}) == home  # XDG: absolute only
+    assert use_user_cache_dir({"NUMBA_CACHE_DIR": ""}) == home  # empty means unset, as numba
+
+
+def test_the_package_sets_it_for_this_process():
+    assert os.environ["NUMBA_CACHE_DIR"]
+    from numba.core import config
+
+    assert config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"]
