@@ -10,8 +10,11 @@ With ``trajectory_planner="ompl"``, OMPL plans every route's junction part inste
 When a car is off its route (the learner or injected noise pushed it there), OMPL plans a
 kinematically feasible Dubins path back to a point of the route ahead, valid where the car's
 footprint stays inside the drivable area. The direct Dubins connection to each candidate rejoin
-point is tried first, in order: it is unique, so seeded episodes stay bit-identical. Only if none
-is valid does a sampling planner (RRT-Connect) search, whose result depends on OMPL's own RNG.
+point is tried first, in order: it is unique, so seeded episodes stay bit-identical. If none is
+valid, two Dubins curves through the shortest valid via pose of a fixed lattice around the car
+are tried (:meth:`DubinsPlanner.via`). No sampling planner is used: OMPL's RRT-Connect, tried
+here before, found no exact path on one-lane roads, and on two-lane roads its paths depended on
+OMPL's per-process random seed and on a wall-clock budget, so episodes were not reproducible.
 """
 
 from __future__ import annotations
@@ -36,15 +39,18 @@ OFF_ROUTE_LATERAL = 1.5  # m from the path at which a car counts as off its rout
 OFF_ROUTE_HEADING = 0.8  # rad of heading error at which it does too
 ROUTE_CLEARANCES = (0.4, 0.2, 0.0)  # m OMPL-planned routes try to keep from the kerb (PID slack)
 REJOIN_AHEAD = (8.0, 12.0, 16.0, 20.0, 26.0, 32.0)  # m ahead on the route to try rejoining at
+# the via-pose lattice of the two-curve fallback (DubinsPlanner.via), relative to the car's pose
+VIA_RADII = (4.0, 7.0, 11.0)  # m from the car
+VIA_BEARINGS = tuple(np.deg2rad(np.arange(-150, 181, 30)))  # rad from the car's heading
+VIA_HEADINGS = tuple(np.deg2rad(np.arange(-135, 181, 45)))  # rad turned from the car's heading
 
 
 def _ompl():
     from ompl import base as ob
-    from ompl import geometric as og
     from ompl import util as ou
 
     ou.setLogLevel(ou.LogLevel.LOG_ERROR)
-    return ob, og
+    return ob
 
 
 def waypoints_ego_frame(world: World, agent: int, count: int, spacing: float) -> np.ndarray:
@@ -74,8 +80,7 @@ class DubinsPlanner:
 
     def __init__(self, layout: Layout, car: CarConfig, clearance: float = 0.0) -> None:
         """``clearance`` (m) is kept between the footprint and the road's edge (may be < 0)."""
-        ob, og = _ompl()
-        self._og = og
+        ob = _ompl()
         wheelbase = car.lf + car.lr
         # turning radius at 80% of full lock, so the PID has authority left to track it
         self.radius = wheelbase / np.tan(0.8 * car.max_steer)
@@ -125,23 +130,31 @@ class DubinsPlanner:
             pts.append((out.getX(), out.getY()))
         return np.asarray(pts)
 
-    def search(self, a, b, seconds: float) -> np.ndarray | None:
-        """RRT-Connect from ``a`` to ``b`` (depends on OMPL's RNG: not bit-reproducible)."""
-        ss = self._og.SimpleSetup(self.space)
-        ss.setStateValidityChecker(self.valid)
-        ss.setStartAndGoalStates(a, b)
-        ss.setPlanner(self._og.RRTConnect(ss.getSpaceInformation()))
-        if not (ss.solve(seconds) and ss.haveExactSolutionPath()):
-            return None
-        ss.simplifySolution()
-        path = ss.getSolutionPath()
-        path.interpolate(max(2, int(path.length() / (PATH_SPACING / 2))))
-        return np.array(
-            [
-                (path.getState(i).getX(), path.getState(i).getY())
-                for i in range(path.getStateCount())
-            ]
-        )
+    def via(self, a, b) -> np.ndarray | None:
+        """Two Dubins curves ``a`` → v → ``b`` through the shortest valid via pose v of a fixed
+        lattice around ``a`` (:data:`VIA_RADII` × :data:`VIA_BEARINGS` × :data:`VIA_HEADINGS`),
+        for when the direct curve leaves the road (a car turned round, or pushed onto the kerb).
+        Candidates are tried in order of total Dubins length, ties by lattice order: no
+        sampling and no time budget, so the result is the same on every run and machine load."""
+        x, y, yaw = a.getX(), a.getY(), a.getYaw()
+        vias = [
+            self.state(x + r * np.cos(yaw + bear), y + r * np.sin(yaw + bear), yaw + turn)
+            for r in VIA_RADII
+            for bear in VIA_BEARINGS
+            for turn in VIA_HEADINGS
+        ]
+        length = [self.space.distance(a, v) + self.space.distance(v, b) for v in vias]
+        for i in np.argsort(length, kind="stable"):
+            v = vias[i]
+            if not self.valid(v):
+                continue
+            first = self.direct(a, v)
+            if first is None:
+                continue
+            second = self.direct(v, b)
+            if second is not None:
+                return np.vstack([first, second[1:]])
+        return None
 
     def through(self, guide: np.ndarray) -> np.ndarray | None:
         """A chain of valid Dubins curves through poses sampled along ``guide`` (a polyline),
@@ -190,7 +203,7 @@ class RecoveryPlanner(DubinsPlanner):
         # a car pushed off the road must still find a way back: no clearance demanded
         super().__init__(world.layout, world.scene.car, clearance=-0.25)
 
-    def plan(self, world: World, agent: int, search_time: float = 0.05) -> bool:
+    def plan(self, world: World, agent: int) -> bool:
         """Replace ``agent``'s path by one from its pose back onto its route; True on success."""
         routes = world.layout.routes
         r = int(world.route[agent])
@@ -205,10 +218,14 @@ class RecoveryPlanner(DubinsPlanner):
             bridge = self.direct(start, self.state(*route_pts[k], route_head[k]))
             if bridge is not None:
                 return self._adopt(world, agent, bridge, k)
-        # no direct connection: search (not bit-reproducible: OMPL's RNG decides)
-        k = int(round(candidates[0] / PATH_SPACING))
-        bridge = self.search(start, self.state(*route_pts[k], route_head[k]), search_time)
-        return bridge is not None and self._adopt(world, agent, bridge, k)
+        # no direct connection: two curves through a via pose, to the nearest rejoin point
+        # that one reaches (deterministic, like the direct curves)
+        for s_goal in dict.fromkeys(candidates):
+            k = int(round(s_goal / PATH_SPACING))
+            bridge = self.via(start, self.state(*route_pts[k], route_head[k]))
+            if bridge is not None:
+                return self._adopt(world, agent, bridge, k)
+        return False
 
     @staticmethod
     def _adopt(world: World, agent: int, bridge: np.ndarray, k_rejoin: int) -> bool:

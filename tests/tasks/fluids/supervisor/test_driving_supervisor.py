@@ -12,7 +12,7 @@ from fluids_bench.tasks.fluids.sim.lights import STOP
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.episode import make_world, run_supervised
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
-from fluids_bench.tasks.fluids.supervisor.trajectory import RecoveryPlanner
+from fluids_bench.tasks.fluids.supervisor.trajectory import REJOIN_AHEAD, RecoveryPlanner
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner, VelocityPlannerConfig
 
 
@@ -165,33 +165,37 @@ def test_displaced_car_is_planned_back_by_ompl_and_rejoins():
     assert info["is_success"]
 
 
-def test_rrt_connect_fallback_plans_a_valid_way_back():
+def test_via_pose_fallback_plans_a_valid_way_back():
     """A car on the two-lane four-way turned 130 degrees off its lane: no direct Dubins curve to
-    any rejoin point stays on the road, so recovery falls back to OMPL's RRT-Connect search,
-    which finds a way back (in 30 of 30 trials, each under 0.2 s of the 1 s budget). The
-    adopted path starts at the car, reaches the first rejoin point, follows the route to its end,
-    and the footprint stays in the drivable area along the bridge."""
-    world = make_world(SceneConfig(num_cars=1, num_pedestrians=0, lanes=2), seed=0)
-    world.state[0] = (3.2952288441078945, -26.642980601547176, -0.7361855607055166, 0.0)
-    world.route_s[0] = 20.5
-    planner = RecoveryPlanner(world)
-    searches = []
-    search = planner.search
-    planner.search = lambda a, b, seconds: searches.append(search(a, b, seconds)) or searches[-1]
-    assert planner.plan(world, 0, search_time=1.0)
-    assert len(searches) == 1 and searches[0] is not None  # the direct curves all failed
-    assert world.recovering[0]
-    routes, r = world.layout.routes, int(world.route[0])
-    path = world.path[0, : int(round(world.path_len[0] / 0.5)) + 1]
-    rejoin = routes.path[r, int(round((20.5 + 8.0) / 0.5))]
-    assert np.hypot(*(path[0] - world.state[0, :2])) < 0.5  # starts at the car
-    assert np.hypot(*(path - rejoin).T).min() < 0.5  # reaches the rejoin point
-    assert np.hypot(*(path[-1] - routes.path[r, int(round(routes.length[r] / 0.5))])) < 1.0
-    bridge = searches[0]
-    head = np.arctan2(*np.diff(bridge, axis=0).T[::-1])
-    assert all(
-        planner.valid(planner.state(x, y, h)) for (x, y), h in zip(bridge[:-1], head, strict=True)
-    )
+    any rejoin point stays on the road, so recovery takes two curves through a via pose. The
+    adopted path starts at the car, reaches a rejoin point, follows the route to its end, the
+    footprint stays in the drivable area along the bridge, and a second planner (as in another
+    process) gives the same path bit for bit."""
+    paths = []
+    for _ in range(2):
+        world = make_world(SceneConfig(num_cars=1, num_pedestrians=0, lanes=2), seed=0)
+        world.state[0] = (3.2952288441078945, -26.642980601547176, -0.7361855607055166, 0.0)
+        world.route_s[0] = 20.5
+        planner = RecoveryPlanner(world)
+        vias = []
+        planner.via = lambda a, b, via=planner.via, vias=vias: vias.append(via(a, b)) or vias[-1]
+        assert planner.plan(world, 0)
+        assert vias and vias[-1] is not None  # the direct curves all failed
+        assert world.recovering[0]
+        routes, r = world.layout.routes, int(world.route[0])
+        path = world.path[0, : int(round(world.path_len[0] / 0.5)) + 1]
+        assert np.hypot(*(path[0] - world.state[0, :2])) < 0.5  # starts at the car
+        rejoins = routes.path[r, [int(round((20.5 + a) / 0.5)) for a in REJOIN_AHEAD]]
+        assert min(np.hypot(*(path[:, None] - rejoins).T).min(axis=0)) < 0.5  # reaches one
+        assert np.hypot(*(path[-1] - routes.path[r, int(round(routes.length[r] / 0.5))])) < 1.0
+        bridge = vias[-1]
+        head = np.arctan2(*np.diff(bridge, axis=0).T[::-1])
+        assert all(
+            planner.valid(planner.state(x, y, h))
+            for (x, y), h in zip(bridge[:-1], head, strict=True)
+        )
+        paths.append(path.copy())
+    assert np.array_equal(paths[0], paths[1])
 
 
 def test_recovery_is_deterministic():
