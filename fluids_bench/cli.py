@@ -35,9 +35,22 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+SEED_MAX = 2**32 - 1  # numpy's and Gymnasium's seeds: non-negative, 32 bits here
+
+
+def check_seeds(args: argparse.Namespace) -> None:
+    """Every ``--…seed`` option must be a seed Gymnasium and numpy accept: refuse a negative or
+    too large one before the command starts (not deep inside an env's reset)."""
+    for name, value in vars(args).items():
+        if name.endswith("seed") and isinstance(value, int) and not 0 <= value <= SEED_MAX:
+            option = "--" + name.replace("_", "-")
+            raise ValueError(f"{option} is {value}; allowed: an integer in [0, {SEED_MAX}]")
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
     try:
+        check_seeds(args)
         return int(args.func(args) or 0)
     except (ValueError, FileExistsError, FileNotFoundError) as exc:
         print(f"fluids-bench {args.command}: error: {exc}", file=sys.stderr)

@@ -146,6 +146,7 @@ def collect(
         raise ValueError(f"collect: unknown env id {env_id!r}; allowed: {sorted(gym.registry)}")
     actor = actor or ActorSpec()
     kwargs = dict(env_kwargs or {})
+    _env(env_id, kwargs)  # a bad env argument fails here, once, before any worker starts
     tasks = [EpisodeTask(i, env_id, kwargs, actor, seed + i, max_steps) for i in range(episodes)]
     results: dict[int, Trajectory] = {}
     with tqdm(total=episodes, desc=f"collect {env_id}", unit="ep", disable=not progress) as bar:

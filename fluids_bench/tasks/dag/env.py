@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_float
+from fluids_bench.core.validation import check_choice, check_float, reject_unknown_kwargs
 from fluids_bench.tasks.dag.supervisor import DEPTH, EDGE_REWARDS, L, R, greedy_action
 
 WHERE = "DAG-v0"
@@ -67,6 +67,7 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
 
     metadata = {"render_modes": [], "render_fps": 1}
 
+    @reject_unknown_kwargs
     def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:
         self.mu = check_float(WHERE, "mu", mu, 0.0, 1.0)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None])

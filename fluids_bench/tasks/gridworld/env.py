@@ -10,7 +10,7 @@ from gymnasium import spaces
 from scipy import sparse
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_float, check_int
+from fluids_bench.core.validation import check_choice, check_float, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.gridworld.supervisor import value_iteration
 
 WHERE = "GridWorld-v0"
@@ -104,6 +104,7 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
+    @reject_unknown_kwargs
     def __init__(
         self,
         size: int = 15,
