@@ -44,7 +44,9 @@ class FluidsEnv(gym.Env):
     * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
       rad; force × max_force when ≥ 0, × max_brake_force when < 0).
 
-    Box actions out of bounds are clipped; NaN or infinite actions raise ``ValueError``.
+    Box actions are arrays of real numbers (ints or floats): out of bounds they are clipped;
+    NaN or infinite values, strings (``"0.5"``), bools and complex numbers raise ``ValueError``
+    naming the level and the allowed form (they are never coerced).
 
     ## Observation Space
     ``obs_type="explicit"``: ``Box(-1000, 1000, (13 + 7k,), float32)`` with ``k = k_nearest``: the

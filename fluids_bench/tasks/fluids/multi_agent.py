@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import copy
 import inspect
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -114,8 +114,11 @@ class FluidsParallelEnv(ParallelEnv):
     in the car's frame, m), ``"velocity"`` ``Box(0, v_max, (1,))`` (target speed, m/s) or
     ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]). The supervisor fills the
     levels below for each car. A live agent missing from the action dict follows its
-    supervisor this step; actions for agents that already left are ignored; unknown names,
-    malformed or non-finite actions raise ``ValueError``. Box actions are clipped to bounds.
+    supervisor this step; actions for agents that already left are ignored. ``actions`` must
+    be a dict (``None`` or a list raise ``ValueError``); unknown names raise ``ValueError``
+    listing the agents; a malformed action (wrong shape, not finite, strings, bools, complex
+    numbers) raises ``ValueError`` naming the agent, the level and the allowed form. Box
+    actions are clipped to bounds.
 
     ## Observation Space
     Per agent, the ``FLUIDS-v0`` observation (``obs_type`` and the same sensor options) taken
@@ -326,6 +329,11 @@ class FluidsParallelEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError(f"{WHERE}: step() called with no live agents; call reset()")
+        if not isinstance(actions, Mapping):
+            raise ValueError(
+                f"{WHERE}: actions is {type(actions).__name__} {actions!r:.60}; allowed: a dict "
+                f"from agent name to action (live agents: {self.agents})"
+            )
         unknown = sorted(set(actions) - set(self.possible_agents), key=str)
         if unknown:
             raise ValueError(
@@ -333,7 +341,9 @@ class FluidsParallelEnv(ParallelEnv):
             )
         live = [self._index[a] for a in self.agents]
         chosen = {
-            i: self._validate(actions[agent_name(i)]) for i in live if agent_name(i) in actions
+            i: self._validate(actions[agent_name(i)], agent_name(i))
+            for i in live
+            if agent_name(i) in actions
         }
         w, sup = self.world, self.supervisor
         controls, memory = self._controls(chosen)
@@ -415,8 +425,8 @@ class FluidsParallelEnv(ParallelEnv):
             self._route_length[i] = float(self.world.path_len[i]) - self._last_s[i]
         return controls, memory
 
-    def _validate(self, action):
-        return levels.validate(self.action_level, self._action_space, action, WHERE)
+    def _validate(self, action, agent: str):
+        return levels.validate(self.action_level, self._action_space, action, f"{WHERE} {agent}")
 
     def _observe(self, i: int):
         rng, w = self.np_random, self.world

@@ -92,8 +92,10 @@ def build_scenario(
     check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
     lanes = check_int(where, "lanes", lanes, 1, 2)
     lights = check_bool(where, "lights", lights)
-    controlled = 1 if controlled_cars is None else check_int(
-        where, "controlled_cars", controlled_cars, 1, MAX_CARS
+    controlled = (
+        1
+        if controlled_cars is None
+        else check_int(where, "controlled_cars", controlled_cars, 1, MAX_CARS)
     )
     num_cars = check_int(where, "num_cars", num_cars, 0, MAX_CARS - controlled)
     num_pedestrians = check_int(where, "num_pedestrians", num_pedestrians, 0, 32)
