@@ -43,7 +43,12 @@ def _feed(h: hashlib._Hash, value) -> None:
         h.update(repr(value).encode())
 
 
+BLIND = {"behavior": False}  # --blind-behavior: behaviour actions ignore the labels
+
+
 def _perturb(label, space, rng, k):
+    if isinstance(label, int) and BLIND["behavior"]:
+        return int(rng.integers(space.n))  # the same actions whatever the labels say
     if k % 5 != 2:
         return label
     if isinstance(label, int):
@@ -100,7 +105,14 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--seeds", type=int, default=2)
     parser.add_argument("--steps", type=int, default=120)
+    parser.add_argument(
+        "--blind-behavior",
+        action="store_true",
+        help="behaviour-level actions drawn without looking at the labels, so a change of the "
+        "labels alone shows in the labels' hash only",
+    )
     args = parser.parse_args()
+    BLIND["behavior"] = args.blind_behavior
     out = {}
     for level in LEVELS:
         for obs in OBS:
