@@ -269,17 +269,15 @@ class FluidsEnv(gym.Env):
         self._last_s = s_now
         if self.done_when == "ego":
             terminated = arrived or ego_hit
-            success = is_success(w, 0)
         else:  # every car must arrive; any collision ends the episode
-            cars = np.flatnonzero(w.is_car)
-            terminated = bool(w.reached[cars].all()) or bool(events)
-            success = is_success(w, cars)
+            terminated = bool(w.reached[w.is_car].all()) or bool(events)
         self._ended = terminated
         if not terminated:
             sup.prepare(w)
         info = self._info(events)
         if terminated:
-            info["is_success"] = success
+            cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
+            info["is_success"] = is_success(w, cars)
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info

@@ -45,14 +45,14 @@ def validate(level: str, space: spaces.Space, action: Any, where: str):
                 f"{where}: behavior action is {action!r}; allowed: an integer in [0, {space.n})"
             )
         return int(a.reshape(()))
-    a = np.asarray(action)
+    a = action if isinstance(action, np.ndarray) else np.asarray(action)
     if a.dtype.kind not in "iuf":  # "0.5", True, 1j, objects: a mistake, not a number to coerce
         raise ValueError(
             f"{where}: {level} action is {action!r} (dtype {a.dtype}); allowed: an array of "
             f"{space.shape[0]} real numbers (int or float) in [{space.low.min()}, "
             f"{space.high.max()}]"
         )
-    a = a.astype(np.float64, copy=False).reshape(-1)
+    a = np.asarray(a, dtype=np.float64).reshape(-1)
     if a.shape != space.shape:
         raise ValueError(f"{where}: {level} action has shape {a.shape}; allowed: {space.shape}")
     values = a.tolist()  # a handful of numbers: Python floats cost less than numpy calls
