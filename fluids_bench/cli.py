@@ -64,7 +64,8 @@ def os_error_message(exc: OSError) -> str:
     """One line for an operating-system error (disk full, permissions, ...)."""
     where = f" writing {exc.filename}" if exc.filename else ""
     reason = exc.strerror or str(exc)
-    if exc.errno in (errno.ENOSPC, errno.EDQUOT):
+    # pyarrow (Minari's writer) raises OSErrors without errno, the reason only in the text
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left on device" in str(exc):
         return f"no space left on the device{where} ({reason}); free some space, or write elsewhere"
     return f"{reason}{where}"
 

@@ -60,6 +60,9 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
     | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
     | `render_mode` | str   | None    | only None (the DAG has no picture)                        |
 
+    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
+    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+
     ## Version History
 
     * v0: Initial version.

@@ -90,6 +90,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     | `world_seed`       | int   | 0       | seed of the world's layout, >= 0                       |
     | `render_mode`      | str   | None    | None or "rgb_array"                                    |
 
+    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
+    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+
     ```python
     >>> import gymnasium as gym, fluids_bench
     >>> env = gym.make("GridWorld-v0", world_seed=3)
