@@ -8,6 +8,7 @@ args, returning an exit code). Modules are imported lazily so that ``--help`` st
 from __future__ import annotations
 
 import argparse
+import errno
 import importlib
 import sys
 
@@ -35,13 +36,58 @@ def build_parser() -> argparse.ArgumentParser:
     return parser
 
 
+SEED_MAX = 2**32 - 1  # numpy's and Gymnasium's seeds: non-negative, 32 bits here
+
+
+def check_seeds(args: argparse.Namespace) -> None:
+    """Every ``--…seed`` option must be a seed Gymnasium and numpy accept: refuse a negative or
+    too large one before the command starts (not deep inside an env's reset)."""
+    for name, value in vars(args).items():
+        if name.endswith("seed") and isinstance(value, int) and not 0 <= value <= SEED_MAX:
+            option = "--" + name.replace("_", "-")
+            raise ValueError(f"{option} is {value}; allowed: an integer in [0, {SEED_MAX}]")
+
+
+def interrupted(exc: BaseException) -> bool:
+    """Whether ``exc`` is Ctrl-C, or an error that Ctrl-C caused: a KeyboardInterrupt raised
+    inside a compiled (numba) kernel comes out as a SystemError chained to it."""
+    seen: set[int] = set()
+    while exc is not None and id(exc) not in seen:
+        if isinstance(exc, KeyboardInterrupt):
+            return True
+        seen.add(id(exc))
+        exc = exc.__cause__ or exc.__context__
+    return False
+
+
+def os_error_message(exc: OSError) -> str:
+    """One line for an operating-system error (disk full, permissions, ...)."""
+    where = f" writing {exc.filename}" if exc.filename else ""
+    reason = exc.strerror or str(exc)
+    # pyarrow (Minari's writer) raises OSErrors without errno, the reason only in the text
+    if exc.errno in (errno.ENOSPC, errno.EDQUOT) or "No space left on device" in str(exc):
+        return f"no space left on the device{where} ({reason}); free some space, or write elsewhere"
+    return f"{reason}{where}"
+
+
 def main(argv: list[str] | None = None) -> int:
     args = build_parser().parse_args(argv)
+    where = f"fluids-bench {args.command}"
     try:
+        check_seeds(args)
         return int(args.func(args) or 0)
     except (ValueError, FileExistsError, FileNotFoundError) as exc:
-        print(f"fluids-bench {args.command}: error: {exc}", file=sys.stderr)
+        print(f"{where}: error: {exc}", file=sys.stderr)
         return 2
+    except OSError as exc:
+        print(f"{where}: error: {os_error_message(exc)}", file=sys.stderr)
+        return 1
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not interrupted(exc):
+            raise
+        # finished work is kept: collect writes nothing partial, sweep resumes where it stopped
+        print(f"{where}: interrupted", file=sys.stderr)
+        return 130
 
 
 if __name__ == "__main__":  # pragma: no cover

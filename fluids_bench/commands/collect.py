@@ -86,9 +86,9 @@ def run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
     from fluids_bench.data.collect import ActorSpec, collect
-    from fluids_bench.data.minari_export import check_dataset_id, export_minari
+    from fluids_bench.data.minari_export import check_new_dataset, export_minari
 
-    check_dataset_id(args.dataset)  # fail before collecting, not after
+    check_new_dataset(args.dataset, args.overwrite)  # fail before collecting, not after
     if (args.ref_min_score is None) != (args.ref_max_score is None):
         raise ValueError("pass both --ref-min-score and --ref-max-score, or neither")
     env_kwargs = dict(args.env_kwarg)

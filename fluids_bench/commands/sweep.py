@@ -92,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
     from fluids_bench.sweep.run import (
         MAX_EPISODE_STEPS,
         SUPERVISOR_POLICY,
+        check_folder_for_new_policy,
         load_policy,
         probe_env,
         run_sweep,
@@ -120,13 +121,19 @@ def run(args: argparse.Namespace) -> int:
     else:
         path = Path(args.policy) if args.policy else None
         if path is None:
-            print(f"training the default policy: BC on {args.demos} supervisor demonstrations")
+
+            def before_training() -> None:  # refuse a folder of another sweep before training
+                if not args.overwrite:
+                    check_folder_for_new_policy(args.out, grid, args.episodes, args.seed, max_steps)
+                print(f"training the default policy: BC on {args.demos} supervisor demonstrations")
+
             path = train_default_policy(
                 args.out,
                 demos=args.demos,
                 learner=args.learner,
                 seed=args.train_seed,
                 replace=args.overwrite,
+                before_training=before_training,
             )
         policy, policy_bytes = load_policy(path)
     plot_path = args.plot or args.out / "sweep.png"

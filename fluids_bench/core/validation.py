@@ -9,8 +9,21 @@ from __future__ import annotations
 import functools
 import inspect
 import math
+import numbers
 from collections.abc import Callable, Iterable
 from typing import Any
+
+import numpy as np
+
+
+def is_int(value: Any) -> bool:
+    """An integer, Python or numpy (``np.int64(3)``), but not a bool (``True``, ``np.True_``)."""
+    return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
+
+
+def is_real(value: Any) -> bool:
+    """A real number, Python or numpy (``np.float32(0.1)``, ``np.int64(3)``), but not a bool."""
+    return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
 def fail(where: str, name: str, value: Any, allowed: str) -> None:
@@ -19,13 +32,14 @@ def fail(where: str, name: str, value: Any, allowed: str) -> None:
 
 
 def check_int(where: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
-    """``value`` must be an int (not a bool) in ``[lo, hi]`` (``hi=None``: no upper bound)."""
+    """``value`` must be an integer (Python or numpy, not a bool) in ``[lo, hi]`` (``hi=None``:
+    no upper bound); returns it as a Python int."""
     allowed = f"an integer in [{lo}, {'inf' if hi is None else hi}]"
-    if isinstance(value, bool) or not isinstance(value, int):
+    if not is_int(value):
         fail(where, name, value, allowed)
     if value < lo or (hi is not None and value > hi):
         fail(where, name, value, allowed)
-    return value
+    return int(value)
 
 
 def check_float(
@@ -38,11 +52,12 @@ def check_float(
     lo_open: bool = False,
     hi_open: bool = False,
 ) -> float:
-    """``value`` must be a finite real number in the given interval (open or closed ends)."""
+    """``value`` must be a finite real number (Python or numpy, not a bool) in the given interval
+    (open or closed ends); returns it as a Python float."""
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"a finite number in {left}{lo}, {hi}{right}"
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_real(value):
         fail(where, name, value, allowed)
     v = float(value)
     if not math.isfinite(v):
@@ -50,6 +65,13 @@ def check_float(
     if v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi):
         fail(where, name, value, allowed)
     return v
+
+
+def check_bool(where: str, name: str, value: Any) -> bool:
+    """``value`` must be a bool (Python or numpy ``np.bool_``); returns a Python bool."""
+    if not isinstance(value, bool | np.bool_):
+        fail(where, name, value, "true or false")
+    return bool(value)
 
 
 def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> Any:

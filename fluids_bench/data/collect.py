@@ -29,9 +29,8 @@ from __future__ import annotations
 
 import contextlib
 import json
-import multiprocessing
 from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -44,6 +43,7 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.pool import process_pool
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
 PROVENANCES = ("supervisor", "noise", "learner")
@@ -146,6 +146,7 @@ def collect(
         raise ValueError(f"collect: unknown env id {env_id!r}; allowed: {sorted(gym.registry)}")
     actor = actor or ActorSpec()
     kwargs = dict(env_kwargs or {})
+    _env(env_id, kwargs)  # a bad env argument fails here, once, before any worker starts
     tasks = [EpisodeTask(i, env_id, kwargs, actor, seed + i, max_steps) for i in range(episodes)]
     results: dict[int, Trajectory] = {}
     with tqdm(total=episodes, desc=f"collect {env_id}", unit="ep", disable=not progress) as bar:
@@ -192,11 +193,8 @@ def _run_pool(
     start_method: str,
     done: Callable[[int, Trajectory], None],
 ) -> None:
-    context = multiprocessing.get_context(start_method)
-    if start_method == "forkserver":
-        # the server imports the heavy modules once; each worker then forks from it
-        context.set_forkserver_preload([__name__])
-    with ProcessPoolExecutor(max_workers=workers, mp_context=context) as pool:
+    # the fork server imports the heavy modules once; workers exit with this process (core.pool)
+    with process_pool(workers, start_method, [__name__]) as pool:
 
         def wait_any(pending: set) -> tuple[set, set]:
             finished, rest = wait(pending, return_when=FIRST_COMPLETED)

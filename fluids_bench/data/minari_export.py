@@ -17,7 +17,10 @@ In an exported dataset:
 
 Writing is atomic: the dataset is built under a hidden staging folder in the datasets root
 (``MINARI_DATASETS_PATH``), which Minari does not list, then renamed into place; an
-interrupted export leaves no dataset behind. An existing id is refused unless ``overwrite``.
+interrupted export leaves no dataset behind. A staging folder is named after its host and
+process; one whose process is gone (an export killed with SIGKILL, which runs no clean-up) is
+removed by the next export. An existing id is refused unless ``overwrite``
+(:func:`check_new_dataset` lets a caller refuse it before collecting anything).
 Dict observation spaces are stored as Minari's dict of arrays, and images losslessly (no JPEG).
 Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py).
 """
@@ -28,6 +31,7 @@ import contextlib
 import os
 import re
 import shutil
+import socket
 import uuid
 import warnings
 from collections.abc import Iterator, Sequence
@@ -44,6 +48,7 @@ from minari.storage import get_dataset_path
 
 from fluids_bench import __version__
 from fluids_bench.algos.dataset import Trajectory
+from fluids_bench.core.pool import pid_alive
 from fluids_bench.data.collect import PROVENANCES
 
 EXECUTED_KEY = "executed_action"
@@ -71,6 +76,53 @@ def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
             "digits, '-', '_'; a namespace has at least two characters)"
         )
     return match.group("namespace"), match.group("dataset"), int(match.group("version"))
+
+
+def dataset_path(dataset_id: str) -> Path:
+    """Where dataset ``dataset_id`` lives (or would) under the datasets root."""
+    return Path(get_dataset_path()) / dataset_id
+
+
+def check_new_dataset(dataset_id: str, overwrite: bool = False) -> None:
+    """ValueError for a malformed id; ``FileExistsError`` when the dataset exists and
+    ``overwrite`` is False. Call it before collecting, not only before writing."""
+    check_dataset_id(dataset_id)
+    final = dataset_path(dataset_id)
+    if final.exists() and not overwrite:
+        raise FileExistsError(
+            f"dataset {dataset_id!r} already exists at {final}; "
+            "pass --overwrite (overwrite=True) to replace it"
+        )
+
+
+def _staging_name() -> str:
+    return f"{socket.gethostname()}.{os.getpid()}.{uuid.uuid4().hex}"
+
+
+def remove_stale_staging(root: Path) -> list[Path]:
+    """Remove the staging folders of exports whose process no longer runs on this host (and
+    unnamed ones from older versions); returns what was removed. Folders of live exports, and
+    of other hosts sharing the folder, are left alone."""
+    staging_root = root / STAGING_DIR
+    if not staging_root.is_dir():
+        return []
+    host = socket.gethostname()
+    removed = []
+    for folder in staging_root.iterdir():
+        if folder.name.endswith("-old"):
+            owner = folder.name[: -len("-old")]
+        else:
+            owner = folder.name
+        parts = owner.rsplit(".", 2)
+        if len(parts) == 3:
+            owner_host, pid = parts[0], parts[1]
+            if owner_host != host or not pid.isdigit() or pid_alive(int(pid)):
+                continue
+        shutil.rmtree(folder, ignore_errors=True)
+        removed.append(folder)
+    with contextlib.suppress(OSError):
+        staging_root.rmdir()  # only when empty
+    return removed
 
 
 def _observations(space: spaces.Space, values: Any) -> Any:
@@ -171,13 +223,10 @@ def export_minari(
         raise ValueError(
             f"export_minari: data_format is {data_format!r}; allowed: {list(DATA_FORMATS)}"
         )
+    check_new_dataset(dataset_id, overwrite)
     root = Path(get_dataset_path())
     final = root / dataset_id
-    if final.exists() and not overwrite:
-        raise FileExistsError(
-            f"dataset {dataset_id!r} already exists at {final}; "
-            "pass --overwrite (overwrite=True) to replace it"
-        )
+    remove_stale_staging(root)
     env = gym.make(env_id, **dict(env_kwargs or {}))
     spec, observation_space, action_space = env.spec, env.observation_space, env.action_space
     env.close()
@@ -193,7 +242,7 @@ def export_minari(
         for i, t in enumerate(trajectories)
     ]
 
-    staging = root / STAGING_DIR / uuid.uuid4().hex
+    staging = root / STAGING_DIR / _staging_name()
     try:
         with _datasets_root(staging), warnings.catch_warnings():
             warnings.filterwarnings("ignore", message=_OPTIONAL_FIELD_WARNINGS)

@@ -22,12 +22,12 @@ return whole trajectories (and would pickle the policy with every episode).
 
 from __future__ import annotations
 
-import multiprocessing
 import pickle
 from collections.abc import Callable, Iterable
-from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures import FIRST_COMPLETED, wait
 from typing import Any
 
+from fluids_bench.core.pool import process_pool
 from fluids_bench.core.validation import check_choice, check_int
 from fluids_bench.data.collect import BACKENDS, START_METHODS, _bounded, ray_results, ray_session
 
@@ -82,13 +82,10 @@ def _run_pool(
     workers: int,
     start_method: str,
 ) -> None:
-    context = multiprocessing.get_context(start_method)
-    if start_method == "forkserver":
-        # the server imports the heavy modules once; each worker then forks from it
-        context.set_forkserver_preload([fn.__module__])
     payload = pickle.dumps(shared, protocol=pickle.HIGHEST_PROTOCOL)
-    with ProcessPoolExecutor(
-        max_workers=workers, mp_context=context, initializer=_init_worker, initargs=(payload,)
+    # the fork server imports fn's module once; workers exit with this process (core.pool)
+    with process_pool(
+        workers, start_method, [fn.__module__], initializer=_init_worker, initargs=(payload,)
     ) as pool:
 
         def wait_any(pending: set) -> tuple[set, set]:

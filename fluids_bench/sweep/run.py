@@ -133,12 +133,14 @@ def train_default_policy(
     seed: int = 0,
     replace: bool = False,
     progress: Callable[[Any], None] | None = None,
+    before_training: Callable[[], None] | None = None,
 ) -> Path:
     """Behavior Cloning on ``demos`` supervisor demonstrations of ``FLUIDS-Sensitivity-v0`` (its
     defaults: 4 cars, 2 pedestrians, lights on, no sensor noise, 1500 kg), quasi-LIDAR to
     target velocity, every state–label pair kept. Cached in ``folder/policy.pkl`` with the
     training settings in ``policy.json``; an existing cache made with the same settings is
-    reused; one made with other settings is replaced only when ``replace``."""
+    reused; one made with other settings is replaced only when ``replace``. ``before_training``
+    is called only when training is needed, before it starts (a place to refuse early)."""
     from fluids_bench.algos.bc import BCConfig, run
     from fluids_bench.algos.policies import PolicySpec
 
@@ -161,6 +163,8 @@ def train_default_policy(
                 f"{path} was trained with other settings; use another --out folder, "
                 "or --overwrite to retrain it and discard the folder's results"
             )
+    if before_training is not None:
+        before_training()
     result = run(config, progress)
     write_bytes_atomic(path, pickle.dumps(result.policy, protocol=pickle.HIGHEST_PROTOCOL))
     record = result.records[-1]
@@ -193,6 +197,27 @@ def manifest(
         "max_episode_steps": max_episode_steps,
         "policy_sha256": policy_digest(policy_bytes),
     }
+
+
+def check_folder_for_new_policy(
+    folder: str | Path, grid: Grid, episodes: int, seed: int, max_episode_steps: int
+) -> None:
+    """Refuse, before a new policy is trained, a folder that already holds a sweep: its rows were
+    made with another policy (a cached default policy would have been reused), and maybe with
+    other settings too. ``FileExistsError`` names what differs."""
+    existing = ResultStore(folder).read_manifest()
+    if existing is None:
+        return
+    wanted = manifest(grid, episodes, seed, max_episode_steps, None)
+    changed = sorted(
+        k
+        for k in wanted.keys() | existing.keys()
+        if k != "policy_sha256" and wanted.get(k) != existing.get(k)
+    )
+    raise FileExistsError(
+        f"{folder} holds a sweep with other settings ({', '.join([*changed, 'policy'])}); "
+        "use another --out folder, or --overwrite to discard its results"
+    )
 
 
 def run_sweep(

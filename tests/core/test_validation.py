@@ -1,6 +1,7 @@
+import numpy as np
 import pytest
 
-from fluids_bench.core.validation import reject_unknown_kwargs
+from fluids_bench.core.validation import check_bool, check_float, check_int, reject_unknown_kwargs
 
 
 class E:
@@ -13,3 +14,21 @@ def test_unknown_kwarg_is_named_with_the_allowed_ones():
     with pytest.raises(ValueError, match=r"unknown argument\(s\) 'c'; allowed: \['a', 'b'\]"):
         E(c=3)
     assert E(a=5, b=6).a == 5
+
+
+def test_numpy_scalars_count_as_python_numbers_and_bools_as_neither():
+    assert (
+        check_int("w", "n", np.int64(3), 0, 5) == 3
+        and type(check_int("w", "n", np.int8(3), 0)) is int
+    )
+    assert check_float("w", "x", np.float32(0.5), 0.0, 1.0) == 0.5
+    assert check_float("w", "x", np.int64(1), 0.0, 1.0) == 1.0
+    assert check_bool("w", "b", np.bool_(True)) is True
+    for bad in (True, np.bool_(False), "3", 3.0, np.float64(3.0)):
+        with pytest.raises(ValueError, match="field 'n'"):
+            check_int("w", "n", bad, 0, 5)
+    for bad in (True, np.bool_(True), "0.5", 1j, np.complex64(1)):
+        with pytest.raises(ValueError, match="field 'x'"):
+            check_float("w", "x", bad, 0.0, 1.0)
+    with pytest.raises(ValueError, match="field 'b' is 1; allowed: true or false"):
+        check_bool("w", "b", 1)

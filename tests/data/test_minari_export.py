@@ -166,7 +166,7 @@ def test_env_kwargs_are_recovered_and_reference_scores_stored():
 
 
 def test_dict_observations_with_images_round_trip_exactly():
-    kwargs = {"obs_type": ["explicit", "qlidar", "birdseye"], "birdseye_size": 16}
+    kwargs = {"obs_type": ["explicit", "qlidar", "birdseye"], "birdseye_size": 64}
     trajectories = collect("FLUIDS-v0", 2, env_kwargs=kwargs, max_steps=8, progress=False)
     dataset = export_minari(
         "fluids/dict-v0", trajectories, env_id="FLUIDS-v0", env_kwargs=kwargs, **METADATA

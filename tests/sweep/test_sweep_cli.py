@@ -6,6 +6,8 @@ BC policy is trained once here on a single demonstration and passed with ``--pol
 
 from __future__ import annotations
 
+import errno
+import os
 import signal
 import subprocess
 import sys
@@ -163,3 +165,44 @@ def test_ray_backend_gives_the_same_rows(tmp_path, policy_path, monkeypatch):
     on_ray = run_sweep(tmp_path / "ray", grid, policy, data, backend="ray", workers=2, **settings)
     assert on_ray == local and len(local) == 4
     assert not ray.is_initialized()
+
+
+def test_folder_of_another_sweep_is_refused_before_training(tmp_path, monkeypatch, capsys):
+    out = tmp_path / "out"
+    assert main(["sweep", "--out", str(out), "--policy", "supervisor", *TINY_ARGS]) == 0
+    capsys.readouterr()
+
+    def no_training(*args, **kwargs):
+        raise AssertionError("trained a policy for a folder that is refused")
+
+    monkeypatch.setattr("fluids_bench.algos.bc.run", no_training)
+    # the default (trained) policy, and other settings: refused at once, nothing trained
+    for extra in ([], ["--episodes", "2"]):
+        assert main(["sweep", "--out", str(out), "--demos", "1", *TINY_ARGS, *extra]) == 2
+        captured = capsys.readouterr()
+        assert "training" not in captured.out
+        err = captured.err.strip().splitlines()
+        assert len(err) == 1 and "holds a sweep with other settings" in err[0], err
+        assert ("episodes, policy" in err[0]) == bool(extra)
+    assert not (out / "policy.pkl").exists()
+
+
+def test_a_full_disk_is_one_clear_line(tmp_path, policy_path, monkeypatch, capsys):
+    from fluids_bench.sweep import store
+
+    class FullDisk:  # the store's os module, whose writes find the disk full
+        def __getattr__(self, name):
+            return getattr(os, name)
+
+        @staticmethod
+        def write(fd, data):
+            raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    monkeypatch.setattr(store, "os", FullDisk())
+    out = tmp_path / "full"
+    assert main(["sweep", "--out", str(out), "--policy", str(policy_path), *TINY_ARGS]) == 1
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        "fluids-bench sweep: error: no space left on the device (No space left on device); "
+        "free some space, or write elsewhere"
+    ]

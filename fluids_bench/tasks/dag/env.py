@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_float
+from fluids_bench.core.validation import check_choice, check_float, reject_unknown_kwargs
 from fluids_bench.tasks.dag.model import DEPTH, L, R, transition
 from fluids_bench.tasks.dag.supervisor import greedy_action
 
@@ -62,6 +62,9 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
     | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
     | `render_mode` | str   | None    | only None (the DAG has no picture)                        |
 
+    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
+    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+
     ## Version History
 
     * v0: Initial version.
@@ -69,6 +72,7 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
 
     metadata = {"render_modes": [], "render_fps": 1}
 
+    @reject_unknown_kwargs
     def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:
         self.mu = check_float(WHERE, "mu", mu, 0.0, 1.0)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None])

@@ -8,24 +8,19 @@ import gymnasium as gym
 import numpy as np
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import check_choice, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
-from fluids_bench.tasks.fluids.observations import ObservationConfig, Observer
-from fluids_bench.tasks.fluids.sim.config import (
-    CarConfig,
-    PedestrianConfig,
-    SceneConfig,
-    check_range,
+from fluids_bench.tasks.fluids.observations import Observer
+from fluids_bench.tasks.fluids.scenario import (
+    DONE_WHEN,
+    build_scenario,
+    is_success,
+    progress,
+    step_reward,
 )
-from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
-from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, DrivingSupervisor, SupervisorConfig
-from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
-from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
-
-COLLISION_PENALTY = 1.0
-TRAJECTORY_PLANNERS = ("bezier", "ompl")
+from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 
 class FluidsEnv(gym.Env):
@@ -49,7 +44,9 @@ class FluidsEnv(gym.Env):
     * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
       rad; force × max_force when ≥ 0, × max_brake_force when < 0).
 
-    Box actions out of bounds are clipped; NaN or infinite actions raise ``ValueError``.
+    Box actions are arrays of real numbers (ints or floats): out of bounds they are clipped;
+    NaN or infinite values, strings (``"0.5"``), bools and complex numbers raise ``ValueError``
+    naming the level and the allowed form (they are never coerced).
 
     ## Observation Space
     ``obs_type="explicit"``: ``Box(-1000, 1000, (13 + 7k,), float32)`` with ``k = k_nearest``: the
@@ -77,37 +74,52 @@ class FluidsEnv(gym.Env):
     A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
 
     ## Rewards
-    Progress: the metres of route gained this step divided by the route's length from the start
-    (an episode that reaches the goal earns 1 in total), minus 1 when the ego is in a collision.
+    Progress (:func:`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the
+    multi-agent env): the metres of route gained this step divided by the route's length from
+    the start (an episode that reaches the goal earns 1 in total), minus 1 in a step where the
+    ego is in a collision.
 
     ## Starting State
     Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
     other approaches (p(l_t | l_g) = 1/(K−1)); slots never overlap. Pedestrians start on their
-    walks' first legs. The light cycle starts at t = 0.
+    walks' first legs. The light cycle starts at t = 0. The layout's slots bound the cars:
+    ``num_cars`` above the layout's capacity less the ego raises ``ValueError`` at construction
+    (15 on the one-lane four-way, 31 on the two-lane one, 11 / 23 on the T-junction, 15 on the
+    roundabout).
 
     ## Episode End
     ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
-    (with a car, a pedestrian, or leaving the road); ``info["is_success"]`` is True iff the ego
-    arrived and no collision happened in the episode. ``done_when="all"`` (the sensitivity
-    analysis' criterion): terminated when every car has arrived or on any collision;
-    ``is_success`` iff every car arrived without one (after the ego arrives, actions are ignored
-    and rewards are 0). Truncated by ``TimeLimit`` (400 steps = 40 s by default).
+    (with a car, a pedestrian, or leaving the road). ``done_when="all"`` (the sensitivity
+    analysis' criterion): terminated when every car has arrived or on any collision (after the
+    ego arrives, actions are ignored and rewards are 0). Truncated by ``TimeLimit`` (400 steps =
+    40 s by default).
 
     ## Info
-    ``supervisor_action`` (the supervisor's label for the ego at ``action_level`` in the new
-    state), ``collisions`` (this step's, as dicts), ``ego_arrived``, ``route``, ``lights``.
+    Field meanings are shared with the multi-agent env (see
+    :mod:`fluids_bench.tasks.fluids.scenario`):
+
+    * ``supervisor_action``: the supervisor's label for the ego at ``action_level`` in the new
+      state.
+    * ``collisions``: every new collision of this step in the world, as dicts
+      ``{step, a, b, kind}`` (the ego's have 0 in ``a`` or ``b``; ``b = -1`` off the road).
+    * ``is_success`` (on the terminating step): the cars the episode is about reached their goals
+      and none of them was ever in a collision: the ego with ``done_when="ego"`` (collisions
+      between other agents do not count), every car with ``done_when="all"``.
+    * ``ego_arrived``: the ego reached its goal. ``route``: the ego's route's name. ``lights``:
+      every light's state.
 
     ## Arguments
     * ``layout``: ``"four_way"`` (default), ``"t_junction"`` or ``"roundabout"``.
     * ``lanes``: 1 or 2 lanes per direction (four-way, T-junction).
     * ``lights``: traffic and crosswalk lights on (default) or off.
-    * ``num_cars``: background cars besides the ego (default 3).
-    * ``num_pedestrians``: default 2.
+    * ``num_cars``: background cars besides the ego (default 3; at most the layout's capacity
+      less one, see Starting State).
+    * ``num_pedestrians``: 0 to 32 and at most the layout's walk slots (default 2).
     * ``action_level``: ``"behavior"``, ``"trajectory"``, ``"velocity"`` or ``"control"`` (default).
     * ``obs_type``: ``"explicit"`` (default), ``"birdseye"``, ``"qlidar"`` or a list of them.
-    * ``obs_noise``: variance of the explicit observation's noise (default 0).
-    * ``k_nearest``: other agents in the explicit observation (default 8).
-    * ``birdseye_size``: image side in pixels, 16 to 1024 (default 84).
+    * ``obs_noise``: variance of the explicit observation's noise, 0 to 100 (default 0).
+    * ``k_nearest``: other agents in the explicit observation, 0 to 64 (default 8).
+    * ``birdseye_size``: image side in pixels, 64 to 512 (default 84).
     * ``birdseye_fov``: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
     * ``birdseye_frame``: ``"ego"`` (default), ``"ego_rotated"`` or ``"global"``.
     * ``pixel_noise``: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
@@ -119,14 +131,20 @@ class FluidsEnv(gym.Env):
       step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
       window; needs ``pip install "fluids-bench[human]"``: without it, asking for it raises an
       ImportError that says so).
-    * ``waypoints``, ``waypoint_spacing``: trajectory-level size (default 5 points, 2 m apart).
-    * ``car_mass``: the cars' true mass in kg (default 1500); the supervisor assumes 1500.
+    * ``waypoints``, ``waypoint_spacing``: trajectory-level size, 1 to 50 points, 0.5 to 20 m
+      apart (default 5 points, 2 m apart).
+    * ``car_mass``: the cars' true mass in kg, 1 to 1e5 (default 1500); the supervisor assumes
+      1500.
     * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
       waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
     * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
-    * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
-      the velocity-level label, is held in between.
-    * ``dt``: seconds per step (default 0.1).
+    * ``planner_period``: steps between velocity-planner runs, 1 to 50 (default 5: 0.5 s); the
+      plan, and the velocity-level label, is held in between.
+    * ``dt``: seconds per step, 0.01 to 0.5 (default 0.1).
+
+    Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
+    argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
+    the allowed ones.
 
     ## Version History
     * v0: initial release.
@@ -135,6 +153,7 @@ class FluidsEnv(gym.Env):
     # "human" needs pygame (the ``human`` extra): asking for it without pygame is a clear error
     metadata = {"render_modes": ["rgb_array", "human"], "render_fps": 10}
 
+    @reject_unknown_kwargs
     def __init__(
         self,
         layout: str = "four_way",
@@ -163,10 +182,6 @@ class FluidsEnv(gym.Env):
         dt: float = 0.1,
         render_mode: str | None = None,
     ) -> None:
-        if action_level not in LEVELS:
-            raise ValueError(
-                f"FluidsEnv: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}"
-            )
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
 
@@ -176,59 +191,47 @@ class FluidsEnv(gym.Env):
                 f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                 f"allowed: {self.metadata['render_modes']} or None"
             )
-        check_range("FluidsEnv", "num_cars", num_cars, 0, 63, integer=True)
-        if done_when not in ("ego", "all"):
-            raise ValueError(
-                f"FluidsEnv: field 'done_when' is {done_when!r}; allowed: ['ego', 'all']"
-            )
-        self.done_when = done_when
-        if trajectory_planner not in TRAJECTORY_PLANNERS:
-            raise ValueError(
-                f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
-                f"allowed: {list(TRAJECTORY_PLANNERS)}"
-            )
-        obs_config = ObservationConfig(
-            obs_type=obs_type,
-            obs_noise=obs_noise,
-            k_nearest=k_nearest,
-            birdseye_size=birdseye_size,
-            birdseye_fov=birdseye_fov,
-            birdseye_frame=birdseye_frame,
-            pixel_noise=pixel_noise,
-            lidar_rays=lidar_rays,
-            lidar_range=lidar_range,
-            lidar_noise=lidar_noise,
-            lidar_dropout=lidar_dropout,
-        )
-        self.scene = SceneConfig(
+        self.done_when = check_choice("FluidsEnv", "done_when", done_when, DONE_WHEN)
+        scenario = build_scenario(
+            "FluidsEnv",
+            controlled_cars=None,
+            num_cars=num_cars,
             layout=layout,
             lanes=lanes,
             lights=lights,
-            num_cars=num_cars + 1,
             num_pedestrians=num_pedestrians,
-            dt=dt,
-            car=CarConfig(mass=car_mass),
-            pedestrian=PedestrianConfig(),
-        )
-        self.supervisor_config = SupervisorConfig(
-            velocity=VelocityPlannerConfig(period=planner_period),
-            pid=PIDConfig(assumed_mass=CarConfig().mass),
+            action_level=action_level,
+            obs_type=obs_type,
+            sensor_options={
+                "obs_noise": obs_noise,
+                "k_nearest": k_nearest,
+                "birdseye_size": birdseye_size,
+                "birdseye_fov": birdseye_fov,
+                "birdseye_frame": birdseye_frame,
+                "pixel_noise": pixel_noise,
+                "lidar_rays": lidar_rays,
+                "lidar_range": lidar_range,
+                "lidar_noise": lidar_noise,
+                "lidar_dropout": lidar_dropout,
+            },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
+            car_mass=car_mass,
+            planner_period=planner_period,
+            trajectory_planner=trajectory_planner,
+            dt=dt,
         )
+        self.scene = scenario.scene
+        self.supervisor_config = scenario.supervisor
         self.action_level = action_level
         self.render_mode = render_mode
         self._renderer = self._window = None
-        spec = self.scene.layout_spec()
-        layout = (
-            ompl_layout(spec, self.scene.car)
-            if trajectory_planner == "ompl"
-            else compile_layout(spec)
-        )
-        self.world = World(self.scene, layout)
-        self.observer = Observer(obs_config, self.world)
+        self.world = World(self.scene, scenario.layout)
+        self.observer = Observer(scenario.observation, self.world)
         self.observation_space = self.observer.space
-        self.action_space = levels.action_space(action_level, self.world, waypoints)
+        self.action_space = levels.action_space(
+            action_level, self.world, self.supervisor_config.waypoints
+        )
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self._route_length = 1.0
         self._last_s = 0.0
@@ -261,24 +264,20 @@ class FluidsEnv(gym.Env):
         events = sup.execute(w, controls, memory)
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
-        s_now = float(w.path_len[0]) + float(w.offset[0]) if arrived else float(w.route_s[0])
-        reward = (s_now - self._last_s) / self._route_length - (
-            COLLISION_PENALTY if ego_hit else 0.0
-        )
+        s_now = progress(w, 0)
+        reward = step_reward(s_now - self._last_s, self._route_length, ego_hit)
         self._last_s = s_now
         if self.done_when == "ego":
             terminated = arrived or ego_hit
-            success = arrived and not w.log
         else:  # every car must arrive; any collision ends the episode
-            cars_done = bool(w.reached[w.is_car].all())
-            terminated = cars_done or bool(events)
-            success = cars_done and not w.log
+            terminated = bool(w.reached[w.is_car].all()) or bool(events)
         self._ended = terminated
         if not terminated:
             sup.prepare(w)
         info = self._info(events)
         if terminated:
-            info["is_success"] = success
+            cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
+            info["is_success"] = is_success(w, cars)
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info

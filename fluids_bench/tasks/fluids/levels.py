@@ -30,8 +30,10 @@ def action_space(level: str, world: World, waypoints: int) -> spaces.Space:
 
 
 def validate(level: str, space: spaces.Space, action: Any, where: str):
-    """``action`` as the env uses it; ValueError naming what is wrong and what is allowed.
-    Box actions out of bounds are clipped; NaN and infinities are refused."""
+    """``action`` as the env uses it; ValueError naming the level, what is wrong and what is
+    allowed. Box actions must be real numbers (ints or floats; strings, bools and complex
+    numbers are refused, never coerced); out of bounds they are clipped; NaN and infinities
+    are refused."""
     if level == "behavior":
         a = np.asarray(action)
         if (
@@ -43,7 +45,14 @@ def validate(level: str, space: spaces.Space, action: Any, where: str):
                 f"{where}: behavior action is {action!r}; allowed: an integer in [0, {space.n})"
             )
         return int(a.reshape(()))
-    a = np.asarray(action, dtype=np.float64).reshape(-1)
+    a = action if isinstance(action, np.ndarray) else np.asarray(action)
+    if a.dtype.kind not in "iuf":  # "0.5", True, 1j, objects: a mistake, not a number to coerce
+        raise ValueError(
+            f"{where}: {level} action is {action!r} (dtype {a.dtype}); allowed: an array of "
+            f"{space.shape[0]} real numbers (int or float) in [{space.low.min()}, "
+            f"{space.high.max()}]"
+        )
+    a = np.asarray(a, dtype=np.float64).reshape(-1)
     if a.shape != space.shape:
         raise ValueError(f"{where}: {level} action has shape {a.shape}; allowed: {space.shape}")
     values = a.tolist()  # a handful of numbers: Python floats cost less than numpy calls

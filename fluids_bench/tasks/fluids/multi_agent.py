@@ -8,8 +8,7 @@ from __future__ import annotations
 
 import copy
 import inspect
-from collections.abc import Callable
-from dataclasses import fields
+from collections.abc import Callable, Mapping
 from typing import Any
 
 import gymnasium as gym
@@ -19,27 +18,15 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import check_int, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
-from fluids_bench.tasks.fluids.env import TRAJECTORY_PLANNERS
-from fluids_bench.tasks.fluids.observations import OBS_BOUND, ObservationConfig, Observer
-from fluids_bench.tasks.fluids.sim.config import (
-    CarConfig,
-    PedestrianConfig,
-    SceneConfig,
-    check_range,
-)
-from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
-from fluids_bench.tasks.fluids.sim.spawn import capacity, spawn
+from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
+from fluids_bench.tasks.fluids.scenario import build_scenario, is_success, progress, step_reward
+from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
-from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, DrivingSupervisor, SupervisorConfig
-from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
-from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
+from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 WHERE = "FluidsParallelEnv"
-COLLISION_PENALTY = 1.0
-# sensor options forwarded to ObservationConfig (everything but obs_type)
-SENSOR_OPTIONS = tuple(f.name for f in fields(ObservationConfig) if f.name != "obs_type")
 STATE_PER_AGENT = 6  # x, y, cos θ, sin θ, v, active
 STATE_PER_LIGHT = 3  # one-hot of go / caution / stop
 
@@ -127,8 +114,11 @@ class FluidsParallelEnv(ParallelEnv):
     in the car's frame, m), ``"velocity"`` ``Box(0, v_max, (1,))`` (target speed, m/s) or
     ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]). The supervisor fills the
     levels below for each car. A live agent missing from the action dict follows its
-    supervisor this step; actions for agents that already left are ignored; unknown names,
-    malformed or non-finite actions raise ``ValueError``. Box actions are clipped to bounds.
+    supervisor this step; actions for agents that already left are ignored. ``actions`` must
+    be a dict (``None`` or a list raise ``ValueError``); unknown names raise ``ValueError``
+    listing the agents; a malformed action (wrong shape, not finite, strings, bools, complex
+    numbers) raises ``ValueError`` naming the agent, the level and the allowed form. Box
+    actions are clipped to bounds.
 
     ## Observation Space
     Per agent, the ``FLUIDS-v0`` observation (``obs_type`` and the same sensor options) taken
@@ -143,27 +133,35 @@ class FluidsParallelEnv(ParallelEnv):
     stop. The space is :attr:`state_space`.
 
     ## Rewards
-    Per agent, as ``FLUIDS-v0``: the metres of route gained this step divided by the route's
-    length from the start, minus 1 in a step where that car is in a collision.
+    Per agent, as ``FLUIDS-v0`` (:func:`fluids_bench.tasks.fluids.scenario.step_reward`): the
+    metres of route gained this step divided by the route's length from the start, minus 1 in a
+    step where that car is in a collision.
 
     ## Starting State
     Every car starts at rest in its own entry-lane slot (slots never overlap), the lane uniform
     and the movement uniform over the other approaches; pedestrians start on their walks. The
     layout's slots bound the cars: ``controlled_cars + num_cars`` above the layout's capacity
-    raises ``ValueError`` naming the maximum (16 cars on the one-lane four-way, 32 on the
-    two-lane one, 12 / 24 on the T-junction, 16 on the roundabout).
+    raises ``ValueError`` at construction naming the maximum (16 cars on the one-lane four-way,
+    32 on the two-lane one, 12 / 24 on the T-junction, 16 on the roundabout).
 
     ## Episode End
     An agent terminates when it reaches its goal or is in a collision (with any car, a
     pedestrian, or leaving the road). A car in a collision leaves the road: it is removed from
     the world, so the others neither see it nor collide with its wreck. The episode goes on for
     the remaining agents. All live agents are truncated after ``max_cycles`` steps. The episode
-    is over when ``agents`` is empty. A finishing agent's info has ``is_success`` (arrived
-    without any collision).
+    is over when ``agents`` is empty.
 
     ## Info
-    Per agent: ``supervisor_action`` (its label in the new state), ``collisions`` (this step's
-    collisions it is part of, as dicts), ``arrived`` and ``route``.
+    Per agent; field meanings are shared with ``FLUIDS-v0`` (see
+    :mod:`fluids_bench.tasks.fluids.scenario`):
+
+    * ``supervisor_action``: its label at ``action_level`` in the new state.
+    * ``collisions``: this step's new collisions the agent is part of, as dicts
+      ``{step, a, b, kind}`` (``b = -1`` off the road).
+    * ``is_success`` (in a terminated or truncated agent's last info): the car reached its goal
+      and was never in a collision (collisions between other agents do not count), as
+      ``FLUIDS-v0``'s with ``done_when="ego"``.
+    * ``arrived``: the car reached its goal. ``route``: its route's name.
 
     ## Arguments
     * ``controlled_cars``: learner-controlled cars (agents), default 4.
@@ -172,7 +170,7 @@ class FluidsParallelEnv(ParallelEnv):
     * ``layout``, ``lanes``, ``lights``, ``num_pedestrians``, ``action_level``, ``obs_type``,
       the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
       ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
-      ``trajectory_planner``, ``dt``: as ``FLUIDS-v0``.
+      ``trajectory_planner``, ``dt``: as ``FLUIDS-v0`` (same ranges).
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
@@ -187,6 +185,7 @@ class FluidsParallelEnv(ParallelEnv):
         "is_parallelizable": True,
     }
 
+    @reject_unknown_kwargs
     def __init__(
         self,
         controlled_cars: int = 4,
@@ -205,75 +204,62 @@ class FluidsParallelEnv(ParallelEnv):
         trajectory_planner: str = "bezier",
         dt: float = 0.1,
         render_mode: str | None = None,
-        **sensor_options: Any,
+        obs_noise: float = 0.0,
+        k_nearest: int = 8,
+        birdseye_size: int = 84,
+        birdseye_fov: float = 40.0,
+        birdseye_frame: str = "ego",
+        pixel_noise: float = 0.0,
+        lidar_rays: int = 64,
+        lidar_range: float = 30.0,
+        lidar_noise: float = 0.0,
+        lidar_dropout: float = 0.0,
     ) -> None:
-        if action_level not in LEVELS:
-            raise ValueError(
-                f"{WHERE}: field 'action_level' is {action_level!r}; allowed: {list(LEVELS)}"
-            )
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 f"{WHERE}: field 'render_mode' is {render_mode!r}; allowed: "
                 f"{self.metadata['render_modes']} or None"
             )
-        unknown = sorted(set(sensor_options) - set(SENSOR_OPTIONS))
-        if unknown:
-            raise ValueError(
-                f"{WHERE}: unknown argument(s) {unknown}; allowed sensor options: "
-                f"{list(SENSOR_OPTIONS)}"
-            )
-        check_range(WHERE, "controlled_cars", controlled_cars, 1, 64, integer=True)
-        check_range(WHERE, "num_cars", num_cars, 0, 63, integer=True)
-        check_range(WHERE, "max_cycles", max_cycles, 1, 10**9, integer=True)
-        obs_config = ObservationConfig(obs_type=obs_type, **sensor_options)
-        if trajectory_planner not in TRAJECTORY_PLANNERS:
-            raise ValueError(
-                f"{WHERE}: field 'trajectory_planner' is {trajectory_planner!r}; allowed: "
-                f"{list(TRAJECTORY_PLANNERS)}"
-            )
-        car = CarConfig(mass=car_mass)
-        probe_scene = SceneConfig(
-            layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt, car=car
-        )
-        spec = probe_scene.layout_spec()
-        compiled = ompl_layout(spec, car) if trajectory_planner == "ompl" else compile_layout(spec)
-        probe = World(probe_scene, compiled)
-        max_cars, max_peds = capacity(probe)
-        if controlled_cars + num_cars > max_cars:
-            raise ValueError(
-                f"{WHERE}: controlled_cars + num_cars is {controlled_cars} + {num_cars} = "
-                f"{controlled_cars + num_cars}; the {layout!r} layout with lanes={lanes} holds at "
-                f"most {max_cars} cars (so controlled_cars <= {max(max_cars - num_cars, 0)} with "
-                f"num_cars={num_cars})"
-            )
-        if num_pedestrians > max_peds:
-            raise ValueError(
-                f"{WHERE}: field 'num_pedestrians' is {num_pedestrians}; the "
-                f"{layout!r} layout holds at most {max_peds}"
-            )
-        self.scene = SceneConfig(
+        max_cycles = check_int(WHERE, "max_cycles", max_cycles, 1, 10**9)
+        scenario = build_scenario(
+            WHERE,
+            controlled_cars=controlled_cars,
+            num_cars=num_cars,
             layout=layout,
             lanes=lanes,
             lights=lights,
-            num_cars=controlled_cars + num_cars,
             num_pedestrians=num_pedestrians,
-            dt=dt,
-            car=car,
-            pedestrian=PedestrianConfig(),
-        )
-        self.supervisor_config = SupervisorConfig(
-            velocity=VelocityPlannerConfig(period=planner_period),
-            pid=PIDConfig(assumed_mass=CarConfig().mass),
+            action_level=action_level,
+            obs_type=obs_type,
+            sensor_options={
+                "obs_noise": obs_noise,
+                "k_nearest": k_nearest,
+                "birdseye_size": birdseye_size,
+                "birdseye_fov": birdseye_fov,
+                "birdseye_frame": birdseye_frame,
+                "pixel_noise": pixel_noise,
+                "lidar_rays": lidar_rays,
+                "lidar_range": lidar_range,
+                "lidar_noise": lidar_noise,
+                "lidar_dropout": lidar_dropout,
+            },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
+            car_mass=car_mass,
+            planner_period=planner_period,
+            trajectory_planner=trajectory_planner,
+            dt=dt,
         )
+        controlled_cars = int(controlled_cars)
+        self.scene = scenario.scene
+        self.supervisor_config = scenario.supervisor
         self.action_level = action_level
         self.render_mode = render_mode
         self._renderer = None
         self.max_cycles = max_cycles
-        self.world = World(self.scene, probe.layout)
+        self.world = World(self.scene, scenario.layout)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
-        self.observer = Observer(obs_config, self.world)
+        self.observer = Observer(scenario.observation, self.world)
         self._observers, ego_only = agent_observers(self.observer)
         if controlled_cars > 1 and ego_only:
             raise NotImplementedError(
@@ -343,6 +329,11 @@ class FluidsParallelEnv(ParallelEnv):
     def step(self, actions: dict[str, Any]):
         if not self.agents:
             raise RuntimeError(f"{WHERE}: step() called with no live agents; call reset()")
+        if not isinstance(actions, Mapping):
+            raise ValueError(
+                f"{WHERE}: actions is {type(actions).__name__} {actions!r:.60}; allowed: a dict "
+                f"from agent name to action (live agents: {self.agents})"
+            )
         unknown = sorted(set(actions) - set(self.possible_agents), key=str)
         if unknown:
             raise ValueError(
@@ -350,7 +341,9 @@ class FluidsParallelEnv(ParallelEnv):
             )
         live = [self._index[a] for a in self.agents]
         chosen = {
-            i: self._validate(actions[agent_name(i)]) for i in live if agent_name(i) in actions
+            i: self._validate(actions[agent_name(i)], agent_name(i))
+            for i in live
+            if agent_name(i) in actions
         }
         w, sup = self.world, self.supervisor
         controls, memory = self._controls(chosen)
@@ -362,10 +355,8 @@ class FluidsParallelEnv(ParallelEnv):
         for i in live:
             a = agent_name(i)
             arrived = bool(w.reached[i])
-            s_now = float(w.path_len[i] + w.offset[i]) if arrived else float(w.route_s[i])
-            rewards[a] = (s_now - self._last_s[i]) / self._route_length[i] - (
-                COLLISION_PENALTY if hit[i] else 0.0
-            )
+            s_now = progress(w, i)
+            rewards[a] = step_reward(s_now - self._last_s[i], self._route_length[i], bool(hit[i]))
             self._last_s[i] = s_now
             terminations[a] = arrived or bool(hit[i])
             truncations[a] = not terminations[a] and self._cycles >= self.max_cycles
@@ -379,7 +370,7 @@ class FluidsParallelEnv(ParallelEnv):
         for i in live:
             a = agent_name(i)
             if terminations[a] or truncations[a]:
-                infos[a]["is_success"] = bool(w.reached[i]) and not bool(w.collided[i])
+                infos[a]["is_success"] = is_success(w, i)
         return observations, rewards, terminations, truncations, infos
 
     def state(self) -> np.ndarray:
@@ -434,8 +425,8 @@ class FluidsParallelEnv(ParallelEnv):
             self._route_length[i] = float(self.world.path_len[i]) - self._last_s[i]
         return controls, memory
 
-    def _validate(self, action):
-        return levels.validate(self.action_level, self._action_space, action, WHERE)
+    def _validate(self, action, agent: str):
+        return levels.validate(self.action_level, self._action_space, action, f"{WHERE} {agent}")
 
     def _observe(self, i: int):
         rng, w = self.np_random, self.world

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.validation import check_choice, check_float, check_int
 from fluids_bench.tasks.fluids.sim.config import check_range
 from fluids_bench.tasks.fluids.sim.sensors.explicit import ExplicitSensor
 from fluids_bench.tasks.fluids.sim.world import World
@@ -26,6 +27,39 @@ from fluids_bench.tasks.fluids.sim.world import World
 OBS_TYPES = ("explicit", "birdseye", "qlidar")
 BIRDSEYE_FRAMES = ("ego", "ego_rotated", "global")
 OBS_BOUND = 1000.0  # explicit observations are clipped to ±this (noise could leave the space)
+
+
+def _obs_type(where: str, obs_type) -> str | tuple[str, ...]:
+    """``obs_type`` checked: a family name, or a tuple of distinct ones (from any sequence)."""
+    kinds = (obs_type,) if isinstance(obs_type, str) else obs_type
+    try:
+        kinds = tuple(kinds)
+    except TypeError:
+        kinds = ()
+    if (
+        not kinds
+        or any(not isinstance(k, str) or k not in OBS_TYPES for k in kinds)
+        or len(set(kinds)) != len(kinds)
+    ):
+        raise ValueError(
+            f"{where}: field 'obs_type' is {obs_type!r}; allowed: one of {list(OBS_TYPES)} or "
+            "a list of distinct ones"
+        )
+    return obs_type if isinstance(obs_type, str) else kinds
+
+
+# sensor option -> (integer?, low, high): the documented ranges, checked for every env
+SENSOR_RANGES: dict[str, tuple[bool, float, float]] = {
+    "obs_noise": (False, 0.0, 100.0),
+    "k_nearest": (True, 0, 64),
+    "birdseye_size": (True, 64, 512),
+    "birdseye_fov": (False, 5.0, 1000.0),
+    "pixel_noise": (False, 0.0, 10000.0),
+    "lidar_rays": (True, 1, 4096),
+    "lidar_range": (False, 1.0, 1000.0),
+    "lidar_noise": (False, 0.0, 100.0),
+    "lidar_dropout": (False, 0.0, 1.0),
+}
 
 
 @dataclass(frozen=True)
@@ -46,28 +80,24 @@ class ObservationConfig:
     lidar_dropout: float = 0.0  # qlidar: ε, probability that a ray reads as empty
 
     def __post_init__(self) -> None:
-        obs_type = self.obs_type
-        kinds = (obs_type,) if isinstance(obs_type, str) else tuple(obs_type)
-        if not kinds or any(k not in OBS_TYPES for k in kinds) or len(set(kinds)) != len(kinds):
-            raise ValueError(
-                f"FluidsEnv: field 'obs_type' is {obs_type!r}; allowed: one of "
-                f"{list(OBS_TYPES)} or a list of distinct ones"
-            )
-        object.__setattr__(self, "obs_type", obs_type if isinstance(obs_type, str) else kinds)
-        check_range("FluidsEnv", "obs_noise", self.obs_noise, 0.0, 100.0)
-        check_range("FluidsEnv", "k_nearest", self.k_nearest, 0, 64, integer=True)
-        check_range("FluidsEnv", "birdseye_size", self.birdseye_size, 16, 1024, integer=True)
-        check_range("FluidsEnv", "birdseye_fov", self.birdseye_fov, 5.0, 1000.0)
-        if self.birdseye_frame not in BIRDSEYE_FRAMES:
-            raise ValueError(
-                f"FluidsEnv: field 'birdseye_frame' is {self.birdseye_frame!r}; "
-                f"allowed: {list(BIRDSEYE_FRAMES)}"
-            )
-        check_range("FluidsEnv", "pixel_noise", self.pixel_noise, 0.0, 10000.0)
-        check_range("FluidsEnv", "lidar_rays", self.lidar_rays, 1, 4096, integer=True)
-        check_range("FluidsEnv", "lidar_range", self.lidar_range, 1.0, 1000.0)
-        check_range("FluidsEnv", "lidar_noise", self.lidar_noise, 0.0, 100.0)
-        check_range("FluidsEnv", "lidar_dropout", self.lidar_dropout, 0.0, 1.0)
+        object.__setattr__(self, "obs_type", _obs_type("ObservationConfig", self.obs_type))
+        check_choice("ObservationConfig", "birdseye_frame", self.birdseye_frame, BIRDSEYE_FRAMES)
+        for name, (integer, lo, hi) in SENSOR_RANGES.items():
+            check_range("ObservationConfig", name, getattr(self, name), lo, hi, integer=integer)
+
+    @classmethod
+    def from_kwargs(cls, where: str, obs_type, options: dict) -> ObservationConfig:
+        """The config of an env's ``obs_type`` and sensor options, checked with errors naming
+        ``where``; numpy scalars become the Python numbers they hold."""
+        values = {}
+        for name, value in options.items():
+            if name in SENSOR_RANGES:
+                integer, lo, hi = SENSOR_RANGES[name]
+                value = (check_int if integer else check_float)(where, name, value, lo, hi)
+            elif name == "birdseye_frame":
+                check_choice(where, name, value, BIRDSEYE_FRAMES)
+            values[name] = value
+        return cls(obs_type=_obs_type(where, obs_type), **values)
 
     @property
     def kinds(self) -> tuple[str, ...]:

@@ -9,7 +9,7 @@ import numpy as np
 from gymnasium import spaces
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_float, check_int
+from fluids_bench.core.validation import check_choice, check_float, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.gridworld.model import MOVES, GridWorld
 from fluids_bench.tasks.gridworld.supervisor import value_iteration
 
@@ -82,6 +82,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     | `world_seed`       | int   | 0       | seed of the world's layout, >= 0                       |
     | `render_mode`      | str   | None    | None or "rgb_array"                                    |
 
+    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
+    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+
     ```python
     >>> import gymnasium as gym, fluids_bench
     >>> env = gym.make("GridWorld-v0", world_seed=3)
@@ -96,6 +99,7 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
 
+    @reject_unknown_kwargs
     def __init__(
         self,
         size: int = 15,

@@ -117,3 +117,11 @@ def test_on_policy_keeps_R_forever_once_its_first_vote_says_R() -> None:
         else:
             assert initial_return == 6.0
     assert 0 < slipped_runs < 40
+
+
+def test_unknown_kwargs_and_numpy_scalars() -> None:
+    with pytest.raises(
+        ValueError, match=r"unknown argument\(s\) 'nu'; allowed: \['mu', 'render_mode'\]"
+    ):
+        gym.make("DAG-v0", nu=0.3)
+    assert gym.make("DAG-v0", mu=np.float32(0.5)).unwrapped.mu == 0.5

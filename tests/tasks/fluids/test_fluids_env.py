@@ -149,9 +149,14 @@ def test_bad_kwargs_name_the_field(kwargs, field):
 
 
 def test_too_many_cars_names_the_capacity():
-    env = gym.make("FLUIDS-v0", num_cars=40)
-    with pytest.raises(ValueError, match="holds at most"):
-        env.reset(seed=0)
+    # checked at construction, in the user's terms: 15 besides the ego, never "16" or "64"
+    with pytest.raises(
+        ValueError,
+        match=r"'num_cars' is 63; .* at most 16 cars, the ego included: "
+        r"allowed: an integer in \[0, 15\]",
+    ):
+        gym.make("FLUIDS-v0", num_cars=63)
+    gym.make("FLUIDS-v0", num_cars=15).reset(seed=0)
 
 
 @pytest.mark.parametrize("layout", ["four_way", "t_junction", "roundabout"])

@@ -198,7 +198,7 @@ def test_missing_action_means_supervised():
 
 @pytest.mark.parametrize("obs_type", ["qlidar", "birdseye", ["explicit", "qlidar", "birdseye"]])
 def test_every_observation_family_observes_per_agent(obs_type):
-    env = parallel_env(controlled_cars=3, num_cars=1, obs_type=obs_type, birdseye_size=32)
+    env = parallel_env(controlled_cars=3, num_cars=1, obs_type=obs_type, birdseye_size=64)
     parallel_api_test(env, num_cycles=8)
     observations, _ = env.reset(seed=1)
     for agent in env.possible_agents:

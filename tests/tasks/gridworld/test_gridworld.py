@@ -207,3 +207,14 @@ def test_any_valid_world_builds_with_one_goal_and_a_safe_start(
     obs, info = env.reset(seed=0)
     assert env.observation_space.contains(obs)
     assert env.action_space.contains(info[SUPERVISOR_ACTION_KEY])
+
+
+def test_unknown_kwargs_and_numpy_scalars() -> None:
+    with pytest.raises(ValueError, match=r"unknown argument\(s\) 'sise'; allowed: \[.*'size'"):
+        gym.make("GridWorld-v0", sise=5)
+    a = gym.make("GridWorld-v0", size=np.int64(8), slip_probability=np.float32(0.25))
+    b = gym.make("GridWorld-v0", size=8, slip_probability=float(np.float32(0.25)))
+    np.testing.assert_array_equal(a.unwrapped.cells, b.unwrapped.cells)
+    assert a.reset(seed=1)[0].tolist() == b.reset(seed=1)[0].tolist()
+    with pytest.raises(ValueError, match="field 'size' is np.True_"):
+        gym.make("GridWorld-v0", size=np.bool_(True))

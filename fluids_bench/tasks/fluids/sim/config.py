@@ -9,17 +9,16 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass, field
 
+import numpy as np
+
+from fluids_bench.core.validation import is_int, is_real
+
 
 def check_range(owner: str, name: str, value, lo: float, hi: float, integer: bool = False) -> None:
-    """Raise ValueError unless ``lo <= value <= hi`` (and ``value`` is an int when ``integer``)."""
+    """Raise ValueError unless ``lo <= value <= hi`` (and ``value`` is an integer when
+    ``integer``). numpy scalars count as the Python numbers they hold; bools count as neither."""
     kind = "an integer" if integer else "a number"
-    ok = (
-        isinstance(value, int) and not isinstance(value, bool)
-        if integer
-        else (
-            isinstance(value, int | float) and not isinstance(value, bool) and math.isfinite(value)
-        )
-    )
+    ok = is_int(value) if integer else is_real(value) and math.isfinite(value)
     if not ok or not lo <= value <= hi:
         raise ValueError(f"{owner}: field '{name}' is {value!r}; allowed: {kind} in [{lo}, {hi}]")
 
@@ -92,7 +91,7 @@ class SceneConfig:
                 f"SceneConfig: field 'layout' is {self.layout!r}; allowed: {list(LAYOUTS)}"
             )
         check_range("SceneConfig", "lanes", self.lanes, 1, 2, integer=True)
-        if not isinstance(self.lights, bool):
+        if not isinstance(self.lights, bool | np.bool_):
             raise ValueError(
                 f"SceneConfig: field 'lights' is {self.lights!r}; allowed: true or false"
             )

@@ -4,6 +4,10 @@ The source's behaviour planner samples a start lane uniformly and then a target 
 the other approaches, p(l_t | l_g) = 1/(K−1) (ch. 7); :mod:`fluids_bench.tasks.fluids.sim.spawn` draws exactly
 that. A behaviour-level action picks among the movements of the car's entry lane, in the layout's
 order (counter-clockwise from the entry: right, straight, left on a four-way).
+
+The supervisor's behaviour for a car is the movement drawn for it at spawn, and stays so
+whatever a learner then chooses: the label is :func:`movement_of` that sampled route, never the
+car's current route (which the learner's own previous action set).
 """
 
 from __future__ import annotations
@@ -20,11 +24,17 @@ def movement_count(world: World) -> int:
     )
 
 
-def current_movement(world: World, agent: int) -> int:
-    """Index of ``agent``'s route among its entry lane's movements (the supervisor's label)."""
+def movement_of(world: World, route: int) -> int:
+    """Index of ``route`` among the movements of its entry lane."""
     routes = world.layout.routes
-    options = world.layout.routes_from_entry(int(routes.entry[world.route[agent]]))
-    return int(np.flatnonzero(options == world.route[agent])[0])
+    options = world.layout.routes_from_entry(int(routes.entry[route]))
+    return int(np.flatnonzero(options == route)[0])
+
+
+def current_movement(world: World, agent: int) -> int:
+    """Index of ``agent``'s current route among its entry lane's movements (what it drives now,
+    which a behaviour-level learner may have chosen; not the supervisor's label)."""
+    return movement_of(world, int(world.route[agent]))
 
 
 def choose_movement(world: World, agent: int, movement: int) -> bool:

@@ -15,7 +15,7 @@ import numpy as np
 
 from fluids_bench.tasks.fluids.sim.config import check_range
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.behavior import current_movement
+from fluids_bench.tasks.fluids.supervisor.behavior import movement_of
 from fluids_bench.tasks.fluids.supervisor.control import PIDConfig, PIDController
 from fluids_bench.tasks.fluids.supervisor.trajectory import (
     RecoveryPlanner,
@@ -48,6 +48,10 @@ class DrivingSupervisor:
         self.planner = VelocityPlanner(self.config.velocity)
         self.pid = PIDController(world, self.config.pid)
         self._recovery: RecoveryPlanner | None = None
+        # the behaviour level's choice for each agent: the route drawn at spawn (the world is
+        # spawned before its supervisor is made); a learner acting at that level changes
+        # world.route, never this
+        self.behavior_routes = world.route.copy()
         self.targets = np.zeros(world.n)
         self.proposed = np.zeros((world.n, 2))
         self._memory: tuple = ()
@@ -89,7 +93,7 @@ class DrivingSupervisor:
     def label(self, world: World, level: str, agent: int = 0):
         """What the supervisor does for ``agent`` at ``level`` in the current (prepared) state."""
         if level == "behavior":
-            return current_movement(world, agent)
+            return movement_of(world, int(self.behavior_routes[agent]))
         if level == "trajectory":
             return waypoints_ego_frame(
                 world, agent, self.config.waypoints, self.config.waypoint_spacing

@@ -420,6 +420,30 @@ MALFORMED = {
     "list not a list": (_set("lights", {}), "field 'lights' is {}; allowed: a list"),
     "bad bounds": (_set("bounds", [0, 0, 0]), "field 'bounds'"),
     "format version": (_set("format_version", 2), "field 'format_version' is 2; allowed: 1"),
+    # limits and geometry (defect 5 of #10): refused at load, naming the element
+    "bounds beyond the documented range": (
+        _set("bounds", [-1e9, -1e9, 1e9, 1e9]),
+        "field 'bounds' is (-1000000000.0, -1000000000.0, 1000000000.0, 1000000000.0); allowed: "
+        "[xmin, ymin, xmax, ymax] within ±1000 m of the origin",
+    ),
+    "point far outside the bounds": (
+        _set("lanes", 0, "centerline", [[46.5, 1.75], [5000.0, 1.75]]),
+        "lanes[0] ('east_in_0'): field 'centerline' is (5000.0, 1.75); allowed: points within",
+    ),
+    "self-crossing lane": (
+        _set("lanes", 0, "centerline", [[46.5, 1.75], [20, 1.75], [25, 6], [25, -3]]),
+        "lanes[0] ('east_in_0'): field 'centerline' is ((46.5, 1.75), (20.0, 1.75), (25.0, 6.0), "
+        "(25.0, -3.0)); allowed: a polyline that does not cross or touch itself",
+    ),
+    "route from an entry lane to an entry lane": (
+        _set("routes", 0, "exit", "north_in_0"),
+        "field 'exit' is 'north_in_0'; allowed: a lane no route starts from",
+    ),
+    "every lane on one segment": (
+        lambda d: [lane.__setitem__("centerline", [[0, 0], [30, 0]]) for lane in d["lanes"]],
+        "lanes[0] ('east_in_0'): field 'centerline' is ((0.0, 0.0), (30.0, 0.0)); allowed: a lane "
+        "meeting others only at its edges; it overlaps lane",
+    ),
     "no format version": (_delete("format_version"), "missing required field 'format_version'"),
 }
 

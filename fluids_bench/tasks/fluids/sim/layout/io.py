@@ -7,6 +7,10 @@ default may be left out (TOML has no ``null``: leave out a ``light`` that is abs
 is a ``ValueError`` naming the element and the field at fault, for example
 ``lanes[2] ('north_in_0'): field 'width' is -1; allowed: a finite number > 0``.
 
+Limits (see :mod:`fluids_bench.tasks.fluids.sim.layout.spec`): ``bounds`` within ±1 km of the
+origin, every point within ``bounds`` grown by 1 km; lanes must not cross themselves or overlap
+each other, and no route may exit by a lane some route enters by.
+
 ``save_layout(spec, path)`` then ``load_layout(path)`` gives back an equal spec.
 """
 

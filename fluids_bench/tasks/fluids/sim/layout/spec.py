@@ -4,6 +4,12 @@ A :class:`LayoutSpec` says what is where (lanes, sidewalks, crosswalks, lights, 
 areas, car routes and pedestrian walks). :mod:`fluids_bench.tasks.fluids.sim.layout.compiled` turns it into the
 geometry and route arrays the simulator uses. Coordinates are metres, headings radians, durations
 seconds. Errors name the element and field at fault.
+
+Limits: ``bounds`` lie within ±:data:`COORD_LIMIT` (1 km) of the origin and every point within
+``bounds`` grown by :data:`POINT_SLACK` (1 km), so compiled paths (sampled every 0.5 m) stay
+small. Geometrically impossible layouts are refused: a lane whose centreline crosses itself,
+two lanes whose corridors (centreline ± width/2) overlap instead of meeting at their edges, and
+a route whose exit lane is some route's entry lane.
 """
 
 from __future__ import annotations
@@ -13,6 +19,9 @@ from dataclasses import dataclass
 
 Point = tuple[float, float]
 
+COORD_LIMIT = 1000.0  # m: |bounds| limit
+POINT_SLACK = 1000.0  # m: how far outside ``bounds`` a point (kerbs, walks) may lie
+LANE_OVERLAP = 0.05  # m²: lane corridors sharing more area than this overlap (touching is 0)
 TRAFFIC_STATES = ("green", "yellow", "red")
 CROSSWALK_STATES = ("white", "red")
 
@@ -189,6 +198,13 @@ class LayoutSpec:
         b = self.bounds
         if len(b) != 4 or not all(math.isfinite(v) for v in b) or b[0] >= b[2] or b[1] >= b[3]:
             _fail(where, "bounds", b, "[xmin, ymin, xmax, ymax] with xmin < xmax and ymin < ymax")
+        if any(abs(v) > COORD_LIMIT for v in b):
+            _fail(
+                where,
+                "bounds",
+                b,
+                f"[xmin, ymin, xmax, ymax] within ±{COORD_LIMIT:g} m of the origin",
+            )
         object.__setattr__(self, "bounds", tuple(float(v) for v in b))
         for group in ("lanes", "sidewalks", "crosswalks", "lights", "walks"):
             names = [e.name for e in getattr(self, group)]
@@ -213,6 +229,16 @@ class LayoutSpec:
             for end in ("entry", "exit"):
                 if getattr(r, end) not in lanes:
                     _fail(f"route '{r.name}'", end, getattr(r, end), f"a lane of {sorted(lanes)}")
+        entries = {r.entry for r in self.routes}
+        for r in self.routes:
+            if r.exit in entries:
+                exits = sorted(lanes - entries)
+                _fail(
+                    f"route '{r.name}'",
+                    "exit",
+                    r.exit,
+                    f"a lane no route starts from (cars cannot leave by an entry lane): {exits}",
+                )
         object.__setattr__(
             self, "areas", tuple(_check_points(where, "areas", a, 3) for a in self.areas)
         )
@@ -221,6 +247,7 @@ class LayoutSpec:
         )
         _check_positive(where, "curb_radius", self.curb_radius)
         self._check_inside_bounds()
+        self._check_lane_geometry()
         if not isinstance(self.sidewalk_width, int | float) or not 0 <= self.sidewalk_width < 50:
             _fail(where, "sidewalk_width", self.sidewalk_width, "a number in [0, 50) metres")
 
@@ -228,7 +255,7 @@ class LayoutSpec:
         """Every point must lie within ``bounds`` (grown by 1 km of slack for kerbs and walks):
         a stray coordinate would otherwise make compiling allocate without limit."""
         xmin, ymin, xmax, ymax = self.bounds
-        slack = 1000.0
+        slack = POINT_SLACK
         groups = [(f"lane '{e.name}'", "centerline", e.centerline) for e in self.lanes]
         groups += [(f"sidewalk '{e.name}'", "centerline", e.centerline) for e in self.sidewalks]
         groups += [
@@ -245,6 +272,37 @@ class LayoutSpec:
                 if not (xmin - slack <= x <= xmax + slack and ymin - slack <= y <= ymax + slack):
                     _fail(
                         where, name, (x, y), f"points within bounds {self.bounds} (± {slack:g} m)"
+                    )
+
+    def _check_lane_geometry(self) -> None:
+        """Refuse lanes that cannot be driven: a self-crossing centreline, or two lanes whose
+        corridors overlap (cars on them would collide head-on or sideways all along)."""
+        import shapely
+
+        lines = [shapely.LineString(lane.centerline) for lane in self.lanes]
+        for lane, simple in zip(self.lanes, shapely.is_simple(lines), strict=True):
+            if not simple:
+                _fail(
+                    f"lane '{lane.name}'",
+                    "centerline",
+                    lane.centerline,
+                    "a polyline that does not cross or touch itself",
+                )
+        widths = [lane.width / 2 for lane in self.lanes]
+        corridors = shapely.buffer(lines, widths, cap_style="flat")
+        tree = shapely.STRtree(corridors)
+        pairs = tree.query(corridors, predicate="intersects")
+        for i, j in zip(*pairs, strict=True):
+            if i < j:
+                area = shapely.area(shapely.intersection(corridors[i], corridors[j]))
+                if area > LANE_OVERLAP:
+                    a, b = self.lanes[i], self.lanes[j]
+                    _fail(
+                        f"lane '{a.name}'",
+                        "centerline",
+                        a.centerline,
+                        f"a lane meeting others only at its edges; it overlaps lane '{b.name}' "
+                        f"over {area:.1f} m²",
                     )
 
     def lane(self, name: str) -> Lane:

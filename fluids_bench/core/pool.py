@@ -1,0 +1,113 @@
+"""A local process pool whose workers never outlive the program that started them.
+
+:func:`process_pool` is a :class:`~concurrent.futures.ProcessPoolExecutor` (``"forkserver"`` or
+``"spawn"``) with three guarantees the plain one lacks:
+
+* a worker exits when the program that made the pool dies, even by SIGKILL (which runs no
+  clean-up): each worker runs a daemon thread polling that program's pid, and on Linux also
+  asks the kernel for SIGKILL when its own parent exits (``PR_SET_PDEATHSIG``). Without this a
+  killed ``collect --workers 2`` left its workers, the fork server and the resource tracker
+  running for ever;
+* Ctrl-C is the calling program's: workers ignore SIGINT (the terminal sends it to the whole
+  process group), so there is one ``KeyboardInterrupt``, in the caller, not one traceback per
+  worker;
+* leaving the block by an exception (Ctrl-C included) cancels the queued tasks and terminates
+  the workers at once, instead of waiting for the running tasks to finish.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import multiprocessing
+import os
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable, Iterator, Sequence
+from concurrent.futures import ProcessPoolExecutor
+from typing import Any
+
+WATCH_INTERVAL = 0.5  # s between two checks of the parent in each worker
+PR_SET_PDEATHSIG = 1  # linux/prctl.h
+
+
+def pid_alive(pid: int) -> bool:
+    """Whether process ``pid`` is running (a zombie, killed but not yet reaped, is not)."""
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except PermissionError:  # it exists, under another user
+        return True
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().rsplit(")", 1)[1].split()[0] != "Z"
+    except (OSError, IndexError):  # no /proc (macOS): os.kill's answer stands
+        return True
+
+
+def _watch(pid: int) -> None:
+    while pid_alive(pid):
+        time.sleep(WATCH_INTERVAL)
+    os._exit(1)  # the program that owns this worker is gone: nobody will read our results
+
+
+def _die_with_parent() -> None:
+    """Linux: SIGKILL this process when its parent exits (a no-op elsewhere)."""
+    if sys.platform.startswith("linux"):
+        with contextlib.suppress(OSError, AttributeError):
+            ctypes.CDLL(None, use_errno=True).prctl(PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def _init_worker(
+    owner: int, initializer: Callable[..., None] | None, initargs: tuple[Any, ...]
+) -> None:
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is handled by the owner
+    _die_with_parent()  # the direct parent: the owner (spawn) or the fork server
+    threading.Thread(target=_watch, args=(owner,), daemon=True, name="owner-watch").start()
+    if not pid_alive(owner):  # died before the thread's first look
+        os._exit(1)
+    if initializer is not None:
+        initializer(*initargs)
+
+
+def _terminate(pool: ProcessPoolExecutor) -> None:
+    # ``_processes`` is private, but the only handle on the workers: shutdown(wait=False)
+    # alone still lets every running task finish before the interpreter can exit
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.terminate()
+    for process in processes:
+        with contextlib.suppress(Exception):
+            process.join(timeout=5)
+
+
+@contextlib.contextmanager
+def process_pool(
+    workers: int,
+    start_method: str,
+    preload: Sequence[str] = (),
+    initializer: Callable[..., None] | None = None,
+    initargs: tuple[Any, ...] = (),
+) -> Iterator[ProcessPoolExecutor]:
+    """A pool of ``workers`` processes (see the module docstring). ``preload``: modules the
+    fork server imports once, before forking workers (``"forkserver"`` only)."""
+    context = multiprocessing.get_context(start_method)
+    if start_method == "forkserver" and preload:
+        context.set_forkserver_preload(list(preload))
+    pool = ProcessPoolExecutor(
+        max_workers=workers,
+        mp_context=context,
+        initializer=_init_worker,
+        initargs=(os.getpid(), initializer, initargs),
+    )
+    try:
+        yield pool
+    except BaseException:
+        _terminate(pool)
+        raise
+    pool.shutdown(wait=True)

@@ -1,0 +1,177 @@
+"""A FLUIDS scenario, shared by ``FLUIDS-v0`` and the multi-agent env: the env kwargs checked and
+turned into the scene, supervisor and observation configs and the compiled layout, and the
+per-step rules both envs apply to each controlled car (progress reward, collision penalty,
+termination, success).
+
+Argument errors name the user's argument (``car_mass``, ``planner_period``, ``num_cars``), never
+an internal config field, and are raised at construction, counts included.
+
+Info fields, one meaning each (both env cards point here):
+
+* ``supervisor_action``: the supervisor's label for the info's car at ``action_level`` in the
+  new state (what it would do there; never an echo of the learner's action).
+* ``collisions``: this step's new collisions as dicts ``{step, a, b, kind}`` (agent indices,
+  ``b = -1`` off the road) that concern the info: in ``FLUIDS-v0`` every collision of the
+  world (with ``done_when="all"`` any of them ends the episode; the ego's have 0 in ``a`` or
+  ``b``), in the multi-agent env those the agent is part of.
+* ``is_success`` (only in the info of an agent's last step): the cars the episode is about
+  reached their goals and none of them was ever in a collision. Those cars are the ego in
+  ``FLUIDS-v0`` with ``done_when="ego"``, every car with ``done_when="all"`` (every collision
+  involves a car, so this is also "no collision at all"), and the agent itself in the
+  multi-agent env.
+* ``ego_arrived`` (``FLUIDS-v0``) / ``arrived`` (multi-agent): the info's car reached its goal.
+* ``route``: the name of the info's car's route.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+from fluids_bench.core.validation import check_bool, check_choice, check_float, check_int
+from fluids_bench.tasks.fluids.observations import ObservationConfig
+from fluids_bench.tasks.fluids.sim.config import (
+    LAYOUTS,
+    CarConfig,
+    PedestrianConfig,
+    SceneConfig,
+)
+from fluids_bench.tasks.fluids.sim.layout.compiled import Layout, compile_layout
+from fluids_bench.tasks.fluids.sim.spawn import capacity
+from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
+from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, SupervisorConfig
+from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
+from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
+
+COLLISION_PENALTY = 1.0  # subtracted from a car's reward in a step where it is in a collision
+TRAJECTORY_PLANNERS = ("bezier", "ompl")
+DONE_WHEN = ("ego", "all")
+ASSUMED_MASS = CarConfig().mass  # kg: the supervisor's PID assumes the default car's mass
+MAX_CARS = 64  # every car of a scene, controlled ones included
+
+
+@dataclass(frozen=True)
+class Scenario:
+    """Everything an env builds its world, supervisor and sensors from."""
+
+    scene: SceneConfig
+    supervisor: SupervisorConfig
+    observation: ObservationConfig
+    layout: Layout
+    action_level: str
+
+
+def build_scenario(
+    where: str,
+    *,
+    controlled_cars: int | None,
+    num_cars: Any,
+    layout: Any,
+    lanes: Any,
+    lights: Any,
+    num_pedestrians: Any,
+    action_level: Any,
+    obs_type: Any,
+    sensor_options: dict[str, Any],
+    waypoints: Any,
+    waypoint_spacing: Any,
+    car_mass: Any,
+    planner_period: Any,
+    trajectory_planner: Any,
+    dt: Any,
+) -> Scenario:
+    """Check the env's arguments (``where`` names the env in errors) and build its scenario.
+
+    ``controlled_cars=None`` is ``FLUIDS-v0``: one ego car, not a user argument. numpy scalars
+    are accepted like the Python numbers they hold."""
+    check_choice(where, "action_level", action_level, LEVELS)
+    check_choice(where, "layout", layout, LAYOUTS)
+    check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
+    lanes = check_int(where, "lanes", lanes, 1, 2)
+    lights = check_bool(where, "lights", lights)
+    controlled = (
+        1
+        if controlled_cars is None
+        else check_int(where, "controlled_cars", controlled_cars, 1, MAX_CARS)
+    )
+    num_cars = check_int(where, "num_cars", num_cars, 0, MAX_CARS - controlled)
+    num_pedestrians = check_int(where, "num_pedestrians", num_pedestrians, 0, 32)
+    dt = check_float(where, "dt", dt, 0.01, 0.5)
+    car_mass = check_float(where, "car_mass", car_mass, 1.0, 1e5)
+    planner_period = check_int(where, "planner_period", planner_period, 1, 50)
+    waypoints = check_int(where, "waypoints", waypoints, 1, 50)
+    waypoint_spacing = check_float(where, "waypoint_spacing", waypoint_spacing, 0.5, 20.0)
+    observation = ObservationConfig.from_kwargs(where, obs_type, sensor_options)
+
+    car = CarConfig(mass=car_mass)
+    probe_scene = SceneConfig(
+        layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt, car=car
+    )
+    spec = probe_scene.layout_spec()
+    compiled = ompl_layout(spec, car) if trajectory_planner == "ompl" else compile_layout(spec)
+    max_cars, max_peds = capacity(World(probe_scene, compiled))
+    _check_capacity(where, controlled_cars, num_cars, max_cars, layout, lanes)
+    if num_pedestrians > max_peds:
+        raise ValueError(
+            f"{where}: field 'num_pedestrians' is {num_pedestrians}; the {layout!r} layout "
+            f"holds at most {max_peds}"
+        )
+    scene = SceneConfig(
+        layout=layout,
+        lanes=lanes,
+        lights=lights,
+        num_cars=controlled + num_cars,
+        num_pedestrians=num_pedestrians,
+        dt=dt,
+        car=car,
+        pedestrian=PedestrianConfig(),
+    )
+    supervisor = SupervisorConfig(
+        velocity=VelocityPlannerConfig(period=planner_period),
+        pid=PIDConfig(assumed_mass=ASSUMED_MASS),
+        waypoints=waypoints,
+        waypoint_spacing=waypoint_spacing,
+    )
+    return Scenario(scene, supervisor, observation, compiled, action_level)
+
+
+def _check_capacity(
+    where: str, controlled_cars: int | None, num_cars: int, max_cars: int, layout: str, lanes: int
+) -> None:
+    lanes_note = "" if layout == "roundabout" else f" with lanes={lanes}"
+    holds = f"the {layout!r} layout{lanes_note} holds at most {max_cars} cars"
+    if controlled_cars is None:
+        if 1 + num_cars > max_cars:
+            raise ValueError(
+                f"{where}: field 'num_cars' is {num_cars}; {holds}, the ego included: allowed: "
+                f"an integer in [0, {max_cars - 1}]"
+            )
+    elif controlled_cars + num_cars > max_cars:
+        raise ValueError(
+            f"{where}: controlled_cars + num_cars is {controlled_cars} + {num_cars} = "
+            f"{controlled_cars + num_cars}; {holds} (so controlled_cars <= "
+            f"{max(max_cars - num_cars, 0)} with num_cars={num_cars})"
+        )
+
+
+# ---------------------------------------------------------------------- per-step rules
+def progress(world: World, agent: int) -> float:
+    """Metres of its route ``agent`` has covered (past the end once it arrived)."""
+    if world.reached[agent]:
+        return float(world.path_len[agent]) + float(world.offset[agent])
+    return float(world.route_s[agent])
+
+
+def step_reward(gained: float, route_length: float, collided: bool) -> float:
+    """Progress reward: the metres gained this step over the route's length from the start (an
+    episode that reaches the goal earns 1 in total), minus the collision penalty."""
+    return gained / route_length - (COLLISION_PENALTY if collided else 0.0)
+
+
+def is_success(world: World, cars: np.ndarray | list[int] | int) -> bool:
+    """``is_success``: every one of ``cars`` reached its goal and none was ever in a collision."""
+    idx = np.atleast_1d(np.asarray(cars))
+    return bool(world.reached[idx].all() and not world.collided[idx].any())
