@@ -1,0 +1,300 @@
+"""The grasping supervisor: corridor choice with foresight, waypoints, and a saturated P-controller.
+
+Three levels, as the FLUIDS supervisor:
+
+- **behaviour** (:func:`rank_corridors`, :meth:`GraspSupervisor.plan`): which approach corridor to
+  the target. Candidates are gripper headings fanned around the bearing from the arm's base to
+  the target; each corridor is the strip the open jaws sweep from a lead-in point to the target.
+  They are ranked by how deep obstacles reach into the strip (reachability checked by inverse
+  kinematics), then the best few are *simulated* on worlds rebuilt from the current state
+  (:func:`foresee`) with the levels below in the loop, and the one with the lowest source cost
+  (knocked off + 10 × not grasped, ties to fewer steps and less disturbance) is kept;
+- **trajectory** (:func:`corridor_action`): end-effector waypoints along the corridor: retract out
+  of the clutter when off the corridor, transit to the lead-in point (around the cluster when the
+  straight path would cross it), approach along the corridor (the gripper turns toward the
+  motion), align, advance to the target, close;
+- **control**: a saturated P-controller to the current waypoint, in the action's units
+  (end-effector velocity normalised by ``max_speed``, clipped to [-1, 1]), and the grip command.
+
+The plan is cached, so labels between replans cost one waypoint evaluation. The waypoint phase is
+recomputed from the state every call, so the label for a state a learner drove to is what the
+supervisor would do from there; the plan itself is replaced when the state leaves it: the target
+moved, an obstacle entered the corridor, or the plan ran long past its predicted length.
+"""
+
+from __future__ import annotations
+
+import math
+import time
+from dataclasses import dataclass
+
+import numpy as np
+
+from fluids_bench.tasks.grasping.sim import (
+    N_OBJECTS,
+    TARGET,
+    GraspConfig,
+    GraspWorld,
+    WorldState,
+    inverse,
+    within_limits,
+    wrap,
+)
+
+LEAD_IN = 0.24  # m: lead-in point before the target, outside the clutter
+STAND_OFF = 0.10  # m: where the final advance starts
+CLUTTER = 0.16  # m: around the target, transit goes around and off-corridor motion retracts
+ADVANCE_SPEED = 0.5  # fraction of max speed in the final advance
+GAIN = 8.0  # 1/s: P-gain of the end-effector controller
+FINGER_CLEAR = 0.065  # m: closer than this, the fingertips reach the target
+CREEP = 0.35  # normalised speed of the align creep (above the caster's dead band)
+LATERAL_GAIN = 10.0  # 1/m: normalised lateral correction while aligning
+ALIGNED = math.radians(12.0)
+REPLAN_MOVE = 0.02  # m: the target moved this far since the plan
+REPLAN_SLACK = 25  # steps beyond the predicted length before a replan
+
+
+@dataclass(frozen=True)
+class Corridor:
+    """A behaviour: approach the target with the gripper heading ``heading`` (rad)."""
+
+    heading: float
+    intrusion: float  # how deep obstacles reach into the strip (m, summed), at ranking time
+
+
+@dataclass
+class Plan:
+    corridor: Corridor
+    target_xy: tuple[float, float]  # target centre when planned
+    start_step: int
+    predicted_steps: int
+    predicted_cost: float
+    obstacle_xy: np.ndarray  # (N, 2) obstacle centres when planned
+
+
+def _seg_dist(px, py, ax, ay, bx, by) -> float:
+    dx, dy = bx - ax, by - ay
+    t = ((px - ax) * dx + (py - ay) * dy) / (dx * dx + dy * dy)
+    t = min(1.0, max(0.0, t))
+    return math.hypot(px - ax - t * dx, py - ay - t * dy)
+
+
+def intrusion(cfg: GraspConfig, st: WorldState, heading: float) -> float:
+    """Summed depth (m) by which obstacles' bounding circles reach into the corridor strip."""
+    tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
+    c, s = math.cos(heading), math.sin(heading)
+    ax, ay = tx - LEAD_IN * c, ty - LEAD_IN * s
+    bx, by = tx + 0.03 * c, ty + 0.03 * s
+    half = cfg.gap_open / 2 + 2 * cfg.finger_radius + 0.005
+    total = 0.0
+    for i in range(N_OBJECTS):
+        if i == TARGET or not st.on_table[i]:
+            continue
+        r = math.hypot(*st.sizes[i]) / 2
+        d = _seg_dist(st.poses[i, 0], st.poses[i, 1], ax, ay, bx, by)
+        total += max(0.0, half + r - d)
+    return total
+
+
+def reachable(cfg: GraspConfig, x: float, y: float, heading: float) -> bool:
+    return any(
+        (q := inverse(cfg, x, y, heading, elbow)) is not None and within_limits(cfg, q)
+        for elbow in (-1.0, 1.0)
+    )
+
+
+def rank_corridors(cfg: GraspConfig, st: WorldState, fan_deg: tuple[float, ...]) -> list[Corridor]:
+    """Reachable corridors, least obstructed first (ties: closest to the radial approach)."""
+    tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
+    bearing = math.atan2(ty, tx)
+    out = []
+    for delta in fan_deg:
+        h = bearing + math.radians(delta)
+        c, s = math.cos(h), math.sin(h)
+        if not all(reachable(cfg, tx - r * c, ty - r * s, h) for r in (0.0, STAND_OFF, LEAD_IN)):
+            continue
+        lead_y = ty - LEAD_IN * s
+        if lead_y < 0.03:  # the lead-in point must be over the table
+            continue
+        out.append((intrusion(cfg, st, h), abs(delta), Corridor(h, intrusion(cfg, st, h))))
+    out.sort(key=lambda t: (t[0], t[1]))
+    return [c for _, _, c in out]
+
+
+def _steer(px, py, wx, wy, speed: float, max_speed: float) -> tuple[float, float]:
+    """Saturated P-control toward (wx, wy), as a normalised velocity command."""
+    vx, vy = GAIN * (wx - px), GAIN * (wy - py)
+    norm = math.hypot(vx, vy)
+    cap = speed * max_speed
+    if norm > cap:
+        vx, vy = vx * cap / norm, vy * cap / norm
+    return vx / max_speed, vy / max_speed
+
+
+def corridor_action(world: GraspWorld, heading: float) -> tuple[np.ndarray, str]:
+    """The trajectory and control levels: the action toward the current waypoint of the corridor
+    with gripper heading ``heading``, and the name of the waypoint phase.
+
+    The phase is a function of the state: close (the target is between the fingers), advance
+    (on the corridor's line and aligned: to the target), approach (on the corridor before the
+    stand-off: along it, which turns the trailing gripper onto it), align (at the stand-off, not
+    yet aligned: creep along the line), retract (off the corridor inside the clutter: back out),
+    transit (elsewhere: to the lead-in point, around the clutter if the straight path crosses it).
+    """
+    cfg, st = world.cfg, world.state
+    px, py, h = world.end_effector()
+    tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
+    c, s = math.cos(heading), math.sin(heading)
+    rx, ry = px - tx, py - ty
+    along = rx * c + ry * s  # < 0 before the target
+    lateral = -rx * s + ry * c
+    dist = math.hypot(rx, ry)
+    ms = cfg.max_speed
+
+    if any(i == TARGET for i, _ in world.between_fingers()) and (st.gripper > 0.0 or along > -0.01):
+        return np.array([0.0, 0.0, 1.0]), "close"
+    heading_err = abs(wrap(h - heading))
+    if abs(lateral) < 0.025 and -STAND_OFF - 0.03 <= along <= 0.0 and heading_err < ALIGNED:
+        forward = min(ADVANCE_SPEED, GAIN * (0.004 - along) / ms)
+        if abs(lateral) > 0.01:
+            forward = min(forward, CREEP)  # mostly correct the offset first
+        vx = forward * c + LATERAL_GAIN * lateral * s
+        vy = forward * s - LATERAL_GAIN * lateral * c
+        return np.array([vx, vy, 0.0]), "advance"
+    if abs(lateral) < 0.035 and -LEAD_IN - 0.05 <= along <= -FINGER_CLEAR:
+        if along >= -STAND_OFF - 0.01:  # at the stand-off, not aligned yet: creep along the line
+            vx = CREEP * c + LATERAL_GAIN * lateral * s
+            vy = CREEP * s - LATERAL_GAIN * lateral * c
+            return np.array([vx, vy, 0.0]), "align"
+        ahead = max(STAND_OFF, -along - 0.06)  # pure pursuit of a point 6 cm down the line
+        speed = 1.0 if heading_err < math.radians(30.0) else 0.6  # leave time to turn
+        vx, vy = _steer(px, py, tx - ahead * c, ty - ahead * s, speed, ms)
+        return np.array([vx, vy, 0.0]), "approach"
+    if dist < CLUTTER - 0.02:
+        # off the corridor inside the clutter: back out, away from the target
+        ux, uy = rx / max(dist, 1e-9), ry / max(dist, 1e-9)
+        bx, by = -math.cos(h), -math.sin(h)
+        if bx * ux + by * uy > 0.0:
+            ux, uy = bx, by  # backing out along the gripper keeps its heading
+        return np.array([ux, uy, 0.0]), "retract"
+    # transit to the lead-in point, around the cluster if the straight path would cross it
+    lx, ly = tx - LEAD_IN * c, ty - LEAD_IN * s
+    if _seg_dist(tx, ty, px, py, lx, ly) < CLUTTER - 0.01:
+        a0 = math.atan2(ry, rx)
+        turn = wrap(math.atan2(ly - ty, lx - tx) - a0)
+        a = a0 + math.copysign(min(abs(turn), math.radians(50.0)), turn)
+        wx, wy = tx + (CLUTTER + 0.02) * math.cos(a), ty + (CLUTTER + 0.02) * math.sin(a)
+    else:
+        wx, wy = lx, ly
+    vx, vy = _steer(px, py, wx, wy, 1.0, ms)
+    return np.array([vx, vy, 0.0]), "transit"
+
+
+def execute(world: GraspWorld, action: np.ndarray) -> None:
+    """Apply a normalised action to the world (as the env does, without noise)."""
+    ms = world.cfg.max_speed
+    world.step(float(action[0]) * ms, float(action[1]) * ms, bool(action[2] >= 0.5))
+
+
+@dataclass
+class Outcome:
+    cost: float
+    steps: int
+    disturbance: float  # summed obstacle displacement (m)
+
+    @property
+    def key(self) -> tuple[float, float, float]:
+        return (self.cost, round(self.disturbance, 3), self.steps)
+
+
+def foresee(cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> Outcome:
+    """Roll the corridor's trajectory and control levels out on a world rebuilt from ``st``."""
+    world = GraspWorld.from_state(cfg, st)
+    start = st.poses[:, :2].copy()
+    steps = 0
+    while steps < horizon and not world.state.grasped and world.state.on_table[TARGET]:
+        action, _ = corridor_action(world, heading)
+        execute(world, action)
+        steps += 1
+    moved = np.hypot(*(world.state.poses[:, :2] - start).T)
+    moved[TARGET] = 0.0
+    moved[~world.state.on_table] = 0.0
+    cost = world.state.knocked + (0 if world.state.grasped else 10)
+    return Outcome(float(cost), steps, float(moved.sum()))
+
+
+class GraspSupervisor:
+    """Plans a corridor with foresight, caches it, and labels every state from it."""
+
+    def __init__(
+        self,
+        cfg: GraspConfig,
+        fan_deg: tuple[float, ...] = (0.0, -25.0, 25.0, -50.0, 50.0, -75.0, 75.0),
+        foresight: int = 3,
+        horizon: int = 60,
+    ) -> None:
+        self.cfg = cfg
+        self.fan_deg = fan_deg
+        self.foresight = foresight
+        self.horizon = horizon
+        self.plan_: Plan | None = None
+        self.replans = 0
+        self.replan_seconds = 0.0
+        self.last_replan_seconds = 0.0
+
+    def reset(self) -> None:
+        self.plan_ = None
+
+    # -- behaviour -------------------------------------------------------------------------
+
+    def plan(self, world: GraspWorld) -> Plan:
+        start = time.perf_counter()
+        st = world.state
+        ranked = rank_corridors(self.cfg, st, self.fan_deg)
+        if not ranked:  # nothing reachable by the rules: take the radial approach anyway
+            tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
+            ranked = [Corridor(math.atan2(ty, tx), 0.0)]
+        best: tuple[tuple[float, float, float], Corridor, Outcome] | None = None
+        for corridor in ranked[: self.foresight]:
+            outcome = foresee(self.cfg, st, corridor.heading, self.horizon)
+            if best is None or outcome.key < best[0]:
+                best = (outcome.key, corridor, outcome)
+            if outcome.cost == 0 and outcome.disturbance < 0.01:
+                break  # clean success: nothing left to gain from the others
+        assert best is not None
+        _, corridor, outcome = best
+        obstacles = st.poses[:, :2].copy()
+        self.plan_ = Plan(
+            corridor,
+            (float(st.poses[TARGET, 0]), float(st.poses[TARGET, 1])),
+            st.steps,
+            outcome.steps,
+            outcome.cost,
+            obstacles,
+        )
+        self.last_replan_seconds = time.perf_counter() - start
+        self.replan_seconds += self.last_replan_seconds
+        self.replans += 1
+        return self.plan_
+
+    def _plan_holds(self, world: GraspWorld) -> bool:
+        plan, st = self.plan_, world.state
+        if plan is None or st.steps < plan.start_step:
+            return False
+        tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
+        if math.hypot(tx - plan.target_xy[0], ty - plan.target_xy[1]) > REPLAN_MOVE:
+            return False
+        if st.steps - plan.start_step > plan.predicted_steps + REPLAN_SLACK:
+            return False
+        # an obstacle moved into the corridor since the plan
+        now = intrusion(self.cfg, st, plan.corridor.heading)
+        return now <= plan.corridor.intrusion + 0.01
+
+    def action(self, world: GraspWorld) -> np.ndarray:
+        """The label: the normalised action (vx, vy, grip) for the world's current state."""
+        if not self._plan_holds(world):
+            self.plan(world)
+        assert self.plan_ is not None
+        action, _ = corridor_action(world, self.plan_.corridor.heading)
+        np.clip(action, (-1.0, -1.0, 0.0), (1.0, 1.0, 1.0), out=action)
+        return action
