@@ -102,7 +102,7 @@ class GraspingInClutterEnv(gym.Env):
     | `obs_type`        | str or list | "state"  | "state", "pixels", or a list of them (Dict)     |
     | `obs_size`        | int         | 96       | side of the pixel observation, in [16, 512]     |
     | `target_std_frac` | float       | 0.03     | target offset std as a fraction of the table width, [0, 0.2] |
-    | `foresight`       | int         | 3        | corridors the supervisor simulates per plan, [1, 7] |
+    | `foresight`       | int         | 7        | corridors the supervisor simulates per plan, [1, 7] |
     | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
 
@@ -126,7 +126,7 @@ class GraspingInClutterEnv(gym.Env):
         obs_type: str | list[str] = "state",
         obs_size: int = 96,
         target_std_frac: float = 0.03,
-        foresight: int = 3,
+        foresight: int = 7,
         render_size: int = 480,
         render_mode: str | None = None,
     ) -> None:

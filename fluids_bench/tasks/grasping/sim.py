@@ -13,11 +13,12 @@ forward kinematics at the end of the substep, so they push objects and are never
 An object whose centre leaves the table is knocked off: it is removed from the space and
 counted once.
 
-The state is the poses alone (objects' velocities are zeroed every substep), so
-:meth:`GraspWorld.state` / :meth:`GraspWorld.from_state` rebuild the world exactly: a rebuild
-replays bit-identically what a rebuild of the same state replays. ``collision_persistence = 0``
-drops pymunk's cached contacts between steps, so a rebuilt world continues exactly as the live one
-(the live world carries no contact history a rebuild would lack).
+The state that matters is the poses (objects' velocities are zeroed every substep), so
+:meth:`GraspWorld.from_state` rebuilds a world from them; it continues like the live one up to
+pymunk's contact cache (warm starting), i.e. to ~1e-5 m, which is what the supervisor's
+foresight needs. Exact copies come from replay: a world remembers its initial state and the
+commands it executed, and pickling stores those and replays them (fresh builds replay
+bit-identically), so an unpickled world continues exactly as the original.
 
 Controller (the source's "Jacobian transpose controller for the 3 main joints"): a commanded
 end-effector velocity ``v`` moves the joints by a few Jacobian-transpose steps ``Δq = α Jᵀ e``
@@ -38,7 +39,7 @@ import pymunk
 
 from fluids_bench.core.validation import check_float, check_int, fail
 
-JT_ITERATIONS = 3  # Jacobian-transpose iterations per env step
+JT_ITERATIONS = 6  # Jacobian-transpose iterations per env step (end effector within ~5%)
 N_OBJECTS = 6  # the target (index 0) and five obstacles
 TARGET = 0
 
@@ -119,14 +120,12 @@ def forward(cfg: GraspConfig, q) -> tuple[list[tuple[float, float]], float]:
     return [(0.0, 0.0), (x1, y1), (x2, y2), (x3, y3), (xe, ye)], t3
 
 
-def jacobian(points: list[tuple[float, float]]) -> np.ndarray:
-    """2×3 Jacobian of the grasp centre: column i is ẑ × (p − joint_i)."""
+def jacobian(points: list[tuple[float, float]]) -> tuple[list[float], list[float]]:
+    """2×3 Jacobian of the grasp centre (two rows): column i is ẑ × (p − joint_i)."""
     xe, ye = points[4]
-    return np.array(
-        [
-            [-(ye - points[0][1]), -(ye - points[1][1]), -(ye - points[2][1])],
-            [xe - points[0][0], xe - points[1][0], xe - points[2][0]],
-        ]
+    return (
+        [-(ye - points[0][1]), -(ye - points[1][1]), -(ye - points[2][1])],
+        [xe - points[0][0], xe - points[1][0], xe - points[2][0]],
     )
 
 
@@ -167,7 +166,8 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
        its motion like a caster, turning toward the direction of motion by the fraction
        ``1 - exp(-distance / caster_length)`` of the error (at most ``turn_rate`` per second),
        and holds its heading when the motion points backwards (more than 120° off).
-    3. Joint speeds are scaled down to ``joint_speed``, then angles clipped to ``joint_limits``.
+    3. Joint speeds are scaled down to ``joint_speed``, then angles clipped to ``joint_limits``,
+       and the whole step scaled down if the end effector would move faster than ``max_speed``.
     """
     points, heading = forward(cfg, q)
     vx, vy = float(velocity[0]), float(velocity[1])
@@ -182,10 +182,10 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
         free = [True, True, True]  # joints at a limit drop out of J
         for _ in range(JT_ITERATIONS):
             ex, ey = goal_x - pts[4][0], goal_y - pts[4][1]
-            J = jacobian(pts)
-            jte = [(J[0, j] * ex + J[1, j] * ey) if free[j] else 0.0 for j in range(3)]
-            jx = J[0, 0] * jte[0] + J[0, 1] * jte[1] + J[0, 2] * jte[2]
-            jy = J[1, 0] * jte[0] + J[1, 1] * jte[1] + J[1, 2] * jte[2]
+            j0, j1 = jacobian(pts)
+            jte = [(j0[j] * ex + j1[j] * ey) if free[j] else 0.0 for j in range(3)]
+            jx = j0[0] * jte[0] + j0[1] * jte[1] + j0[2] * jte[2]
+            jy = j1[0] * jte[0] + j1[1] * jte[1] + j1[2] * jte[2]
             denom = jx * jx + jy * jy
             if denom < 1e-18:
                 break
@@ -203,7 +203,8 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
             fraction = 1.0 - math.exp(-math.sqrt(speed2) * cfg.dt / cfg.caster_length)
             cap = cfg.turn_rate * cfg.dt
             turn = max(-cap, min(cap, err * fraction))
-        exact = inverse(cfg, pts[4][0], pts[4][1], heading + turn, elbow=1.0 if q[1] >= 0 else -1.0)
+        branch = 1.0 if moved[1] >= 0 else -1.0
+        exact = inverse(cfg, pts[4][0], pts[4][1], heading + turn, elbow=branch)
         if exact is not None:
             # the same wrist angle branch as before (inverse wraps q3 to [-pi, pi))
             exact[2] = q[2] + wrap(exact[2] - q[2])
@@ -213,10 +214,24 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
     limit = cfg.joint_speed * cfg.dt
     if peak > limit:
         dq = [d * limit / peak for d in dq]
-    out = []
-    for a, d, (lo, hi) in zip(q, dq, cfg.joint_limits, strict=True):
-        out.append(min(hi, max(lo, float(a) + d)))
+    out = _clipped(cfg, q, dq)
+    # the end effector never outruns max_speed (the iterations and clipping can overshoot)
+    reach = cfg.max_speed * cfg.dt
+    for _ in range(4):
+        end, _ = forward(cfg, out)
+        moved_by = math.hypot(end[4][0] - points[4][0], end[4][1] - points[4][1])
+        if moved_by <= reach:
+            break
+        dq = [d * reach / moved_by * 0.999 for d in dq]
+        out = _clipped(cfg, q, dq)
     return out
+
+
+def _clipped(cfg: GraspConfig, q, dq) -> list[float]:
+    return [
+        min(hi, max(lo, float(a) + d))
+        for a, d, (lo, hi) in zip(q, dq, cfg.joint_limits, strict=True)
+    ]
 
 
 # -- objects -----------------------------------------------------------------------------------
@@ -324,27 +339,29 @@ class GraspWorld:
     arm: list[pymunk.Body] = field(init=False, repr=False)
 
     def __post_init__(self) -> None:
+        self.initial = self.state.copy()
+        self.commands: list[tuple[float, float, bool]] = []
         self._build()
 
     @classmethod
     def from_state(cls, cfg: GraspConfig, state: WorldState) -> GraspWorld:
         return cls(cfg, state.copy())
 
-    # pickling stores the state only; the space is rebuilt (exactly: see the module docstring)
+    # pickling stores the initial state and the commands, and replays them (exact)
     def __getstate__(self) -> dict:
-        self.sync()
-        return {"cfg": self.cfg, "state": self.state.copy()}
+        return {"cfg": self.cfg, "initial": self.initial.copy(), "commands": list(self.commands)}
 
     def __setstate__(self, data: dict) -> None:
         self.cfg = data["cfg"]
-        self.state = data["state"]
-        self._build()
+        self.state = data["initial"]
+        self.__post_init__()
+        for command in data["commands"]:
+            self.step(*command)
 
     def _build(self) -> None:
         cfg, st = self.cfg, self.state
         space = pymunk.Space()
         space.damping = 0.0  # quasi-static: objects stop the moment nothing pushes them
-        space.collision_persistence = 0
         space.iterations = 10
         self.objects = []
         for i in range(N_OBJECTS):
@@ -409,13 +426,10 @@ class GraspWorld:
         ]
 
     def _place_arm(self, q, gripper: float) -> None:
-        for body, (x, y, a) in zip(self.arm, self.arm_poses(q, gripper), strict=True):
+        self._arm_pose = self.arm_poses(q, gripper)
+        for body, (x, y, a) in zip(self.arm, self._arm_pose, strict=True):
             body.position = (x, y)
             body.angle = a
-            body.velocity = (0.0, 0.0)
-            body.angular_velocity = 0.0
-        for body in self.arm:
-            self.space.reindex_shapes_for_body(body)
 
     # -- queries -----------------------------------------------------------------------------
 
@@ -479,6 +493,7 @@ class GraspWorld:
     def step(self, vx: float, vy: float, close: bool) -> StepEvents:
         """Advance one env step with end-effector velocity command (vx, vy) in m/s."""
         cfg, st = self.cfg, self.state
+        self.commands.append((vx, vy, close))
         q0 = st.q.copy()
         q1 = np.array(arm_step(cfg, q0, (vx, vy)))
         g0 = st.gripper
@@ -487,16 +502,17 @@ class GraspWorld:
             g1 = min(g0 + rate, max(g0, self.gripper_stop()))
         else:
             g1 = max(0.0, g0 - rate)
-        n = cfg.substeps
-        h = cfg.dt / n
-        for k in range(1, n + 1):
-            f = k / n
-            qk = q0 + (q1 - q0) * f
-            gk = g0 + (g1 - g0) * f
-            for body, (x, y, a) in zip(self.arm, self.arm_poses(qk, gk), strict=True):
-                bx, by = body.position
-                body.velocity = ((x - bx) / h, (y - by) / h)
-                body.angular_velocity = (a - body.angle) / h
+        # each arm body moves at constant velocity from its pose to the commanded one over the
+        # step's substeps: a chord of its arc, ~0.1 mm off at typical joint steps (3 mm at
+        # full joint speed), and the arm lands exactly on its kinematics at the step's end
+        inv = 1.0 / cfg.dt
+        for body, (x0, y0, a0), (x1, y1, a1) in zip(
+            self.arm, self._arm_pose, self.arm_poses(q1, g1), strict=True
+        ):
+            body.velocity = ((x1 - x0) * inv, (y1 - y0) * inv)
+            body.angular_velocity = (a1 - a0) * inv
+        h = cfg.dt / cfg.substeps
+        for _ in range(cfg.substeps):
             self.space.step(h)
         # land the arm exactly on the commanded pose (no floating-point drift)
         self._place_arm(q1, g1)

@@ -37,11 +37,10 @@ from fluids_bench.tasks.grasping.sim import (
     GraspWorld,
     WorldState,
     inverse,
-    within_limits,
     wrap,
 )
 
-LEAD_IN = 0.24  # m: lead-in point before the target, outside the clutter
+LEAD_IN = 0.20  # m: lead-in point before the target, outside the clutter
 STAND_OFF = 0.10  # m: where the final advance starts
 CLUTTER = 0.16  # m: around the target, transit goes around and off-corridor motion retracts
 ADVANCE_SPEED = 0.5  # fraction of max speed in the final advance
@@ -50,8 +49,10 @@ FINGER_CLEAR = 0.065  # m: closer than this, the fingertips reach the target
 CREEP = 0.35  # normalised speed of the align creep (above the caster's dead band)
 LATERAL_GAIN = 10.0  # 1/m: normalised lateral correction while aligning
 ALIGNED = math.radians(12.0)
+ALIGNABLE = math.radians(30.0)  # larger errors at the stand-off: back out and come again
+LIMIT_MARGIN = 0.1  # rad
 REPLAN_MOVE = 0.02  # m: the target moved this far since the plan
-REPLAN_SLACK = 25  # steps beyond the predicted length before a replan
+REPLAN_SLACK = 12  # steps beyond the predicted length before a replan
 
 
 @dataclass(frozen=True)
@@ -69,7 +70,6 @@ class Plan:
     start_step: int
     predicted_steps: int
     predicted_cost: float
-    obstacle_xy: np.ndarray  # (N, 2) obstacle centres when planned
 
 
 def _seg_dist(px, py, ax, ay, bx, by) -> float:
@@ -80,26 +80,35 @@ def _seg_dist(px, py, ax, ay, bx, by) -> float:
 
 
 def intrusion(cfg: GraspConfig, st: WorldState, heading: float) -> float:
-    """Summed depth (m) by which obstacles' bounding circles reach into the corridor strip."""
+    """How badly obstacles obstruct the corridor: 1 per obstacle whose centre lies in the jaws'
+    path (it would be caught between the fingers and shoved into the target), plus the depth
+    (m, ×10) by which the others' bounding circles reach into the strip the fingers sweep."""
     tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
     c, s = math.cos(heading), math.sin(heading)
     ax, ay = tx - LEAD_IN * c, ty - LEAD_IN * s
     bx, by = tx + 0.03 * c, ty + 0.03 * s
-    half = cfg.gap_open / 2 + 2 * cfg.finger_radius + 0.005
+    jaws = cfg.gap_open / 2
+    half = jaws + 2 * cfg.finger_radius + 0.005
     total = 0.0
     for i in range(N_OBJECTS):
         if i == TARGET or not st.on_table[i]:
             continue
         r = math.hypot(*st.sizes[i]) / 2
         d = _seg_dist(st.poses[i, 0], st.poses[i, 1], ax, ay, bx, by)
-        total += max(0.0, half + r - d)
+        if d < jaws:
+            total += 1.0
+        else:
+            total += 10.0 * max(0.0, half + r - d)
     return total
 
 
-def reachable(cfg: GraspConfig, x: float, y: float, heading: float) -> bool:
-    return any(
-        (q := inverse(cfg, x, y, heading, elbow)) is not None and within_limits(cfg, q)
-        for elbow in (-1.0, 1.0)
+def reachable(cfg: GraspConfig, x: float, y: float, heading: float, elbow: float) -> bool:
+    """Inverse kinematics on the arm's elbow branch lands inside the joint limits, with
+    :data:`LIMIT_MARGIN` to spare (the gripper must still turn on the way)."""
+    q = inverse(cfg, x, y, heading, elbow)
+    return q is not None and all(
+        lo + LIMIT_MARGIN <= a <= hi - LIMIT_MARGIN
+        for a, (lo, hi) in zip(q, cfg.joint_limits, strict=True)
     )
 
 
@@ -107,11 +116,12 @@ def rank_corridors(cfg: GraspConfig, st: WorldState, fan_deg: tuple[float, ...])
     """Reachable corridors, least obstructed first (ties: closest to the radial approach)."""
     tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
     bearing = math.atan2(ty, tx)
+    elbow = 1.0 if st.q[1] >= 0 else -1.0  # the arm stays on its elbow branch
     out = []
     for delta in fan_deg:
         h = bearing + math.radians(delta)
         c, s = math.cos(h), math.sin(h)
-        if not all(reachable(cfg, tx - r * c, ty - r * s, h) for r in (0.0, STAND_OFF, LEAD_IN)):
+        if not all(reachable(cfg, tx - r * c, ty - r * s, h, elbow) for r in (0.0, STAND_OFF)):
             continue
         lead_y = ty - LEAD_IN * s
         if lead_y < 0.03:  # the lead-in point must be over the table
@@ -162,14 +172,20 @@ def corridor_action(world: GraspWorld, heading: float) -> tuple[np.ndarray, str]
         vy = forward * s - LATERAL_GAIN * lateral * c
         return np.array([vx, vy, 0.0]), "advance"
     if abs(lateral) < 0.035 and -LEAD_IN - 0.05 <= along <= -FINGER_CLEAR:
-        if along >= -STAND_OFF - 0.01:  # at the stand-off, not aligned yet: creep along the line
-            vx = CREEP * c + LATERAL_GAIN * lateral * s
-            vy = CREEP * s - LATERAL_GAIN * lateral * c
-            return np.array([vx, vy, 0.0]), "align"
-        ahead = max(STAND_OFF, -along - 0.06)  # pure pursuit of a point 6 cm down the line
-        speed = 1.0 if heading_err < math.radians(30.0) else 0.6  # leave time to turn
-        vx, vy = _steer(px, py, tx - ahead * c, ty - ahead * s, speed, ms)
-        return np.array([vx, vy, 0.0]), "approach"
+        if along >= -STAND_OFF - 0.01:
+            if heading_err < ALIGNABLE:
+                # at the stand-off, nearly aligned: creep on a course that overshoots the
+                # heading error, so the trailing gripper turns faster than the course drifts
+                err = wrap(heading - h)
+                course = heading + max(-0.5, min(0.5, err))
+                vx = CREEP * math.cos(course) + 0.5 * LATERAL_GAIN * lateral * s
+                vy = CREEP * math.sin(course) - 0.5 * LATERAL_GAIN * lateral * c
+                return np.array([vx, vy, 0.0]), "align"
+        else:
+            ahead = max(STAND_OFF, -along - 0.06)  # pure pursuit of a point 6 cm down the line
+            speed = 1.0 if heading_err < math.radians(30.0) else 0.6  # leave time to turn
+            vx, vy = _steer(px, py, tx - ahead * c, ty - ahead * s, speed, ms)
+            return np.array([vx, vy, 0.0]), "approach"
     if dist < CLUTTER - 0.02:
         # off the corridor inside the clutter: back out, away from the target
         ux, uy = rx / max(dist, 1e-9), ry / max(dist, 1e-9)
@@ -208,16 +224,21 @@ class Outcome:
 
 
 def foresee(cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> Outcome:
-    """Roll the corridor's trajectory and control levels out on a world rebuilt from ``st``."""
+    """Roll the corridor's trajectory and control levels out on a world rebuilt from ``st``,
+    until the target is grasped or knocked off, or it moved more than :data:`REPLAN_MOVE` (the
+    live run would replan there, so the corridor's own future ends), or ``horizon`` steps."""
     world = GraspWorld.from_state(cfg, st)
     start = st.poses[:, :2].copy()
+    tx, ty = start[TARGET]
     steps = 0
+    target = world.state.poses[TARGET]
     while steps < horizon and not world.state.grasped and world.state.on_table[TARGET]:
         action, _ = corridor_action(world, heading)
         execute(world, action)
         steps += 1
+        if math.hypot(target[0] - tx, target[1] - ty) > REPLAN_MOVE:
+            break
     moved = np.hypot(*(world.state.poses[:, :2] - start).T)
-    moved[TARGET] = 0.0
     moved[~world.state.on_table] = 0.0
     cost = world.state.knocked + (0 if world.state.grasped else 10)
     return Outcome(float(cost), steps, float(moved.sum()))
@@ -229,8 +250,8 @@ class GraspSupervisor:
     def __init__(
         self,
         cfg: GraspConfig,
-        fan_deg: tuple[float, ...] = (0.0, -25.0, 25.0, -50.0, 50.0, -75.0, 75.0),
-        foresight: int = 3,
+        fan_deg: tuple[float, ...] = tuple(range(-90, 91, 15)),
+        foresight: int = 7,
         horizon: int = 60,
     ) -> None:
         self.cfg = cfg
@@ -238,12 +259,14 @@ class GraspSupervisor:
         self.foresight = foresight
         self.horizon = horizon
         self.plan_: Plan | None = None
+        self.overran: list[float] = []  # headings of this episode's plans that ran long
         self.replans = 0
         self.replan_seconds = 0.0
         self.last_replan_seconds = 0.0
 
     def reset(self) -> None:
         self.plan_ = None
+        self.overran: list[float] = []
 
     # -- behaviour -------------------------------------------------------------------------
 
@@ -251,6 +274,8 @@ class GraspSupervisor:
         start = time.perf_counter()
         st = world.state
         ranked = rank_corridors(self.cfg, st, self.fan_deg)
+        fresh = [c for c in ranked if all(abs(wrap(c.heading - h)) > 1e-6 for h in self.overran)]
+        ranked = fresh or ranked
         if not ranked:  # nothing reachable by the rules: take the radial approach anyway
             tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
             ranked = [Corridor(math.atan2(ty, tx), 0.0)]
@@ -259,18 +284,16 @@ class GraspSupervisor:
             outcome = foresee(self.cfg, st, corridor.heading, self.horizon)
             if best is None or outcome.key < best[0]:
                 best = (outcome.key, corridor, outcome)
-            if outcome.cost == 0 and outcome.disturbance < 0.01:
-                break  # clean success: nothing left to gain from the others
+            if outcome.cost == 0:
+                break  # the best cost there is: stop looking (ranked order breaks ties)
         assert best is not None
         _, corridor, outcome = best
-        obstacles = st.poses[:, :2].copy()
         self.plan_ = Plan(
             corridor,
             (float(st.poses[TARGET, 0]), float(st.poses[TARGET, 1])),
             st.steps,
             outcome.steps,
             outcome.cost,
-            obstacles,
         )
         self.last_replan_seconds = time.perf_counter() - start
         self.replan_seconds += self.last_replan_seconds
@@ -285,6 +308,7 @@ class GraspSupervisor:
         if math.hypot(tx - plan.target_xy[0], ty - plan.target_xy[1]) > REPLAN_MOVE:
             return False
         if st.steps - plan.start_step > plan.predicted_steps + REPLAN_SLACK:
+            self.overran.append(plan.corridor.heading)  # stuck: try another corridor next
             return False
         # an obstacle moved into the corridor since the plan
         now = intrusion(self.cfg, st, plan.corridor.heading)
