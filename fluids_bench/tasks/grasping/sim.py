@@ -31,6 +31,7 @@ This module imports neither gymnasium nor another task.
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass, field
 
@@ -38,10 +39,18 @@ import numpy as np
 import pymunk
 
 from fluids_bench.core.validation import check_float, check_int, fail
+from fluids_bench.tasks.grasping.kernels import arm_step_kernel
 
 JT_ITERATIONS = 6  # Jacobian-transpose iterations per env step (end effector within ~5%)
 N_OBJECTS = 6  # the target (index 0) and five obstacles
 TARGET = 0
+
+# pymunk's property setters, called directly: Body's attribute assignment goes through a typing
+# mixin's __setattr__ that costs more than the setter itself, ~20 times per step
+_SET_POSITION = pymunk.Body.position.fset
+_SET_ANGLE = pymunk.Body.angle.fset
+_SET_VELOCITY = pymunk.Body.velocity.fset
+_SET_ANGULAR_VELOCITY = pymunk.Body.angular_velocity.fset
 
 # collision categories: objects collide with everything, arm parts only with objects
 _OBJECT_CAT, _ARM_CAT = 0b01, 0b10
@@ -102,6 +111,25 @@ class GraspConfig:
     def reach(self) -> float:
         return sum(self.links) + self.grasp_offset
 
+    @functools.cached_property
+    def kernel_params(self) -> np.ndarray:
+        """The controller's parameters as the compiled kernel reads them (see kernels.py)."""
+        limits = np.asarray(self.joint_limits, dtype=np.float64).reshape(-1)
+        return np.array(
+            [
+                *self.links,
+                self.grasp_offset,
+                *limits,
+                self.joint_speed,
+                self.max_speed,
+                self.turn_rate,
+                self.caster_length,
+                self.dt,
+                JT_ITERATIONS,
+            ],
+            dtype=np.float64,
+        )
+
 
 # -- kinematics (plain floats: three joints are cheaper in math than in numpy) --------------
 
@@ -159,8 +187,8 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
     """Joint angles after one env step of commanded end-effector ``velocity`` (m/s).
 
     1. Jacobian transpose: ``JT_ITERATIONS`` steps ``Δq = α Jᵀ e`` toward the displaced end
-       effector ``p + v dt`` (``e`` the remaining error, ``α`` the optimal step along ``J Jᵀ e``);
-       this gives its new position.
+       effector ``p + v dt`` (``e`` the remaining error, ``α`` the optimal step along ``J Jᵀ e``;
+       a joint that reaches a limit drops out); this gives its new position.
     2. The arm's one redundant degree of freedom (the null space of ``J``) sets the gripper's
        heading, resolved exactly by inverse kinematics at that position: the gripper trails
        its motion like a caster, turning toward the direction of motion by the fraction
@@ -168,70 +196,14 @@ def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
        and holds its heading when the motion points backwards (more than 120° off).
     3. Joint speeds are scaled down to ``joint_speed``, then angles clipped to ``joint_limits``,
        and the whole step scaled down if the end effector would move faster than ``max_speed``.
+
+    Compiled (:mod:`fluids_bench.tasks.grasping.kernels`): it runs every step of the env and of
+    the supervisor's foresight.
     """
-    points, heading = forward(cfg, q)
-    vx, vy = float(velocity[0]), float(velocity[1])
-    speed2 = vx * vx + vy * vy
-    dq = [0.0, 0.0, 0.0]
-    if speed2 > 1e-12:
-        # Jacobian-transpose iterations toward the displaced end effector, each with the step
-        # length that minimises the remaining error along J Jᵀ e
-        goal_x, goal_y = points[4][0] + vx * cfg.dt, points[4][1] + vy * cfg.dt
-        moved = [float(q[0]), float(q[1]), float(q[2])]
-        pts = points
-        free = [True, True, True]  # joints at a limit drop out of J
-        for _ in range(JT_ITERATIONS):
-            ex, ey = goal_x - pts[4][0], goal_y - pts[4][1]
-            j0, j1 = jacobian(pts)
-            jte = [(j0[j] * ex + j1[j] * ey) if free[j] else 0.0 for j in range(3)]
-            jx = j0[0] * jte[0] + j0[1] * jte[1] + j0[2] * jte[2]
-            jy = j1[0] * jte[0] + j1[1] * jte[1] + j1[2] * jte[2]
-            denom = jx * jx + jy * jy
-            if denom < 1e-18:
-                break
-            alpha = (ex * jx + ey * jy) / denom
-            for j, (lo, hi) in enumerate(cfg.joint_limits):
-                m = moved[j] + alpha * jte[j]
-                if m <= lo or m >= hi:
-                    free[j] = False
-                moved[j] = min(hi, max(lo, m))
-            pts, _ = forward(cfg, moved)
-        dq = [moved[0] - q[0], moved[1] - q[1], moved[2] - q[2]]
-        err = wrap(math.atan2(vy, vx) - heading)
-        turn = 0.0
-        if abs(err) < math.radians(120.0):
-            fraction = 1.0 - math.exp(-math.sqrt(speed2) * cfg.dt / cfg.caster_length)
-            cap = cfg.turn_rate * cfg.dt
-            turn = max(-cap, min(cap, err * fraction))
-        branch = 1.0 if moved[1] >= 0 else -1.0
-        exact = inverse(cfg, pts[4][0], pts[4][1], heading + turn, elbow=branch)
-        if exact is not None:
-            # the same wrist angle branch as before (inverse wraps q3 to [-pi, pi))
-            exact[2] = q[2] + wrap(exact[2] - q[2])
-            if within_limits(cfg, exact):
-                dq = [exact[0] - q[0], exact[1] - q[1], exact[2] - q[2]]
-    peak = max(abs(d) for d in dq)
-    limit = cfg.joint_speed * cfg.dt
-    if peak > limit:
-        dq = [d * limit / peak for d in dq]
-    out = _clipped(cfg, q, dq)
-    # the end effector never outruns max_speed (the iterations and clipping can overshoot)
-    reach = cfg.max_speed * cfg.dt
-    for _ in range(4):
-        end, _ = forward(cfg, out)
-        moved_by = math.hypot(end[4][0] - points[4][0], end[4][1] - points[4][1])
-        if moved_by <= reach:
-            break
-        dq = [d * reach / moved_by * 0.999 for d in dq]
-        out = _clipped(cfg, q, dq)
-    return out
-
-
-def _clipped(cfg: GraspConfig, q, dq) -> list[float]:
-    return [
-        min(hi, max(lo, float(a) + d))
-        for a, d, (lo, hi) in zip(q, dq, cfg.joint_limits, strict=True)
-    ]
+    out = arm_step_kernel(
+        cfg.kernel_params, np.asarray(q, dtype=np.float64), float(velocity[0]), float(velocity[1])
+    )
+    return [float(out[0]), float(out[1]), float(out[2])]
 
 
 # -- objects -----------------------------------------------------------------------------------
@@ -428,8 +400,8 @@ class GraspWorld:
     def _place_arm(self, q, gripper: float) -> None:
         self._arm_pose = self.arm_poses(q, gripper)
         for body, (x, y, a) in zip(self.arm, self._arm_pose, strict=True):
-            body.position = (x, y)
-            body.angle = a
+            _SET_POSITION(body, (x, y))
+            _SET_ANGLE(body, a)
 
     # -- queries -----------------------------------------------------------------------------
 
@@ -509,8 +481,8 @@ class GraspWorld:
         for body, (x0, y0, a0), (x1, y1, a1) in zip(
             self.arm, self._arm_pose, self.arm_poses(q1, g1), strict=True
         ):
-            body.velocity = ((x1 - x0) * inv, (y1 - y0) * inv)
-            body.angular_velocity = (a1 - a0) * inv
+            _SET_VELOCITY(body, ((x1 - x0) * inv, (y1 - y0) * inv))
+            _SET_ANGULAR_VELOCITY(body, (a1 - a0) * inv)
         h = cfg.dt / cfg.substeps
         for _ in range(cfg.substeps):
             self.space.step(h)

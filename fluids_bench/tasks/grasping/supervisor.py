@@ -52,7 +52,8 @@ ALIGNED = math.radians(12.0)
 ALIGNABLE = math.radians(30.0)  # larger errors at the stand-off: back out and come again
 LIMIT_MARGIN = 0.1  # rad
 REPLAN_MOVE = 0.02  # m: the target moved this far since the plan
-REPLAN_SLACK = 12  # steps beyond the predicted length before a replan
+REPLAN_SLACK = 12
+REPLAN_INTRUSION = 0.1  # intrusion score (1 = an obstacle caught in the jaws' path)  # steps beyond the predicted length before a replan
 
 
 @dataclass(frozen=True)
@@ -161,7 +162,12 @@ def corridor_action(world: GraspWorld, heading: float) -> tuple[np.ndarray, str]
     dist = math.hypot(rx, ry)
     ms = cfg.max_speed
 
-    if any(i == TARGET for i, _ in world.between_fingers()) and (st.gripper > 0.0 or along > -0.01):
+    near = dist < cfg.finger_length + cfg.grasp_offset  # only then can it be between the fingers
+    if (
+        near
+        and (st.gripper > 0.0 or along > -0.01)
+        and any(i == TARGET for i, _ in world.between_fingers())
+    ):
         return np.array([0.0, 0.0, 1.0]), "close"
     heading_err = abs(wrap(h - heading))
     if abs(lateral) < 0.025 and -STAND_OFF - 0.03 <= along <= 0.0 and heading_err < ALIGNED:
@@ -310,9 +316,10 @@ class GraspSupervisor:
         if st.steps - plan.start_step > plan.predicted_steps + REPLAN_SLACK:
             self.overran.append(plan.corridor.heading)  # stuck: try another corridor next
             return False
-        # an obstacle moved into the corridor since the plan
+        # an obstacle moved into the corridor since the plan (caught in the jaws' path, or
+        # grazing the swept strip 1 cm deeper)
         now = intrusion(self.cfg, st, plan.corridor.heading)
-        return now <= plan.corridor.intrusion + 0.01
+        return now < plan.corridor.intrusion + REPLAN_INTRUSION
 
     def action(self, world: GraspWorld) -> np.ndarray:
         """The label: the normalised action (vx, vy, grip) for the world's current state."""

@@ -12,6 +12,7 @@ import gymnasium as gym
 import minari
 import numpy as np
 import pytest
+from arm_reference import arm_step_reference
 from gymnasium.utils.env_checker import check_env
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -73,6 +74,16 @@ def test_jacobian_matches_finite_differences():
             minus, _ = forward(CFG, q - dq)
             fd = (np.array(plus[4]) - np.array(minus[4])) / 2e-7
             np.testing.assert_allclose(J[:, j], fd, atol=1e-6)
+
+
+def test_compiled_controller_matches_the_python_reference():
+    """The numba kernel against its plain-Python reference, to a tolerance (never bit for bit:
+    compiled maths may differ in the last bit on some CPUs)."""
+    rng = np.random.default_rng(0)
+    for i in range(2000):
+        q = np.array([rng.uniform(0, math.pi), rng.uniform(-2.9, 2.9), rng.uniform(-2.2, 2.2)])
+        v = rng.uniform(-0.3, 0.3, 2) if i % 5 else np.zeros(2)
+        np.testing.assert_allclose(arm_step(CFG, q, v), arm_step_reference(CFG, q, v), atol=1e-12)
 
 
 def test_inverse_kinematics_round_trip():
