@@ -89,6 +89,9 @@ class GraspingInClutterEnv(gym.Env):
     with a standard deviation of `target_std_frac` × the table's width (3%, the source's
     setting), its rotation uniformly in [-45°, 45°]; each obstacle at a uniform bearing and a
     distance of 8.5–15 cm from the target, without overlaps and 3 cm inside the table's edge.
+    With `layout_seed`, the obstacles (and the target's rotation) form one fixed layout drawn
+    from that seed and only the target's position is resampled each reset (redrawn while it
+    would overlap an obstacle): the protocol of the source's SHIV experiment.
 
     ## Episode End
 
@@ -103,6 +106,7 @@ class GraspingInClutterEnv(gym.Env):
     | `obs_size`        | int         | 96       | side of the pixel observation, in [16, 512]     |
     | `target_std_frac` | float       | 0.03     | target offset std as a fraction of the table width, [0, 0.2] |
     | `foresight`       | int         | 7        | corridors the supervisor simulates per plan, [1, 7] |
+    | `layout_seed`     | int or None | None     | fixed obstacle layout (see Starting State), >= 0 |
     | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
 
@@ -127,6 +131,7 @@ class GraspingInClutterEnv(gym.Env):
         obs_size: int = 96,
         target_std_frac: float = 0.03,
         foresight: int = 7,
+        layout_seed: int | None = None,
         render_size: int = 480,
         render_mode: str | None = None,
     ) -> None:
@@ -140,6 +145,9 @@ class GraspingInClutterEnv(gym.Env):
         self.obs_size = check_int(WHERE, "obs_size", obs_size, 16, 512)
         std = check_float(WHERE, "target_std_frac", target_std_frac, 0.0, 0.2)
         self.foresight = check_int(WHERE, "foresight", foresight, 1, 7)
+        self.layout_seed = (
+            None if layout_seed is None else check_int(WHERE, "layout_seed", layout_seed, 0)
+        )
         self.render_size = check_int(WHERE, "render_size", render_size, 64, 2048)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
 
@@ -174,7 +182,8 @@ class GraspingInClutterEnv(gym.Env):
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
         super().reset(seed=seed)
-        self.world = GraspWorld(self.cfg, sample_scene(self.cfg, self.np_random))
+        scene = sample_scene(self.cfg, self.np_random, self.layout_seed)
+        self.world = GraspWorld(self.cfg, scene)
         self.supervisor.reset()
         self._label = None
         return self._observe(), self._info()

@@ -240,19 +240,49 @@ class WorldState:
         )
 
 
-def sample_scene(cfg: GraspConfig, rng: np.random.Generator) -> WorldState:
+def sample_scene(
+    cfg: GraspConfig, rng: np.random.Generator, layout_seed: int | None = None
+) -> WorldState:
     """Target around its nominal pose (isotropic Gaussian), five obstacles around the target.
 
     Obstacles are placed by rejection: a uniform bearing and a distance in
     ``obstacle_radius`` from the target, no overlap (bounding circles), on the table by
     ``edge_margin``. Everything is drawn from ``rng``.
+
+    With ``layout_seed``, the obstacles and the target's rotation are a fixed layout drawn
+    from that seed around the nominal pose, and only the target's position offset comes from
+    ``rng`` (redrawn while the target would overlap an obstacle): the source's protocol, which
+    resampled the target's pose in one scene.
     """
     std = cfg.target_std_frac * cfg.table_width
     sizes = np.empty((N_OBJECTS, 2))
     poses = np.empty((N_OBJECTS, 3))
     sizes[TARGET] = cfg.target_size
-    poses[TARGET, :2] = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
-    poses[TARGET, 2] = rng.uniform(-math.pi / 4, math.pi / 4)
+    if layout_seed is None:
+        poses[TARGET, :2] = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
+        poses[TARGET, 2] = rng.uniform(-math.pi / 4, math.pi / 4)
+        _place_obstacles(cfg, rng, sizes, poses)
+    else:
+        layout = np.random.default_rng(layout_seed)
+        poses[TARGET, :2] = cfg.target_nominal
+        poses[TARGET, 2] = layout.uniform(-math.pi / 4, math.pi / 4)
+        _place_obstacles(cfg, layout, sizes, poses)
+        radii = np.hypot(sizes[:, 0], sizes[:, 1]) / 2
+        for _ in range(1000):
+            xy = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
+            gaps = np.hypot(*(poses[1:, :2] - xy).T) - radii[1:] - radii[TARGET]
+            if gaps.min() > 0.005:
+                break
+        poses[TARGET, :2] = xy
+    hx, hy, hh = cfg.home
+    q = inverse(cfg, hx, hy, hh)
+    assert q is not None and within_limits(cfg, q)
+    return WorldState(sizes, poses, np.ones(N_OBJECTS, bool), np.array(q), 0.0)
+
+
+def _place_obstacles(
+    cfg: GraspConfig, rng: np.random.Generator, sizes: np.ndarray, poses: np.ndarray
+) -> None:
     radii = [math.hypot(*sizes[TARGET]) / 2]
     for i in range(1, N_OBJECTS):
         for _ in range(1000):
@@ -277,10 +307,6 @@ def sample_scene(cfg: GraspConfig, rng: np.random.Generator) -> WorldState:
         sizes[i] = side
         poses[i] = (x, y, rng.uniform(-math.pi / 4, math.pi / 4))
         radii.append(r)
-    hx, hy, hh = cfg.home
-    q = inverse(cfg, hx, hy, hh)
-    assert q is not None and within_limits(cfg, q)
-    return WorldState(sizes, poses, np.ones(N_OBJECTS, bool), np.array(q), 0.0)
 
 
 def _on_table(cfg: GraspConfig, x: float, y: float, margin: float = 0.0) -> bool:

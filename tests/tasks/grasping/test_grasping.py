@@ -249,6 +249,20 @@ def test_seeded_resets_vary_the_scene_and_repeat_exactly():
         assert np.array_equal(x, y)
 
 
+def test_layout_seed_fixes_the_obstacles_and_moves_the_target():
+    env = gym.make(ENV_ID, layout_seed=3)
+    starts = [env.reset(seed=s)[0] for s in range(20)]
+    obstacles = {s[3:18].tobytes() for s in starts}
+    targets = {s[:2].tobytes() for s in starts}
+    assert len(obstacles) == 1 and len(targets) == 20
+    st = env.unwrapped.world.state
+    radii = np.hypot(st.sizes[:, 0], st.sizes[:, 1]) / 2
+    gaps = np.hypot(*(st.poses[1:, :2] - st.poses[TARGET, :2]).T) - radii[1:] - radii[0]
+    assert gaps.min() > 0.005
+    other = gym.make(ENV_ID, layout_seed=4).reset(seed=0)[0]
+    assert other[3:18].tobytes() not in obstacles
+
+
 def test_target_offset_follows_the_stated_gaussian():
     rng = np.random.default_rng(0)
     offsets = np.array(
@@ -331,6 +345,7 @@ def test_render_rgb_array():
         {"obs_size": 8},
         {"target_std_frac": -0.1},
         {"foresight": 0},
+        {"layout_seed": -1},
         {"render_mode": "human"},
         {"obs_typ": "state"},
     ],
