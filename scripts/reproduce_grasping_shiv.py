@@ -14,7 +14,7 @@ Here: GraspingInClutter-v0 with ``layout_seed = round`` (each round its own fixe
 target's position resampled every episode), the algorithmic supervisor as the teacher, and the
 suite's :mod:`fluids_bench.algos` (DAgger with beta = 0, SHIV with the parameters above, every
 parameter passed explicitly). Every state of a DAgger rollout is labelled; SHIV labels the risky
-ones. The learner is evaluated after every iteration on ``--eval-episodes`` seeded episodes, the
+ones. Behavior Cloning on as many supervisor demonstrations is run as the off-policy reference. The learner is evaluated after every iteration on ``--eval-episodes`` seeded episodes, the
 supervisor on the same seeds; normalised performance is ``(10 - cost) / (10 - cost_supervisor)``
 (the env's return is ``10 - cost``).
 
@@ -36,13 +36,13 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from fluids_bench.algos import dagger, shiv
+from fluids_bench.algos import bc, dagger, shiv
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
 
 ENV_ID = "GraspingInClutter-v0"
-ALGOS = ("dagger", "shiv")
+ALGOS = ("dagger", "shiv", "bc")  # BC: the off-policy reference (supervisor demonstrations)
 # the source's settings (ch. 6), passed explicitly
 SHIV_PARAMS = {"nu": 0.1, "sigma": 6.0, "nu_r": 1e-3, "sigma_r": 5.0, "epsilon": None}
 
@@ -71,7 +71,9 @@ def run_one(
         "seed": round_,
     }
     start = time.process_time()
-    if algo == "dagger":
+    if algo == "bc":  # one demonstration per iteration, as many as DAgger's rollouts
+        result = bc.run(bc.BCConfig(**{**common, "iterations": iterations + 1}))
+    elif algo == "dagger":
         config = dagger.DAggerConfig(
             **common, beta=0.0, beta_schedule="constant", initial_demos=1, retrain_at=None
         )
@@ -131,7 +133,7 @@ def summarise(runs: list[dict[str, Any]], levels: tuple[float, ...]) -> dict[str
         }
     reductions = {}
     for level in levels:
-        d, s = (out[a]["queries_to_reach"][str(level)] for a in ALGOS)
+        d, s = (out[a]["queries_to_reach"][str(level)] for a in ("dagger", "shiv"))
         reductions[str(level)] = None if d is None or s is None else round(1.0 - s / d, 4)
     out["query_reduction"] = reductions
     out["supervisor_cost_mean"] = float(np.mean([r["supervisor_cost"] for r in runs]))
@@ -141,8 +143,8 @@ def summarise(runs: list[dict[str, Any]], levels: tuple[float, ...]) -> dict[str
 def plot(summary: dict[str, Any], path: Path, rounds: int, alpha: float) -> None:
     figure = new_figure(1, 1, (6.4, 4.2))
     axes = figure.axes[0]
-    names = {"dagger": "DAgger", "shiv": "SHIV (σ = 6, σ_r = 5)"}
-    for algo, colour in zip(ALGOS, ("tab:blue", "tab:orange"), strict=True):
+    names = {"dagger": "DAgger", "shiv": "SHIV (σ = 6, σ_r = 5)", "bc": "BC (off-policy)"}
+    for algo, colour in zip(ALGOS, ("tab:blue", "tab:orange", "tab:gray"), strict=True):
         curve = summary[algo]
         x, mean = np.array(curve["labels"]), np.array(curve["normalised_mean"])
         error = np.array(curve["normalised_stderr"] or np.zeros_like(mean))
