@@ -31,6 +31,8 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
+    # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
+    "GraspingInClutter-v0": ("fluids_bench.tasks.grasping.env:GraspingInClutterEnv", 100, {}),
 }
 
 # PettingZoo ParallelEnv ids, registered with PettingZoo's own registry:
