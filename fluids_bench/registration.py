@@ -30,6 +30,11 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
+    # Gymnasium's MuJoCo v5 locomotion envs with supervisors (ch. 3); 1,000 steps as in v5.
+    "Hopper-IL-v0": ("fluids_bench.tasks.locomotion.env:HopperILEnv", 1000, {}),
+    "Walker2d-IL-v0": ("fluids_bench.tasks.locomotion.env:Walker2dILEnv", 1000, {}),
+    "HalfCheetah-IL-v0": ("fluids_bench.tasks.locomotion.env:HalfCheetahILEnv", 1000, {}),
+    "Humanoid-IL-v0": ("fluids_bench.tasks.locomotion.env:HumanoidILEnv", 1000, {}),
 }
 
 # PettingZoo ParallelEnv ids (not Gymnasium envs, so not registered with gym):
