@@ -9,6 +9,7 @@ of which supervisor labels (``metadata["supervisor"]``: kind, recipe, weights sh
 
 from __future__ import annotations
 
+import dataclasses
 import os
 from typing import Any
 
@@ -22,6 +23,7 @@ from gymnasium.envs.mujoco.walker2d_v5 import Walker2dEnv
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_int, reject_unknown_kwargs
+from fluids_bench.tasks.locomotion.mpc import MPCConfig
 from fluids_bench.tasks.locomotion.supervisors import KINDS, make_supervisor
 
 _GYM_ENVS = {
@@ -47,17 +49,7 @@ SOURCE_EXPERT_RETURN = {
     "Humanoid": 9575.0,
 }
 
-_MPC_KEYS = (
-    "samples",
-    "horizon",
-    "iterations",
-    "sigma",
-    "upright_weight",
-    "velocity_cap",
-    "termination_penalty",
-    "seed",
-    "nthread",
-)
+_MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
 
 
 class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):

@@ -5,7 +5,7 @@ The planner clones the env's full physics state (``mjSTATE_FULLPHYSICS`` plus
 return is the return the env would pay. Each label is planned from scratch ("cold"): the
 nominal plan starts at zero and ``iterations`` rounds of predictive sampling refine it, each
 round drawing ``samples - 1`` Gaussian perturbations of the nominal (plus the nominal itself)
-and keeping the best. The draws come from a generator seeded by ``seed`` and a CRC of the state
+and keeping the best; round ``i`` scales the noise by ``sigma_decay**i``. The draws come from a generator seeded by ``seed`` and a CRC of the state
 bytes, so the label is a pure function of the physics state: asking twice, or from the same
 state reached another way, gives the same action.
 
@@ -62,6 +62,7 @@ class MPCConfig:
     horizon: int = 20
     iterations: int = 1
     sigma: float = 0.8
+    sigma_decay: float = 1.0
     upright_weight: float = 0.0
     velocity_cap: float = float("inf")
     termination_penalty: float = 0.0
@@ -75,6 +76,7 @@ class MPCConfig:
         check_int(where, "horizon", self.horizon, 1, 10_000)
         check_int(where, "iterations", self.iterations, 1, 1_000)
         check_float(where, "sigma", self.sigma, 0.0, lo_open=True)
+        check_float(where, "sigma_decay", self.sigma_decay, 0.0, 1.0, lo_open=True)
         check_float(where, "upright_weight", self.upright_weight, 0.0)
         if not (self.velocity_cap == float("inf")):
             check_float(where, "velocity_cap", self.velocity_cap, 0.0)
@@ -215,8 +217,9 @@ class SamplingMPC:
             nominal = np.broadcast_to(mid, (cfg.horizon, nu)).copy()
         else:
             nominal = self._prior_plan(x0, warm)
-        for _ in range(cfg.iterations):
-            noise = rng.standard_normal((cfg.samples, cfg.horizon, nu)) * (cfg.sigma * half)
+        for i in range(cfg.iterations):
+            scale = cfg.sigma * cfg.sigma_decay**i * half  # later rounds search closer
+            noise = rng.standard_normal((cfg.samples, cfg.horizon, nu)) * scale
             noise[0] = 0.0  # candidate 0 re-evaluates the nominal: never worse than last round
             controls = np.clip(nominal[None] + noise, self.ctrl_low, self.ctrl_high)
             state, sensor = self._rollout(x0, warm, controls)
