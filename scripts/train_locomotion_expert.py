@@ -23,6 +23,7 @@ Example: ``nice -n 10 python scripts/train_locomotion_expert.py --env Hopper --i
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
 import multiprocessing as mp
 import os
@@ -105,6 +106,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-every", type=int, default=10)
     p.add_argument("--eval-episodes", type=int, default=5)
     p.add_argument("--workers", type=int, default=1)
+    p.add_argument(
+        "--ship",
+        type=Path,
+        default=None,
+        help="copy the best weights so far into this folder as <env>.npz and record them in its "
+        "manifest.json (sha256, recipe, evaluation); trains nothing",
+    )
     for key in ("n_directions", "top"):
         p.add_argument("--" + key.replace("_", "-"), type=int, default=None)
     for key in ("step_size", "noise", "shift"):
@@ -117,6 +125,8 @@ def main(argv: list[str] | None = None) -> int:
     if not 1 <= hp["top"] <= hp["n_directions"]:
         p.error(f"--top is {hp['top']}; allowed: 1..--n-directions ({hp['n_directions']})")
 
+    if args.ship is not None:
+        return ship(args.env, args.out, args.ship)
     env = _env(args.env)
     obs_dim = env.observation_space.shape[0]
     act_dim = env.action_space.shape[0]
@@ -274,6 +284,32 @@ def main(argv: list[str] | None = None) -> int:
     finally:
         if pool:
             pool.terminate()
+    return 0
+
+
+def ship(name: str, weights: Path, folder: Path) -> int:
+    """Copy ``weights`` into ``folder`` and record it in ``folder/manifest.json``."""
+    meta = json.loads(weights.with_name(weights.name + ".json").read_text())
+    data = weights.read_bytes()
+    if hashlib.sha256(data).hexdigest() != meta["sha256"]:
+        raise SystemExit(f"{weights} changed since its record was written; rerun training")
+    folder.mkdir(parents=True, exist_ok=True)
+    target = f"{name.lower()}.npz"
+    atomic_write(folder / target, data)
+    manifest_path = folder / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
+    manifest[name] = {
+        "file": target,
+        "sha256": meta["sha256"],
+        "recipe": meta["recipe"],
+        "selected_at_iteration": meta["best"]["iteration"],
+        "training_eval": meta["best"],
+        "training_iterations_run": meta["iterations_done"],
+        "training_seconds": meta["elapsed_s"],
+        "training_env_steps": meta["env_steps"],
+    }
+    atomic_write(manifest_path, (json.dumps(manifest, indent=1, sort_keys=True) + "\n").encode())
+    print(f"shipped {weights} as {folder / target} (sha256 {meta['sha256']})")
     return 0
 
 
