@@ -35,7 +35,7 @@ _GYM_ENVS = {
 
 # The supervisor each id uses unless told otherwise (chosen by measurement: README).
 DEFAULT_SUPERVISOR = {
-    "Hopper": "mpc",
+    "Hopper": "policy",
     "Walker2d": "mpc",
     "HalfCheetah": "mpc",
     "Humanoid": "mpc",
@@ -81,6 +81,11 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
         check_int(where, "width", width, 16, 4096)
         check_int(where, "height", height, 16, 4096)
         if mpc is not None:
+            if kind == "policy":
+                raise ValueError(
+                    f"{where}: field 'mpc' is {mpc!r} with supervisor 'policy'; allowed: None, "
+                    "or planner settings with supervisor 'mpc' or 'guided_mpc'"
+                )
             if not isinstance(mpc, dict):
                 raise ValueError(
                     f"{where}: field 'mpc' is {mpc!r}; allowed: a dict of planner settings"

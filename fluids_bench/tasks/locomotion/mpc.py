@@ -5,7 +5,9 @@ The planner clones the env's full physics state (``mjSTATE_FULLPHYSICS`` plus
 return is the return the env would pay. Each label is planned from scratch ("cold"): the
 nominal plan starts at zero and ``iterations`` rounds of predictive sampling refine it, each
 round drawing ``samples - 1`` Gaussian perturbations of the nominal (plus the nominal itself)
-and keeping the best; round ``i`` scales the noise by ``sigma_decay**i``. The draws come from a generator seeded by ``seed`` and a CRC of the state
+and keeping the best; round ``i`` scales the noise by ``sigma_decay**i``. With ``knots`` = K > 0
+the perturbations are drawn at K knots and interpolated linearly over the horizon (a smaller
+search space: what a cold start needs). The draws come from a generator seeded by ``seed`` and a CRC of the state
 bytes, so the label is a pure function of the physics state: asking twice, or from the same
 state reached another way, gives the same action.
 
@@ -63,6 +65,7 @@ class MPCConfig:
     iterations: int = 1
     sigma: float = 0.8
     sigma_decay: float = 1.0
+    knots: int = 0
     upright_weight: float = 0.0
     velocity_cap: float = float("inf")
     termination_penalty: float = 0.0
@@ -76,6 +79,7 @@ class MPCConfig:
         check_int(where, "horizon", self.horizon, 1, 10_000)
         check_int(where, "iterations", self.iterations, 1, 1_000)
         check_float(where, "sigma", self.sigma, 0.0, lo_open=True)
+        check_int(where, "knots", self.knots, 0, self.horizon)
         check_float(where, "sigma_decay", self.sigma_decay, 0.0, 1.0, lo_open=True)
         check_float(where, "upright_weight", self.upright_weight, 0.0)
         if not (self.velocity_cap == float("inf")):
@@ -127,6 +131,10 @@ class SamplingMPC:
         self.ctrl_low, self.ctrl_high = lo.copy(), hi.copy()
         self.nstate = mujoco.mj_stateSize(self.model, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         self.prior = prior
+        if config.knots:
+            # (H, K) matrix mapping knot values to per-step values (linear interpolation)
+            t = np.linspace(0.0, config.knots - 1, config.horizon)
+            self._interp = np.maximum(0.0, 1.0 - np.abs(t[:, None] - np.arange(config.knots)[None]))
         self._pool: rollout.Rollout | None = None
         self._scratch: mujoco.MjData | None = None
 
@@ -219,7 +227,13 @@ class SamplingMPC:
             nominal = self._prior_plan(x0, warm)
         for i in range(cfg.iterations):
             scale = cfg.sigma * cfg.sigma_decay**i * half  # later rounds search closer
-            noise = rng.standard_normal((cfg.samples, cfg.horizon, nu)) * scale
+            if cfg.knots:  # smooth perturbations: Gaussian at knots, linear in between
+                noise = np.einsum(
+                    "hk,skn->shn", self._interp, rng.standard_normal((cfg.samples, cfg.knots, nu))
+                )
+                noise *= scale
+            else:
+                noise = rng.standard_normal((cfg.samples, cfg.horizon, nu)) * scale
             noise[0] = 0.0  # candidate 0 re-evaluates the nominal: never worse than last round
             controls = np.clip(nominal[None] + noise, self.ctrl_low, self.ctrl_high)
             state, sensor = self._rollout(x0, warm, controls)

@@ -22,6 +22,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.tasks.locomotion.dataset import export_supervisor_dataset
+from fluids_bench.tasks.locomotion.env import DEFAULT_SUPERVISOR
 from fluids_bench.tasks.locomotion.mpc import MPCConfig, SamplingMPC
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
 
@@ -34,8 +35,17 @@ ALLOWED_WARNINGS = (
 )
 
 
+def small(env_id: str) -> dict:
+    """Kwargs that keep the id's default supervisor cheap (a tiny planner for MPC ids)."""
+    return SMALL if DEFAULT_SUPERVISOR[env_id.split("-")[0]] != "policy" else {}
+
+
 def make(env_id: str, **kwargs) -> gym.Env:
-    return gym.make(env_id, **{**SMALL, **kwargs})
+    if kwargs.get("supervisor") == "policy":
+        return gym.make(env_id, **kwargs)
+    if "mpc" in kwargs and "supervisor" not in kwargs:
+        kwargs["supervisor"] = "mpc"
+    return gym.make(env_id, **{**small(env_id), **kwargs})
 
 
 def tiny_weights(tmp_path, env_id: str, hidden: int = 5, seed: int = 0):
@@ -222,16 +232,21 @@ def test_minari_export_and_recover_environment(env_id, tmp_path, monkeypatch):
         env_id,
         2,
         seed=0,
-        env_kwargs=SMALL,
+        env_kwargs=small(env_id),
         noise_std=0.1,
         max_steps=5,
     )
     assert dataset.total_steps == 10
     loaded = minari.load_dataset(f"locomotion/{name}-test-v0")
     record = json.loads(loaded.storage.metadata["description"])
-    assert record["supervisor"]["kind"] == "mpc"
-    assert record["supervisor"]["recipe"]["samples"] == SMALL["mpc"]["samples"]
-    assert "ref_max_score" not in loaded.storage.metadata  # a non-default planner: unmeasured
+    meta = gym.make(env_id, **small(env_id)).unwrapped.metadata
+    assert record["supervisor"] == json.loads(json.dumps(meta["supervisor"]))
+    if small(env_id):  # a shrunk planner: its return is not measured, so no reference scores
+        assert "ref_max_score" not in loaded.storage.metadata
+    else:
+        assert loaded.storage.metadata["ref_min_score"] == meta["reference_scores"]["random"]
+        assert loaded.storage.metadata["ref_max_score"] == meta["reference_scores"]["supervisor"]
+        assert record["supervisor"]["weights_sha256"] == meta["supervisor"]["weights_sha256"]
     recovered = loaded.recover_environment()
     episode = next(loaded.iterate_episodes())
     obs, info = recovered.reset(seed=0)
@@ -254,6 +269,7 @@ def test_rgb_array_render():
         ({"mpc": {"sample": 3}}, "mpc key"),
         ({"width": 3}, "width"),
         ({"render_mode": "rgb"}, "render_mode"),
+        ({"supervisor": "policy", "mpc": {"samples": 3}}, "mpc"),
         ({"supervisor": "policy", "weights": "x.npz"}, "weights_sha256"),
     ],
 )
