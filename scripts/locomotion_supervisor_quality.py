@@ -35,7 +35,8 @@ def episode(
     env = gym.make(env_id, max_episode_steps=steps, **kwargs)
     rng = np.random.default_rng([seed, 0xA5])
     _, info = env.reset(seed=seed)
-    total, n, label_time = 0.0, 0, 0.0
+    total, n, flipped = 0.0, 0, 0
+    planar = not env_id.startswith("Humanoid")
     terminated = truncated = False
     while not (terminated or truncated):
         label = info["supervisor_action"]
@@ -44,6 +45,8 @@ def episode(
         _, reward, terminated, truncated, info = env.step(action)
         total += reward
         n += 1
+        # planar bodies: qpos[2] is the torso pitch; beyond pi/2 the runner is on its back
+        flipped += planar and abs(env.unwrapped._sim.data.qpos[2]) > np.pi / 2
     # time the label alone on the final state (the step loop above includes physics)
     t0 = time.perf_counter()
     reps = 20 if kind == "policy" else 3
@@ -59,6 +62,7 @@ def episode(
         "return": total,
         "steps": n,
         "fell": bool(terminated),
+        "flipped_frac": flipped / max(n, 1),
         "ms_per_label": 1e3 * label_time,
         "supervisor": env.unwrapped.metadata["supervisor"],
     }
@@ -75,8 +79,8 @@ def table(records: list[dict]) -> str:
             (r["env_id"], r["kind"], r["noise_std"], json.dumps(r["mpc"])), []
         ).append(r)
     lines = [
-        "| env | supervisor | noise std | episodes | mean return ± sd | min | falls | source expert | ms/label |",
-        "|---|---|---|---|---|---|---|---|---|",
+        "| env | supervisor | noise std | episodes | mean return ± sd | min | falls | steps on its back | source expert | ms/label |",
+        "|---|---|---|---|---|---|---|---|---|---|",
     ]
     for (env_id, kind, noise, mpc), rs in sorted(groups.items()):
         ret = np.array([r["return"] for r in rs])
@@ -84,7 +88,8 @@ def table(records: list[dict]) -> str:
         label = kind if mpc == "null" else f"{kind} {mpc}"
         lines.append(
             f"| {env_id} | {label} | {noise:g} | {len(rs)} | {ret.mean():,.0f} ± {ret.std():,.0f} | "
-            f"{ret.min():,.0f} | {sum(r['fell'] for r in rs)} | {SOURCE[name]:,.0f} | "
+            f"{ret.min():,.0f} | {sum(r['fell'] for r in rs)} | "
+            f"{100 * np.mean([r.get('flipped_frac', 0.0) for r in rs]):.1f}% | {SOURCE[name]:,.0f} | "
             f"{np.median([r['ms_per_label'] for r in rs]):.2f} |"
         )
     return "\n".join(lines)

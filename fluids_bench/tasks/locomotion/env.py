@@ -37,7 +37,7 @@ _GYM_ENVS = {
 DEFAULT_SUPERVISOR = {
     "Hopper": "policy",
     "Walker2d": "mpc",
-    "HalfCheetah": "mpc",
+    "HalfCheetah": "policy",
     "Humanoid": "mpc",
 }
 
