@@ -163,6 +163,10 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
         return obs, float(reward), terminated, truncated, info
 
     def render(self):
+        if self.render_mode == "rgb_array":
+            # Gymnasium's camera stays put and the runners leave the frame: follow the torso
+            viewer = self._sim.mujoco_renderer._get_viewer(self.render_mode)
+            viewer.cam.lookat[0] = self._sim.data.xpos[1, 0]
         return self._sim.render()
 
     def close(self) -> None:
