@@ -273,6 +273,7 @@ def test_rgb_array_render():
         ({"supervisor": "policy", "weights": "x.npz"}, "weights_sha256"),
     ],
 )
+@pytest.mark.filterwarnings("ignore:.*render_mode")  # gym.make warns before the env raises
 def test_bad_arguments_raise_value_errors(kwargs, field):
     with pytest.raises(ValueError, match=field):
         gym.make("Walker2d-IL-v0", **kwargs)

@@ -43,10 +43,28 @@ def test_hopper_policy_hops_without_falling():
     assert np.mean([r for r, _ in results]) >= 2500
 
 
+def test_halfcheetah_policy_runs_upright_above_the_floor():
+    """Shipped HalfCheetah policy: 3 seeded 1,000-step episodes, mean >= 4,400 (the issue's
+    floor; the README's 10 episodes: 4,843 ± 48), never on its back."""
+    env = gym.make("HalfCheetah-IL-v0", supervisor="policy")
+    returns = []
+    for seed in range(3):
+        _, info = env.reset(seed=seed)
+        total, pitch = 0.0, 0.0
+        for _ in range(1000):
+            _, reward, _, _, info = env.step(info["supervisor_action"])
+            total += reward
+            pitch = max(pitch, abs(env.unwrapped._sim.data.qpos[2]))
+        returns.append(total)
+        assert pitch < np.pi / 2
+    assert np.mean(returns) >= 4400
+
+
 @pytest.mark.slow
 def test_halfcheetah_mpc_runs_forward():
-    """The cold-start planner, 150 steps of one seed: it runs forward, upright."""
+    """The cold-start planner, 100 steps of one seed: it runs forward, upright (random actions
+    make about -28 in 100 steps)."""
     env = gym.make("HalfCheetah-IL-v0", supervisor="mpc")
-    total, _ = supervised_return(env, 0, 150)
-    assert total > 150.0
+    total, _ = supervised_return(env, 0, 100)
+    assert total > 50.0
     assert abs(env.unwrapped._sim.data.qpos[2]) < 1.0  # not flipped onto its back
