@@ -143,23 +143,25 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
     # -- supervisor protocol ---------------------------------------------------------------
     def supervisor_action(self) -> np.ndarray:
         """The supervisor's action in the current physics state (a pure function of it)."""
-        label = self._supervisor.label(self._sim)
-        return np.clip(label, self.action_space.low, self.action_space.high).astype(
-            self.action_space.dtype
-        )
+        return self._label(None)
+
+    def _label(self, obs: np.ndarray | None) -> np.ndarray:
+        # both kinds stay inside the bounds (tanh squashing; the planner clips its controls to
+        # the actuator ranges, which are the action space's), so no clip is needed here
+        return self._supervisor.label(self._sim, obs).astype(self.action_space.dtype)
 
     # -- Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
         super().reset(seed=seed)
         obs, info = self._sim.reset(seed=seed, options=options)
-        info[SUPERVISOR_ACTION_KEY] = self.supervisor_action()
+        info[SUPERVISOR_ACTION_KEY] = self._label(obs)
         return obs, info
 
     def step(self, action):
         obs, reward, terminated, truncated, info = self._sim.step(
             np.asarray(action, dtype=np.float64)
         )
-        info[SUPERVISOR_ACTION_KEY] = self.supervisor_action()
+        info[SUPERVISOR_ACTION_KEY] = self._label(obs)
         return obs, float(reward), terminated, truncated, info
 
     def render(self):

@@ -54,6 +54,10 @@ class MLPPolicy:
                     "allowed: W (out, in) with in equal to the previous width, b (out,)"
                 )
             dim = w.shape[0]
+        # precomputed once: the label is computed every env step
+        self._hidden = list(zip(self.weights[:-1], self.biases[:-1], strict=True))
+        self._w_out, self._b_out = self.weights[-1], self.biases[-1]
+        self._range = self.action_high - self.action_low
         if dim != self.action_low.shape[0]:
             raise ValueError(
                 f"MLPPolicy: output width {dim}; allowed: the action dimension "
@@ -66,18 +70,15 @@ class MLPPolicy:
 
     def preactivation(self, obs: np.ndarray) -> np.ndarray:
         """The output layer's value before the tanh squashing (batched over leading axes)."""
-        x = (np.asarray(obs, dtype=np.float64) - self.obs_mean) / self.obs_std
-        last = len(self.weights) - 1
-        for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
-            x = x @ w.T + b
-            if i < last:
-                x = np.tanh(x)
-        return x
+        x = (obs - self.obs_mean) / self.obs_std
+        for w, b in self._hidden:
+            x = np.tanh(x @ w.T + b)
+        return x @ self._w_out.T + self._b_out
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
         """The deterministic action for ``obs`` (shape ``(obs_dim,)`` or ``(n, obs_dim)``)."""
-        squashed = np.tanh(self.preactivation(obs))
-        return self.action_low + (squashed + 1.0) * 0.5 * (self.action_high - self.action_low)
+        # the arithmetic (and so every bit of the result) is the training script's
+        return self.action_low + (np.tanh(self.preactivation(obs)) + 1.0) * 0.5 * self._range
 
     def to_bytes(self) -> bytes:
         """The ``.npz`` bytes of this policy (the shipped file format)."""

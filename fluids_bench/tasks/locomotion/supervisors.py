@@ -101,8 +101,9 @@ class PolicySupervisor:
     def __init__(self, task: str, policy: MLPPolicy, record: dict) -> None:
         self.task, self.policy, self.record = task, policy, record
 
-    def label(self, env) -> np.ndarray:
-        return self.policy(env._get_obs())
+    def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:
+        """``obs``: the env's observation of the current state, when the caller has it."""
+        return self.policy(env._get_obs() if obs is None else obs)
 
     def describe(self) -> dict[str, Any]:
         return {
@@ -128,7 +129,7 @@ class MPCSupervisor:
             prior = lambda qpos, qvel: policy(observation(task, qpos, qvel))  # noqa: E731
         self.mpc = SamplingMPC(self.config, env.model, env.frame_skip, env.fullpath, prior)
 
-    def label(self, env) -> np.ndarray:
+    def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:
         return self.mpc.act(env.data)
 
     def describe(self) -> dict[str, Any]:
