@@ -237,20 +237,36 @@ def _card(name: str, summary: str) -> str:
 
 
 class HopperILEnv(LocomotionILEnv):
-    __doc__ = _card("Hopper", "A one-legged planar hopper must hop forward without falling.")
+    __doc__ = _card(
+        "Hopper",
+        "A one-legged planar hopper must hop forward without falling. Default supervisor: "
+        "the shipped ARS policy (3,053 ± 35 over 10 seeded 1,000-step episodes, no falls).",
+    )
     task = "Hopper"
 
 
 class Walker2dILEnv(LocomotionILEnv):
-    __doc__ = _card("Walker2d", "A planar biped must walk forward without falling.")
+    __doc__ = _card(
+        "Walker2d",
+        "A planar biped must walk forward without falling. Default supervisor: cold-start "
+        "MPC (no trained policy is shipped yet; its return is not measured).",
+    )
     task = "Walker2d"
 
 
 class HalfCheetahILEnv(LocomotionILEnv):
-    __doc__ = _card("HalfCheetah", "A planar cat-like runner must run forward fast (no falls).")
+    __doc__ = _card(
+        "HalfCheetah",
+        "A planar cat-like runner must run forward fast (no falls). Default supervisor: the "
+        "shipped ARS policy (4,843 ± 48 over 10 seeded 1,000-step episodes).",
+    )
     task = "HalfCheetah"
 
 
 class HumanoidILEnv(LocomotionILEnv):
-    __doc__ = _card("Humanoid", "A 3D humanoid must walk forward without falling.")
+    __doc__ = _card(
+        "Humanoid",
+        "A 3D humanoid must walk forward without falling. Default supervisor: cold-start MPC "
+        "(about half a second per label; its return is not measured over 10 episodes).",
+    )
     task = "Humanoid"
