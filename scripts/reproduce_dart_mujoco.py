@@ -42,6 +42,8 @@ import numpy as np
 from tqdm import tqdm
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")
+# an ablation, not in the source: DART's covariance rescaled to a fixed trace (--dart-fixed-trace)
+EXTRA_METHODS = ("dart_fixed",)
 LEARNERS = {
     "mlp": {"hidden_layer_sizes": [64, 64], "max_iter": 500},
     "linear": {"hidden_layer_sizes": [], "activation": "identity", "max_iter": 500},
@@ -88,7 +90,7 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
         result = dart.run(
             dart.DARTConfig(
                 **common,
-                alpha=None,
+                alpha=s["dart_fixed_trace"] if method == "dart_fixed" else None,
                 update_at=tuple(s["update_at"]),
                 heldout_fraction=0.0,
                 initial_noise_std=0.0,
@@ -201,7 +203,8 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--env", nargs="+", default=["HalfCheetah-IL-v0"])
     p.add_argument("--env-kwargs", type=json.loads, default={}, help="JSON kwargs for gym.make")
     p.add_argument("--learners", nargs="+", default=list(LEARNERS), choices=list(LEARNERS))
-    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS)
+    p.add_argument("--methods", nargs="+", default=list(METHODS), choices=METHODS + EXTRA_METHODS)
+    p.add_argument("--dart-fixed-trace", type=float, default=0.5, help="tr(Sigma) of dart_fixed")
     p.add_argument("--seeds", type=int, default=3)
     p.add_argument("--iterations", type=int, default=20)
     p.add_argument("--eval-at", type=int, nargs="+", default=[5, 10, 15, 20])
@@ -210,6 +213,11 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-steps", type=int, default=500)
     p.add_argument("--workers", type=int, default=1)
     p.add_argument("--out", type=Path, default=Path("runs/dart_mujoco"))
+    p.add_argument(
+        "--summarise-only",
+        action="store_true",
+        help="summarise and plot the finished runs, run none",
+    )
     args = p.parse_args(argv)
     settings = {
         "iterations": args.iterations,
@@ -217,6 +225,7 @@ def main(argv: list[str] | None = None) -> int:
         "update_at": args.update_at,
         "eval_episodes": args.eval_episodes,
         "eval_steps": args.eval_steps,
+        "dart_fixed_trace": args.dart_fixed_trace,
     }
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     jobs, runs = [], []
@@ -227,7 +236,7 @@ def main(argv: list[str] | None = None) -> int:
                     path = args.out / "runs" / f"{env_id}_{learner}_{method}_{seed}.json"
                     if path.exists():
                         runs.append(json.loads(path.read_text()))
-                    else:
+                    elif not args.summarise_only:
                         jobs.append(
                             (path, (env_id, args.env_kwargs, learner, method, seed, settings))
                         )
@@ -243,6 +252,9 @@ def main(argv: list[str] | None = None) -> int:
     except KeyboardInterrupt:
         print("interrupted: finished runs are saved; run the same command to resume")
         return 130
+    if not runs:
+        print("no finished runs")
+        return 1
     summary = summarise(runs)
     write_json_atomic(
         args.out / "summary.json",
@@ -250,8 +262,29 @@ def main(argv: list[str] | None = None) -> int:
     )
     for env_id in args.env:
         plot(summary, env_id, args.out / f"{env_id}.png")
-    print(json.dumps(summary, indent=1))
+    print(markdown(summary))
     return 0
+
+
+def markdown(summary: dict[str, Any]) -> str:
+    """The README's table: mean eval return per evaluation iteration, collection, compute."""
+    lines = []
+    for key, s in summary.items():
+        if not lines:
+            its = " | ".join(f"iter {i}" for i in s["eval_iterations"])
+            lines = [
+                f"| env / learner / method | seeds | {its} | mean collection return | fit seconds |",
+                "|---" * (4 + len(s["eval_iterations"])) + "|",
+            ]
+        evals = " | ".join(
+            f"{m:,.0f} ± {e:,.0f}"
+            for m, e in zip(s["eval_return_mean"], s["eval_return_se"], strict=True)
+        )
+        coll = np.mean(s["collection_return_mean"])
+        lines.append(
+            f"| {key} | {s['seeds']} | {evals} | {coll:,.0f} | {s['train_seconds_total_mean']:,.0f} |"
+        )
+    return "\n".join(lines)
 
 
 if __name__ == "__main__":
