@@ -98,6 +98,11 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
                 )
             for key in mpc:
                 check_choice(where, "mpc key", key, _MPC_KEYS)
+        if weights is not None and kind == "mpc":
+            raise ValueError(
+                f"{where}: field 'weights' is {weights!r} with supervisor 'mpc'; allowed: None, "
+                "or a weight file with supervisor 'policy' or 'guided_mpc'"
+            )
         if (weights is None) != (weights_sha256 is None):
             raise ValueError(
                 f"{where}: field 'weights_sha256' is {weights_sha256!r} with weights {weights!r}; "

@@ -19,7 +19,6 @@ from functools import cache
 from pathlib import Path
 from typing import Any
 
-import mujoco
 import numpy as np
 
 from fluids_bench.tasks.locomotion.mpc import MPCConfig, SamplingMPC
@@ -167,7 +166,3 @@ def make_supervisor(
         )
     guide = PolicySupervisor(task, policy, record)
     return guide if kind == "policy" else MPCSupervisor(task, env, mpc, guide)
-
-
-def mujoco_version() -> str:
-    return mujoco.__version__

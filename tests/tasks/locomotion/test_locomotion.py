@@ -270,6 +270,7 @@ def test_rgb_array_render():
         ({"width": 3}, "width"),
         ({"render_mode": "rgb"}, "render_mode"),
         ({"supervisor": "policy", "mpc": {"samples": 3}}, "mpc"),
+        ({"supervisor": "mpc", "weights": "x.npz", "weights_sha256": "0" * 64}, "weights"),
         ({"supervisor": "policy", "weights": "x.npz"}, "weights_sha256"),
     ],
 )
