@@ -119,6 +119,8 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
 
 
 def summarise(runs: list[dict]) -> dict[str, Any]:
+    """Means over seeds. A record's ``train_seconds`` is cumulative (every fit so far), so a
+    run's total is its last record's."""
     out: dict[str, Any] = {}
     for r in runs:
         key = f"{r['env_id']}/{r['learner']}/{r['method']}"
@@ -143,7 +145,7 @@ def summarise(runs: list[dict]) -> dict[str, Any]:
             "eval_return_se": (ev.std(0) / np.sqrt(len(rs))).round(1).tolist(),
             "collection_return_mean": coll.mean(0).round(1).tolist(),
             "train_seconds_total_mean": round(
-                float(np.mean([sum(x["train_seconds"] for x in r["records"]) for r in rs])), 2
+                float(np.mean([r["records"][-1]["train_seconds"] for r in rs])), 2
             ),
             "wall_seconds_mean": round(float(np.mean([r["wall_seconds"] for r in rs])), 1),
             "supervisor_return_mean": round(
