@@ -33,6 +33,11 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
     "GraspingInClutter-v0": ("fluids_bench.tasks.grasping.env:GraspingInClutterEnv", 100, {}),
+    # Gymnasium's MuJoCo v5 locomotion envs with supervisors (ch. 3); 1,000 steps as in v5.
+    "Hopper-IL-v0": ("fluids_bench.tasks.locomotion.env:HopperILEnv", 1000, {}),
+    "Walker2d-IL-v0": ("fluids_bench.tasks.locomotion.env:Walker2dILEnv", 1000, {}),
+    "HalfCheetah-IL-v0": ("fluids_bench.tasks.locomotion.env:HalfCheetahILEnv", 1000, {}),
+    "Humanoid-IL-v0": ("fluids_bench.tasks.locomotion.env:HumanoidILEnv", 1000, {}),
 }
 
 # PettingZoo ParallelEnv ids, registered with PettingZoo's own registry:

@@ -20,6 +20,8 @@ from fluids_bench.registration import ENV_SPECS
 IDS = sorted(ENV_SPECS)
 # short episodes keep the whole file well under a minute on two cores
 SHORT = {"FLUIDS-v0": 40, "FLUIDS-Sensitivity-v0": 40}
+# the locomotion ids run 1,000 steps and some label with a planner (tens of ms to a second)
+SHORT.update({f"{name}-IL-v0": 5 for name in ("Hopper", "Walker2d", "HalfCheetah", "Humanoid")})
 
 
 def _noise_for(env_id: str) -> ActorSpec:

@@ -1,0 +1,278 @@
+"""Gymnasium's MuJoCo v5 locomotion envs with a supervisor: ``<Name>-IL-v0``.
+
+The physics, observations, rewards and terminations are Gymnasium's own ``<Name>-v5`` env,
+unchanged: each IL env holds one and forwards ``reset``/``step``/``render`` to it, and only adds
+the supervisor protocol (``supervisor_action()``, ``info["supervisor_action"]``) and a record
+of which supervisor labels (``metadata["supervisor"]``: kind, recipe, weights sha256).
+``reset(seed=s)`` gives exactly Gymnasium's initial state for seed ``s``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import os
+from typing import Any
+
+import gymnasium as gym
+import mujoco
+import numpy as np
+from gymnasium.envs.mujoco.half_cheetah_v5 import HalfCheetahEnv
+from gymnasium.envs.mujoco.hopper_v5 import HopperEnv
+from gymnasium.envs.mujoco.humanoid_v5 import HumanoidEnv
+from gymnasium.envs.mujoco.walker2d_v5 import Walker2dEnv
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import check_choice, check_int, reject_unknown_kwargs
+from fluids_bench.tasks.locomotion.mpc import MPCConfig
+from fluids_bench.tasks.locomotion.supervisors import KINDS, make_supervisor
+
+_GYM_ENVS = {
+    "Hopper": HopperEnv,
+    "Walker2d": Walker2dEnv,
+    "HalfCheetah": HalfCheetahEnv,
+    "Humanoid": HumanoidEnv,
+}
+
+# The supervisor each id uses unless told otherwise (chosen by measurement: README).
+DEFAULT_SUPERVISOR = {
+    "Hopper": "policy",
+    "Walker2d": "mpc",
+    "HalfCheetah": "policy",
+    "Humanoid": "mpc",
+}
+
+# Mean 1,000-step return of the source's TRPO experts (Ho & Ermon 2016), for comparison.
+SOURCE_EXPERT_RETURN = {
+    "Hopper": 3571.0,
+    "Walker2d": 6717.0,
+    "HalfCheetah": 4463.0,
+    "Humanoid": 9575.0,
+}
+
+# Mean 1,000-step return of uniformly random actions over seeds 0-9 (measured: README), and of
+# the default supervisor (measured by scripts/locomotion_supervisor_quality.py: README).
+RANDOM_RETURN = {"Hopper": 17.0, "Walker2d": 4.3, "HalfCheetah": -278.4, "Humanoid": 117.8}
+# None: not measured over 10 episodes yet (then datasets carry no reference scores).
+SUPERVISOR_RETURN: dict[str, float | None] = {
+    "Hopper": 3052.8,
+    "Walker2d": None,
+    "HalfCheetah": 4842.7,
+    "Humanoid": None,
+}
+
+_MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
+
+
+class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
+    """Base class of the four ids; subclasses set ``task`` and carry the env card."""
+
+    task: str = ""
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 0}
+
+    @reject_unknown_kwargs
+    def __init__(
+        self,
+        supervisor: str | None = None,
+        weights: str | None = None,
+        weights_sha256: str | None = None,
+        mpc: dict[str, Any] | None = None,
+        render_mode: str | None = None,
+        width: int = 480,
+        height: int = 480,
+    ) -> None:
+        where = f"{self.task}-IL-v0"
+        kind = DEFAULT_SUPERVISOR[self.task] if supervisor is None else supervisor
+        check_choice(where, "supervisor", kind, KINDS)
+        check_choice(where, "render_mode", render_mode, [None, "rgb_array"])
+        check_int(where, "width", width, 16, 4096)
+        check_int(where, "height", height, 16, 4096)
+        if mpc is not None:
+            if kind == "policy":
+                raise ValueError(
+                    f"{where}: field 'mpc' is {mpc!r} with supervisor 'policy'; allowed: None, "
+                    "or planner settings with supervisor 'mpc' or 'guided_mpc'"
+                )
+            if not isinstance(mpc, dict):
+                raise ValueError(
+                    f"{where}: field 'mpc' is {mpc!r}; allowed: a dict of planner settings"
+                )
+            for key in mpc:
+                check_choice(where, "mpc key", key, _MPC_KEYS)
+        if weights is not None and kind == "mpc":
+            raise ValueError(
+                f"{where}: field 'weights' is {weights!r} with supervisor 'mpc'; allowed: None, "
+                "or a weight file with supervisor 'policy' or 'guided_mpc'"
+            )
+        if (weights is None) != (weights_sha256 is None):
+            raise ValueError(
+                f"{where}: field 'weights_sha256' is {weights_sha256!r} with weights {weights!r}; "
+                "allowed: both given or both None"
+            )
+        if (
+            render_mode == "rgb_array"
+            and "MUJOCO_GL" not in os.environ
+            and "DISPLAY" not in os.environ
+        ):
+            os.environ["MUJOCO_GL"] = "egl"  # headless: render off-screen through EGL
+        self._kwargs = dict(
+            supervisor=supervisor,
+            weights=weights,
+            weights_sha256=weights_sha256,
+            mpc=mpc,
+            render_mode=render_mode,
+            width=width,
+            height=height,
+        )
+        self._sim = _GYM_ENVS[self.task](render_mode=render_mode, width=width, height=height)
+        self.render_mode = render_mode
+        self.observation_space = self._sim.observation_space
+        self.action_space = self._sim.action_space
+        self._supervisor = make_supervisor(self.task, kind, self._sim, weights, weights_sha256, mpc)
+        self.metadata = {
+            **type(self).metadata,
+            "render_fps": self._sim.metadata["render_fps"],
+            "gymnasium_env": f"{self.task}-v5",
+            "mujoco_version": mujoco.__version__,
+            "supervisor": self._supervisor.describe(),
+            "source_expert_return": SOURCE_EXPERT_RETURN[self.task],
+            # D4RL-style normalisation: (R - random) / (supervisor - random); the supervisor
+            # figure is the default supervisor's, so it is None for another choice
+            "reference_scores": {
+                "random": RANDOM_RETURN[self.task],
+                "supervisor": SUPERVISOR_RETURN[self.task]
+                if kind == DEFAULT_SUPERVISOR[self.task] and weights is None and mpc is None
+                else None,
+            },
+        }
+
+    # -- supervisor protocol ---------------------------------------------------------------
+    def supervisor_action(self) -> np.ndarray:
+        """The supervisor's action in the current physics state (a pure function of it)."""
+        return self._label(None)
+
+    def _label(self, obs: np.ndarray | None) -> np.ndarray:
+        # both kinds stay inside the bounds (tanh squashing; the planner clips its controls to
+        # the actuator ranges, which are the action space's), so no clip is needed here
+        return self._supervisor.label(self._sim, obs).astype(self.action_space.dtype)
+
+    # -- Gymnasium API ---------------------------------------------------------------------
+    def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        super().reset(seed=seed)
+        obs, info = self._sim.reset(seed=seed, options=options)
+        info[SUPERVISOR_ACTION_KEY] = self._label(obs)
+        return obs, info
+
+    def step(self, action):
+        obs, reward, terminated, truncated, info = self._sim.step(
+            np.asarray(action, dtype=np.float64)
+        )
+        info[SUPERVISOR_ACTION_KEY] = self._label(obs)
+        return obs, float(reward), terminated, truncated, info
+
+    def render(self):
+        if self.render_mode == "rgb_array":
+            # Gymnasium's camera stays put and the runners leave the frame: follow the torso
+            viewer = self._sim.mujoco_renderer._get_viewer(self.render_mode)
+            viewer.cam.lookat[0] = self._sim.data.xpos[1, 0]
+        return self._sim.render()
+
+    def close(self) -> None:
+        self._sim.close()
+
+    # -- pickling: rebuild from kwargs, then restore the exact physics state -----------------
+    def __getstate__(self) -> dict[str, Any]:
+        return {
+            "kwargs": self._kwargs,
+            "data": self._sim.data,  # MjData pickles whole (state, warm start, derived fields)
+            "sim_rng": self._sim.np_random.bit_generator.state if self._sim._np_random else None,
+            "rng": self._np_random.bit_generator.state if self._np_random else None,
+        }
+
+    def __setstate__(self, state: dict[str, Any]) -> None:
+        type(self).__init__(self, **state["kwargs"])
+        sim = self._sim
+        saved = state["data"]
+        sim.data = saved  # the renderer keeps its own reference: point it at the restored data
+        if hasattr(sim, "mujoco_renderer"):
+            sim.mujoco_renderer.data = saved
+        if state["sim_rng"] is not None:
+            sim.np_random.bit_generator.state = state["sim_rng"]
+        if state["rng"] is not None:
+            self.np_random.bit_generator.state = state["rng"]
+
+
+_CARD_COMMON = """
+    ## Supervisor
+
+    `supervisor` chooses who labels: `"policy"` (the shipped network for this task,
+    `fluids_bench/tasks/locomotion/weights/`, sha256-checked at load; microseconds per label),
+    `"mpc"` (predictive sampling on the exact MuJoCo model, planned from scratch for every
+    label; its cost is stated in `metadata["supervisor"]["label_cost"]`) or `"guided_mpc"`
+    (the same search started from the policy's plan). Every label is a deterministic function of
+    the physics state. `metadata["supervisor"]` records the kind, recipe and weights hash.
+
+    ## Arguments
+
+    - `supervisor`: `"policy"`, `"mpc"` or `"guided_mpc"` (default: the task's measured best).
+    - `weights`, `weights_sha256`: another weight file for the policy supervisor, and its hash.
+    - `mpc`: overrides of the planner settings (`samples`, `horizon`, `iterations`, `sigma`,
+      `upright_weight`, `velocity_cap`, `termination_penalty`, `seed`, `nthread`).
+    - `render_mode`: `None` or `"rgb_array"`; `width`, `height`: frame size in pixels.
+
+    ## Version History
+
+    - v0: Gymnasium's v5 env with a supervisor.
+"""
+
+
+def _card(name: str, summary: str) -> str:
+    return (
+        f"""
+    ## Description
+
+    Gymnasium's `{name}-v5` (MuJoCo), unchanged, with a supervisor. {summary}
+
+    ## Action Space, Observation Space, Rewards, Starting State, Episode End
+
+    Exactly those of Gymnasium's `{name}-v5` with its default arguments (see its docs);
+    `max_episode_steps` is 1000 as there.
+"""
+        + _CARD_COMMON
+    )
+
+
+class HopperILEnv(LocomotionILEnv):
+    __doc__ = _card(
+        "Hopper",
+        "A one-legged planar hopper must hop forward without falling. Default supervisor: "
+        "the shipped ARS policy (3,053 ± 35 over 10 seeded 1,000-step episodes, no falls).",
+    )
+    task = "Hopper"
+
+
+class Walker2dILEnv(LocomotionILEnv):
+    __doc__ = _card(
+        "Walker2d",
+        "A planar biped must walk forward without falling. Default supervisor: cold-start "
+        "MPC (no trained policy is shipped yet; its return is not measured).",
+    )
+    task = "Walker2d"
+
+
+class HalfCheetahILEnv(LocomotionILEnv):
+    __doc__ = _card(
+        "HalfCheetah",
+        "A planar cat-like runner must run forward fast (no falls). Default supervisor: the "
+        "shipped ARS policy (4,843 ± 48 over 10 seeded 1,000-step episodes).",
+    )
+    task = "HalfCheetah"
+
+
+class HumanoidILEnv(LocomotionILEnv):
+    __doc__ = _card(
+        "Humanoid",
+        "A 3D humanoid must walk forward without falling. Default supervisor: cold-start MPC "
+        "(16 samples x 20 steps, planned from scratch; it falls within 100 steps: no working "
+        "Humanoid supervisor is shipped yet).",
+    )
+    task = "Humanoid"

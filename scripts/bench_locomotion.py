@@ -1,0 +1,83 @@
+"""Speed of the locomotion IL envs: env steps/s with the supervisor's label every step, next to
+Gymnasium's bare ``<Name>-v5`` in the same run (same seed, same random actions, one process).
+
+Prints one JSON object. A policy supervisor's label is one small MLP forward pass; an MPC
+label is a planning call, so ``--steps`` is counted per id and kind.
+
+Example: ``python scripts/bench_locomotion.py --env Hopper-IL-v0 --kind policy --steps 3000``
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import platform
+import time
+
+import gymnasium as gym
+import numpy as np
+
+import fluids_bench  # noqa: F401  (registers the ids)
+
+
+def steps_per_second(env: gym.Env, steps: int, seed: int) -> float:
+    actions = np.random.default_rng(seed).uniform(
+        env.action_space.low, env.action_space.high, (steps, env.action_space.shape[0])
+    )
+    env.reset(seed=seed)
+    t0 = time.perf_counter()
+    for a in actions:
+        _, _, terminated, truncated, _ = env.step(a)
+        if terminated or truncated:
+            env.reset()
+    return steps / (time.perf_counter() - t0)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument(
+        "--env",
+        nargs="+",
+        default=["Hopper-IL-v0", "Walker2d-IL-v0", "HalfCheetah-IL-v0", "Humanoid-IL-v0"],
+    )
+    p.add_argument("--kind", default=None, help="supervisor kind (default: each id's)")
+    p.add_argument("--steps", type=int, default=2000)
+    p.add_argument("--repeats", type=int, default=3, help="best of this many timings")
+    p.add_argument("--seed", type=int, default=0)
+    args = p.parse_args(argv)
+    rows = []
+    for env_id in args.env:
+        name = env_id.split("-")[0]
+        kwargs = {} if args.kind is None else {"supervisor": args.kind}
+        il = gym.make(env_id, **kwargs)
+        bare = gym.make(f"{name}-v5")
+        best_bare = max(steps_per_second(bare, args.steps, args.seed) for _ in range(args.repeats))
+        best_il = max(steps_per_second(il, args.steps, args.seed) for _ in range(args.repeats))
+        rows.append(
+            {
+                "env_id": env_id,
+                "supervisor": il.unwrapped.metadata["supervisor"]["kind"],
+                "bare_steps_per_s": round(best_bare, 1),
+                "labelled_steps_per_s": round(best_il, 1),
+                "label_overhead_pct": round(100 * (best_bare / best_il - 1), 1),
+                "steps": args.steps,
+            }
+        )
+    print(
+        json.dumps(
+            {
+                "benchmark": "locomotion env steps/s, label every step vs Gymnasium's bare v5 env",
+                "machine": platform.processor() or platform.machine(),
+                "cpus": os.cpu_count(),
+                "load_average_1min": round(os.getloadavg()[0], 2),
+                "results": rows,
+            },
+            indent=1,
+        )
+    )
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())

@@ -1,0 +1,317 @@
+"""Train a locomotion supervisor policy with Augmented Random Search (ARS V2-t), in numpy.
+
+ARS (Mania, Guy and Recht 2018) perturbs the policy parameters in ``n_directions`` random
+directions, runs one episode with ``+nu*delta`` and one with ``-nu*delta``, keeps the ``top``
+best directions and steps along their reward differences, scaled by the rewards' std. States are
+normalised by running statistics of every state seen in training (V2). The policy is
+:class:`fluids_bench.tasks.locomotion.policy.MLPPolicy` (tanh-squashed output, so not linear in
+the observation); ``--hidden`` adds tanh hidden layers (default: none).
+
+Rollouts run Gymnasium's own ``<Name>-v5`` env (the env the supervisor will act in), each
+episode reset with its own seed drawn from the run's seeded generator, so the run is a pure
+function of its settings whatever ``--workers`` is. As in the ARS paper, the per-step survival
+bonus is subtracted from the training reward (``--shift``); evaluations use the env's reward.
+
+Resumable: the state after every iteration is written atomically to ``<out>.ckpt.npz``; run the
+same command again to continue. Ctrl-C stops cleanly after the current iteration's checkpoint.
+Writes ``<out>`` (the best evaluated policy, .npz) and ``<out>.json`` (recipe, history, sha256).
+
+Example: ``nice -n 10 python scripts/train_locomotion_expert.py --env Hopper --iterations 400
+--out runs/hopper.npz --workers 2``
+"""
+
+from __future__ import annotations
+
+import argparse
+import hashlib
+import json
+import multiprocessing as mp
+import os
+import sys
+import time
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
+
+# The ARS paper's V2-t settings per task (Table 9 of arXiv:1803.07055), shift = survival bonus.
+PRESETS = {
+    "Hopper": dict(n_directions=8, top=4, step_size=0.01, noise=0.025, shift=1.0),
+    "Walker2d": dict(n_directions=40, top=30, step_size=0.025, noise=0.01, shift=1.0),
+    "HalfCheetah": dict(n_directions=32, top=4, step_size=0.02, noise=0.03, shift=0.0),
+    "Humanoid": dict(n_directions=230, top=230, step_size=0.02, noise=0.0075, shift=5.0),
+}
+
+_ENVS: dict[str, gym.Env] = {}
+
+
+def _env(name: str) -> gym.Env:
+    if name not in _ENVS:
+        _ENVS[name] = gym.make(f"{name}-v5", disable_env_checker=True).unwrapped
+    return _ENVS[name]
+
+
+def build_policy(theta, shapes, obs_mean, obs_std, low, high) -> MLPPolicy:
+    weights, biases, i = [], [], 0
+    for out_dim, in_dim in shapes:
+        weights.append(theta[i : i + out_dim * in_dim].reshape(out_dim, in_dim))
+        i += out_dim * in_dim
+        biases.append(theta[i : i + out_dim])
+        i += out_dim
+    return MLPPolicy(obs_mean, obs_std, weights, biases, low, high)
+
+
+def rollout(job):
+    """One episode: returns (return with shift, env return, steps, sum obs, sum obs^2)."""
+    name, theta, shapes, obs_mean, obs_std, seed, shift, horizon = job
+    env = _env(name)
+    low, high = env.action_space.low, env.action_space.high
+    policy = build_policy(theta, shapes, obs_mean, obs_std, low, high)
+    obs, _ = env.reset(seed=int(seed))
+    total, steps = 0.0, 0
+    s1 = np.zeros_like(obs_mean)
+    s2 = np.zeros_like(obs_mean)
+    for _ in range(horizon):
+        s1 += obs
+        s2 += obs * obs
+        obs, reward, terminated, _, _ = env.step(policy(obs))
+        total += reward
+        steps += 1
+        if terminated:
+            break
+    return total - shift * steps, total, steps, s1, s2
+
+
+def layer_shapes(obs_dim: int, act_dim: int, hidden: list[int]) -> list[tuple[int, int]]:
+    dims = [obs_dim, *hidden, act_dim]
+    return [(dims[i + 1], dims[i]) for i in range(len(dims) - 1)]
+
+
+def atomic_write(path: Path, data: bytes) -> None:
+    tmp = path.with_name(path.name + ".tmp")
+    tmp.write_bytes(data)
+    os.replace(tmp, path)
+
+
+def main(argv: list[str] | None = None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--env", required=True, choices=sorted(PRESETS))
+    p.add_argument("--out", required=True, type=Path, help="weight file to write (.npz)")
+    p.add_argument("--iterations", type=int, default=300)
+    p.add_argument("--seed", type=int, default=0)
+    p.add_argument("--hidden", type=int, nargs="*", default=[], help="tanh hidden widths")
+    p.add_argument("--horizon", type=int, default=1000)
+    p.add_argument("--eval-every", type=int, default=10)
+    p.add_argument("--eval-episodes", type=int, default=5)
+    p.add_argument("--workers", type=int, default=1)
+    p.add_argument(
+        "--ship",
+        type=Path,
+        default=None,
+        help="copy the best weights so far into this folder as <env>.npz and record them in its "
+        "manifest.json (sha256, recipe, evaluation); trains nothing",
+    )
+    for key in ("n_directions", "top"):
+        p.add_argument("--" + key.replace("_", "-"), type=int, default=None)
+    for key in ("step_size", "noise", "shift"):
+        p.add_argument("--" + key.replace("_", "-"), type=float, default=None)
+    args = p.parse_args(argv)
+    hp = dict(PRESETS[args.env])
+    for key in hp:
+        if getattr(args, key) is not None:
+            hp[key] = getattr(args, key)
+    if not 1 <= hp["top"] <= hp["n_directions"]:
+        p.error(f"--top is {hp['top']}; allowed: 1..--n-directions ({hp['n_directions']})")
+
+    if args.ship is not None:
+        return ship(args.env, args.out, args.ship)
+    env = _env(args.env)
+    obs_dim = env.observation_space.shape[0]
+    act_dim = env.action_space.shape[0]
+    low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
+    shapes = layer_shapes(obs_dim, act_dim, args.hidden)
+    n_params = sum(o * i + o for o, i in shapes)
+    recipe = {
+        "algorithm": "ARS V2-t (Mania et al. 2018), numpy",
+        "env": f"{args.env}-v5",
+        "seed": args.seed,
+        "hidden": args.hidden,
+        "horizon": args.horizon,
+        "eval_every": args.eval_every,
+        "eval_episodes": args.eval_episodes,
+        "eval_seeds": f"10_000_000 + range({args.eval_episodes})",
+        **hp,
+        "command": "python scripts/train_locomotion_expert.py " + " ".join(sys.argv[1:]),
+    }
+
+    ckpt = args.out.with_name(args.out.name + ".ckpt.npz")
+    meta_path = args.out.with_name(args.out.name + ".json")
+    rng = np.random.default_rng(args.seed)
+    if ckpt.exists():
+        with np.load(ckpt, allow_pickle=False) as z:
+            theta = z["theta"]
+            best_theta, best_mean, best_std = z["best_theta"], z["best_mean"], z["best_std"]
+            n, s1, s2 = float(z["n"]), z["s1"], z["s2"]
+            state = json.loads(str(z["state"]))
+        rng.bit_generator.state = state["rng"]
+        start, history, best = state["iteration"], state["history"], state["best"]
+        elapsed, env_steps = state["elapsed"], state["env_steps"]
+        if state["recipe"]["seed"] != args.seed or state["recipe"]["hidden"] != args.hidden:
+            p.error(f"checkpoint {ckpt} was made with other settings: {state['recipe']}")
+        print(f"resuming at iteration {start} (best eval {best['mean_return']:.1f})")
+    else:
+        theta = np.zeros(n_params)
+        # hidden layers start random (output layer zero, so the first policy outputs mid-range)
+        i = 0
+        for o, inp in shapes[:-1]:
+            theta[i : i + o * inp] = rng.standard_normal(o * inp) / np.sqrt(inp)
+            i += o * inp + o
+        n, s1, s2 = 0.0, np.zeros(obs_dim), np.zeros(obs_dim)
+        start, history, best = 0, [], {"mean_return": -np.inf, "iteration": 0}
+        best_theta, best_mean, best_std = theta.copy(), np.zeros(obs_dim), np.ones(obs_dim)
+        elapsed, env_steps = 0.0, 0
+
+    def normaliser():
+        if n < 2:
+            return np.zeros(obs_dim), np.ones(obs_dim)
+        mean = s1 / n
+        var = np.maximum(s2 / n - mean * mean, 0.0)
+        std = np.sqrt(var)
+        std[std < 1e-7] = np.inf  # a constant input carries no information
+        return mean, std
+
+    pool = mp.get_context("fork").Pool(args.workers) if args.workers > 1 else None
+    run = pool.map if pool else lambda f, jobs: list(map(f, jobs))
+    N, b = hp["n_directions"], hp["top"]
+    try:
+        for it in range(start, args.iterations):
+            t0 = time.perf_counter()
+            mean, std = normaliser()
+            deltas = rng.standard_normal((N, n_params))
+            seeds = rng.integers(0, 2**31 - 1, size=(N, 2))
+            jobs = []
+            for k in range(N):
+                for sign, col in ((1.0, 0), (-1.0, 1)):
+                    th = theta + sign * hp["noise"] * deltas[k]
+                    jobs.append(
+                        (args.env, th, shapes, mean, std, seeds[k, col], hp["shift"], args.horizon)
+                    )
+            results = run(rollout, jobs)
+            r = np.array([res[0] for res in results]).reshape(N, 2)
+            for res in results:
+                n += res[2]
+                s1 = s1 + res[3]
+                s2 = s2 + res[4]
+                env_steps += res[2]
+            order = np.argsort(-np.max(r, axis=1), kind="stable")[:b]
+            sigma_r = r[order].std()
+            if sigma_r > 0:
+                theta = theta + hp["step_size"] / (b * sigma_r) * (
+                    (r[order, 0] - r[order, 1]) @ deltas[order]
+                )
+            row = {
+                "iteration": it + 1,
+                "train_mean_return": float(np.mean([x[1] for x in results])),
+            }
+            if (it + 1) % args.eval_every == 0 or it + 1 == args.iterations:
+                mean, std = normaliser()
+                evals = run(
+                    rollout,
+                    [
+                        (args.env, theta, shapes, mean, std, 10_000_000 + e, 0.0, args.horizon)
+                        for e in range(args.eval_episodes)
+                    ],
+                )
+                rets = [x[1] for x in evals]
+                row.update(
+                    eval_mean=float(np.mean(rets)),
+                    eval_min=float(np.min(rets)),
+                    eval_steps=[int(x[2]) for x in evals],
+                )
+                env_steps += sum(x[2] for x in evals)
+                if row["eval_mean"] > best["mean_return"]:
+                    best = {
+                        "mean_return": row["eval_mean"],
+                        "iteration": it + 1,
+                        "min_return": row["eval_min"],
+                        "steps": row["eval_steps"],
+                    }
+                    best_theta, best_mean, best_std = theta.copy(), mean, std
+                    policy = build_policy(best_theta, shapes, best_mean, best_std, low, high)
+                    atomic_write(args.out, policy.to_bytes())
+            elapsed += time.perf_counter() - t0
+            row.update(elapsed_s=round(elapsed, 1), env_steps=int(env_steps))
+            history.append(row)
+            print(json.dumps(row), flush=True)
+            state = {
+                "iteration": it + 1,
+                "history": history,
+                "best": best,
+                "elapsed": elapsed,
+                "env_steps": int(env_steps),
+                "rng": rng.bit_generator.state,
+                "recipe": recipe,
+            }
+            buf_path = ckpt.with_name(ckpt.name + ".tmp.npz")
+            np.savez(
+                buf_path,
+                theta=theta,
+                best_theta=best_theta,
+                best_mean=best_mean,
+                best_std=best_std,
+                n=n,
+                s1=s1,
+                s2=s2,
+                state=json.dumps(state),
+            )
+            os.replace(buf_path, ckpt)
+            if args.out.exists():
+                meta = {
+                    "recipe": recipe,
+                    "best": best,
+                    "iterations_done": it + 1,
+                    "elapsed_s": round(elapsed, 1),
+                    "env_steps": int(env_steps),
+                    "sha256": sha256_of(args.out),
+                    "history": history,
+                }
+                atomic_write(meta_path, json.dumps(meta, indent=1).encode())
+    except KeyboardInterrupt:
+        print("interrupted: the last finished iteration is checkpointed", file=sys.stderr)
+        return 130
+    finally:
+        if pool:
+            pool.terminate()
+    return 0
+
+
+def ship(name: str, weights: Path, folder: Path) -> int:
+    """Copy ``weights`` into ``folder`` and record it in ``folder/manifest.json``."""
+    meta = json.loads(weights.with_name(weights.name + ".json").read_text())
+    data = weights.read_bytes()
+    if hashlib.sha256(data).hexdigest() != meta["sha256"]:
+        raise SystemExit(f"{weights} changed since its record was written; rerun training")
+    folder.mkdir(parents=True, exist_ok=True)
+    target = f"{name.lower()}.npz"
+    atomic_write(folder / target, data)
+    manifest_path = folder / "manifest.json"
+    manifest = json.loads(manifest_path.read_text()) if manifest_path.exists() else {}
+    manifest[name] = {
+        "file": target,
+        "sha256": meta["sha256"],
+        "recipe": meta["recipe"],
+        "selected_at_iteration": meta["best"]["iteration"],
+        "training_eval": meta["best"],
+        "training_iterations_run": meta["iterations_done"],
+        "training_seconds": meta["elapsed_s"],
+        "training_env_steps": meta["env_steps"],
+    }
+    atomic_write(manifest_path, (json.dumps(manifest, indent=1, sort_keys=True) + "\n").encode())
+    print(f"shipped {weights} as {folder / target} (sha256 {meta['sha256']})")
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
