@@ -30,6 +30,7 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
+    "Singulation-v0": ("fluids_bench.tasks.singulation.env:SingulationEnv", 150, {}),
 }
 
 # PettingZoo ParallelEnv ids (not Gymnasium envs, so not registered with gym):
