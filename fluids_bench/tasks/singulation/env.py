@@ -162,6 +162,13 @@ class SingulationEnv(gym.Env):
             raise RuntimeError(f"{WHERE}: call reset() before asking for the supervisor's action")
         return self._supervisor.action(self._world)
 
+    def supervisor_stats(self) -> dict[str, float]:
+        """Behaviour-level replans since the last reset and the CPU time they took (s)."""
+        return {
+            "replans": self._supervisor.replans,
+            "replan_seconds": self._supervisor.replan_seconds,
+        }
+
     @property
     def world(self) -> SingulationWorld:
         """The simulator (read it, do not step it)."""

@@ -26,6 +26,7 @@ from __future__ import annotations
 
 import heapq
 import math
+import time
 from dataclasses import dataclass
 
 import numpy as np
@@ -48,6 +49,8 @@ CLEARANCE = TIP_RADIUS + 0.004  # fingertip centre to object, transit
 STANDOFF = TIP_RADIUS + 0.008  # fingertip centre to object at the pre-push point
 ROUTE_MARGIN = 0.012  # extra radius kept from the objects on the retract / extend arcs
 PUSH_MAX_STEPS = 14  # foresight horizon of one push
+STALL_STEPS = 4  # foresight gives up on a push that has not helped for this many steps
+FORESIGHT_SUBSTEPS = 5  # physics substeps per step in the foresight (the world uses 10)
 SUCCESS_MARGIN = 0.012  # plan pushes to 10 cm + this, so noise does not undo them
 REACHED = 0.003  # m: the fingertip is at the pre-push point
 POSE_TOLERANCE = 0.003  # m: objects moved more than this before the push -> replan
@@ -90,8 +93,10 @@ def blocked(
     """Per point (m, 2): within ``clearance`` of any polygon (the polygon grown by moving every
     edge outwards, a slight over-estimate at corners: conservative)."""
     normals, offsets = planes
-    s = np.einsum("nkd,md->mnk", normals, points) - offsets[None]
-    return (s.max(axis=2) < clearance).any(axis=1)
+    n, k = offsets.shape
+    s = (normals.reshape(n * k, 2) @ points.T).reshape(n, k, len(points))
+    s -= offsets[:, :, None]
+    return (s.max(axis=1) < clearance).any(axis=0)
 
 
 def radial_extent(verts: np.ndarray) -> tuple[float, float]:
@@ -214,19 +219,9 @@ class PushPlan:
     predicted_progress: float
     predicted_steps: float
     pushing: bool = False
-
-
-def pre_push_point(
-    centre: np.ndarray, direction: np.ndarray, planes: tuple[np.ndarray, np.ndarray]
-) -> np.ndarray | None:
-    """Back off from ``centre`` against ``direction`` to the first point where the fingertip
-    stands clear of every object by ``STANDOFF``."""
-    t = np.arange(0.0, 0.25, 0.002)
-    pts = centre[None] - t[:, None] * direction[None]
-    free = ~blocked(pts, planes, STANDOFF)
-    if not free.any():
-        return None
-    return pts[int(np.argmax(free))]
+    # the approach route's remaining waypoints, valid while the fingertip is at route_from
+    route: list[tuple[float, float]] | None = None
+    route_from: tuple[float, float] | None = None
 
 
 class SingulationSupervisor:
@@ -236,6 +231,7 @@ class SingulationSupervisor:
         self.plan: PushPlan | None = None
         self._no_plan_for: np.ndarray | None = None  # poses for which no push was found
         self.replans = 0
+        self.replan_seconds = 0.0  # CPU time spent planning (statistics only, never read)
 
     # the label --------------------------------------------------------------------------
 
@@ -256,13 +252,26 @@ class SingulationSupervisor:
             plan.pushing = True
         if plan.pushing:
             return normalised(*line_action(tip, plan.origin, plan.direction, plan.end))
-        verts = polygons(poses)
         c = world.config
-        limits = (c.theta_min, c.theta_max, c.r_min, c.r_max)
-        found = route(limits, here, joint_pose(*plan.origin), verts, edge_planes(verts))
-        if found is None:  # boxed in (a learner's state): back straight out towards the base
-            return normalised(*joint_action(here, (here[0], c.r_min)))
-        return normalised(*joint_action(here, found[0][0]))
+        if plan.route is not None and plan.route_from == here:
+            waypoints = plan.route  # the fingertip went where the last label sent it
+        else:
+            verts = polygons(poses)
+            limits = (c.theta_min, c.theta_max, c.r_min, c.r_max)
+            found = route(limits, here, joint_pose(*plan.origin), verts, edge_planes(verts))
+            if found is None:  # boxed in (a learner's state): back straight out to the base
+                plan.route = None
+                return normalised(*joint_action(here, (here[0], c.r_min)))
+            waypoints = found[0]
+        label = normalised(*joint_action(here, waypoints[0]))
+        # where the env will put the fingertip (float32 action and clipping included)
+        after = world.clip_pose(
+            here[0] + float(label[0]) * MAX_DTHETA, here[1] + float(label[1]) * MAX_DR
+        )
+        reached = abs(after[0] - waypoints[0][0]) + abs(after[1] - waypoints[0][1]) < 1e-6
+        plan.route = waypoints[1:] if reached and len(waypoints) > 1 else waypoints
+        plan.route_from = after
+        return label
 
     # plan bookkeeping --------------------------------------------------------------------
 
@@ -288,24 +297,34 @@ class SingulationSupervisor:
 
     def _replan(self, world: SingulationWorld, poses: np.ndarray) -> None:
         self.replans += 1
+        start = time.process_time()
         self.plan = plan_push(world, poses)
+        self.replan_seconds += time.process_time() - start
         self._no_plan_for = poses.copy() if self.plan is None else None
 
 
 def candidate_pushes(world: SingulationWorld, poses: np.ndarray):
-    """(target, pre-push point, direction) of every candidate whose push stays within reach."""
+    """(target, pre-push point, direction) of every candidate whose push stays within reach,
+    with the objects' vertices and edge planes. The pre-push point backs off from the target's
+    centre against the push direction to the first point where the fingertip stands clear of
+    every object by ``STANDOFF`` (all candidates in one vectorised test)."""
     c = world.config
     verts = polygons(poses)
     planes = edge_planes(verts)
     angles = 2 * math.pi * np.arange(DIRECTIONS) / DIRECTIONS
     dirs = np.column_stack((np.cos(angles), np.sin(angles)))
+    back = np.arange(0.0, 0.25, 0.003)
+    # points (object, direction, distance back, xy)
+    pts = poses[:, None, None, :2] - back[None, None, :, None] * dirs[None, :, None, :]
+    free = ~blocked(pts.reshape(-1, 2), planes, STANDOFF).reshape(pts.shape[:3])
+    first = np.argmax(free, axis=2)
     margin = math.radians(2.0)
     out = []
     for i in range(NUM_OBJECTS):
-        for d in dirs:
-            origin = pre_push_point(poses[i, :2], d, planes)
-            if origin is None:
+        for j, d in enumerate(dirs):
+            if not free[i, j, first[i, j]]:
                 continue
+            origin = pts[i, j, first[i, j]]
             goal = joint_pose(*origin)
             end_point = joint_pose(*(origin + 0.14 * d))
             inside = (
@@ -320,22 +339,26 @@ def candidate_pushes(world: SingulationWorld, poses: np.ndarray):
 
 
 def simulate_push(
-    world: SingulationWorld, poses: np.ndarray, origin: np.ndarray, direction: np.ndarray
+    world: SingulationWorld,
+    poses: np.ndarray,
+    origin: np.ndarray,
+    direction: np.ndarray,
+    horizon: int = PUSH_MAX_STEPS,
 ) -> tuple[float, int, float]:
     """Foresight: push from ``origin`` along ``direction`` on a rebuilt world. Returns the best
     progress reached, the step it was reached at and how far along the line the fingertip was."""
     theta, r = joint_pose(*origin)
-    sim = SingulationWorld(world.config, theta, r, poses)
+    sim = SingulationWorld(world.config, theta, r, poses, FORESIGHT_SUBSTEPS)
     best, best_step, best_s = progress(poses[:, :2]), 0, 0.0
     goal = SINGULATION_DISTANCE + SUCCESS_MARGIN
-    for k in range(1, PUSH_MAX_STEPS + 1):
+    for k in range(1, horizon + 1):
         sim.step(*line_action(sim.tip_xy(), origin, direction, 0.3))
         p = sim.progress()
         if p > best + 1e-4:
             best, best_step = p, k
             best_s = float((np.array(sim.tip_xy()) - origin) @ direction)
-        if p >= goal:
-            break
+        if p >= goal or k - best_step >= STALL_STEPS:
+            break  # done, or the push stopped helping
     return best, best_step, best_s
 
 
@@ -369,7 +392,10 @@ def plan_push(world: SingulationWorld, poses: np.ndarray) -> PushPlan | None:
             if found is not None:
                 heapq.heappush(heap, (found[1], k, True))
             continue
-        reached, step, s = simulate_push(world, poses, origin, d)
+        horizon = PUSH_MAX_STEPS
+        if best_key is not None and best_key[0] == 0:  # must beat the best success to matter
+            horizon = min(horizon, int(math.ceil(best_key[1] - approach)) - 1)
+        reached, step, s = simulate_push(world, poses, origin, d, horizon)
         if step == 0:
             continue
         success = reached >= goal
