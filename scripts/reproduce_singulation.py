@@ -41,9 +41,18 @@ from fluids_bench.algos.harness import Harness
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import RunResult, write_json_atomic
-from fluids_bench.tasks.singulation.label_noise import SOURCE_CORRELATIONS, calibrate, pearson
+from fluids_bench.tasks.singulation.label_noise import (
+    SOURCE_CORRELATIONS,
+    RetroactiveLabelModel,
+    calibrate,
+    pearson,
+)
 
 ARMS = ("bc", "dagger", "dagger_retro", "dart")
+# ablations of the retroactive-label model (not run by default): only its shrinkage of the
+# label towards the mean, or only its added noise
+ABLATIONS = ("dagger_shrink_only", "dagger_noise_only")
+RETRO_MODES = {"dagger_retro": "full", "dagger_shrink_only": "shrink", "dagger_noise_only": "noise"}
 INITIAL = 20  # teleoperated demonstrations before the arms differ
 PER_ITERATION = 20
 K = 2  # on-policy iterations of 20 (the source's K = 2)
@@ -77,7 +86,25 @@ def common(run: int, eval_episodes: int, policy: str) -> dict[str, Any]:
     }
 
 
-def dagger_retroactive(config: dagger.DAggerConfig) -> tuple[RunResult, list[float]]:
+def retroactive(
+    model: RetroactiveLabelModel, labels: np.ndarray, rng: np.random.Generator, mode: str
+) -> np.ndarray:
+    """The model's retroactive labels ("full"), or one of its two parts alone: "shrink"
+    (``mu + rho (y - mu)``, no noise) or "noise" (``y + sqrt(1 - rho^2) sigma eps``)."""
+    if mode == "full":
+        return model.corrupt(labels, rng)
+    y = np.asarray(labels, dtype=np.float64)
+    eps = rng.standard_normal(y.shape)
+    if mode == "shrink":
+        out = model.mu + model.rho * (y - model.mu)
+    else:
+        out = y + np.sqrt(1.0 - model.rho**2) * model.sigma * eps
+    return np.clip(out, model.low, model.high).astype(np.asarray(labels).dtype)
+
+
+def dagger_retroactive(
+    config: dagger.DAggerConfig, mode: str = "full"
+) -> tuple[RunResult, list[float]]:
     """DAgger whose on-policy labels are retroactive (the label-noise model); returns the run
     and the measured correlations of the corrupted with the clean on-policy labels."""
     with Harness("dagger_retro", config) as harness:
@@ -93,7 +120,7 @@ def dagger_retroactive(config: dagger.DAggerConfig) -> tuple[RunResult, list[flo
             actor = MixtureActor(0.0, LearnerActor(policy))
             rollouts = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
             for trajectory in rollouts:
-                labels = model.corrupt(trajectory.labels, harness.rng)
+                labels = retroactive(model, trajectory.labels, harness.rng, mode)
                 clean.append(trajectory.labels)
                 noisy.append(labels)
                 harness.aggregate(dataclasses.replace(trajectory, labels=labels))
@@ -114,7 +141,7 @@ def run_arm(run: int, arm: str, eval_episodes: int, policy: str) -> dict[str, An
             **base, iterations=3, demos_per_iteration=PER_ITERATION, eval_at=(1, 3)
         )
         result = bc.run(config)
-    elif arm in ("dagger", "dagger_retro"):
+    elif arm == "dagger" or arm in RETRO_MODES:
         config = dagger.DAggerConfig(
             **base,
             iterations=K,
@@ -128,7 +155,7 @@ def run_arm(run: int, arm: str, eval_episodes: int, policy: str) -> dict[str, An
         if arm == "dagger":
             result = dagger.run(config)
         else:
-            result, measured = dagger_retroactive(config)
+            result, measured = dagger_retroactive(config, RETRO_MODES[arm])
             extra["measured_label_correlation"] = measured
     else:
         config = dart.DARTConfig(
@@ -159,7 +186,7 @@ def run_arm(run: int, arm: str, eval_episodes: int, policy: str) -> dict[str, An
 
 def summarise(results: list[dict[str, Any]]) -> dict[str, Any]:
     summary: dict[str, Any] = {}
-    for arm in ARMS:
+    for arm in (*ARMS, *ABLATIONS):
         rows = [r for r in results if r["arm"] == arm]
         if not rows:
             continue
@@ -173,7 +200,7 @@ def summarise(results: list[dict[str, Any]]) -> dict[str, Any]:
             else None,
             "supervisor_success": round(float(np.mean([r["supervisor_success"] for r in rows])), 4),
         }
-        if arm == "dagger_retro":
+        if arm in RETRO_MODES:
             entry["measured_label_correlation"] = (
                 np.mean([r["measured_label_correlation"] for r in rows], axis=0).round(3).tolist()
             )
@@ -216,7 +243,7 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=10)
     parser.add_argument("--eval-episodes", type=int, default=30)
     parser.add_argument("--policy", choices=sorted(POLICIES), default="mlp")
-    parser.add_argument("--arms", nargs="+", choices=ARMS, default=list(ARMS))
+    parser.add_argument("--arms", nargs="+", choices=(*ARMS, *ABLATIONS), default=list(ARMS))
     parser.add_argument("--workers", type=int, default=2, help="processes (1: run inline)")
     args = parser.parse_args()
     if min(args.runs, args.eval_episodes, args.workers) < 1:
@@ -258,12 +285,15 @@ def main() -> None:
         return
     bar.close()
 
-    results = [json.loads(path[job].read_text()) for job in jobs]
+    # the summary covers every finished (run, arm) of this policy and evaluation size, including
+    # those of earlier invocations (e.g. the ablations, run separately with fewer runs)
+    results = [json.loads(f.read_text()) for f in sorted(runs_dir.glob(f"{tag}_*.json"))]
+    results.sort(key=lambda r: ((*ARMS, *ABLATIONS).index(r["arm"]), r["run"]))
     summary = summarise(results)
     payload = {
         "figure": "dissertation Fig. 5.3 (on- vs off-policy, singulation)",
         "settings": {
-            "runs": args.runs,
+            "runs_per_arm": {arm: c["runs"] for arm, c in summary.items()},
             "eval_episodes": args.eval_episodes,
             "policy": {
                 "name": POLICIES[args.policy].name,
