@@ -7,14 +7,17 @@ issue's "10% noise") run ``--episodes`` episodes of Singulation-v0 (seeds 0, 1, 
 N(0, s² I), clipped to [-1, 1]. Reports success rate (with a 95% Wilson interval), steps to
 success, final progress and behaviour-level replans per episode. Writes
 ``singulation_supervisor_quality.json`` to ``--out`` (atomically) and prints a Markdown table.
+Batches of 25 episodes are saved under ``--out/parts`` as they finish, so an interrupted run
+resumes where it stopped.
 """
 
 from __future__ import annotations
 
 import argparse
+import json
 import math
 import time
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
@@ -70,13 +73,32 @@ def main() -> None:
         parser.error("--episodes and --workers >= 1, --noise >= 0")
 
     start = time.perf_counter()
-    chunks = [list(range(k, args.episodes, args.workers * 4)) for k in range(args.workers * 4)]
-    jobs = [(noise, chunk) for noise in args.noise for chunk in chunks if chunk]
-    rows: dict[float, list[dict[str, Any]]] = {noise: [] for noise in args.noise}
-    with ProcessPoolExecutor(args.workers) as pool:
-        futures = [(noise, pool.submit(episodes, noise, chunk)) for noise, chunk in jobs]
-        for noise, future in tqdm(futures, desc="episode batches"):
-            rows[noise].extend(future.result())
+    # batches of 25 seeds, each saved as it finishes: a rerun skips the finished ones
+    parts = args.out / "parts"
+    parts.mkdir(parents=True, exist_ok=True)
+    chunks = [list(range(k, min(k + 25, args.episodes))) for k in range(0, args.episodes, 25)]
+    jobs = [(noise, chunk) for noise in args.noise for chunk in chunks]
+
+    def part(noise: float, chunk: list[int]) -> Path:
+        return parts / f"noise{noise:g}_seeds{chunk[0]}-{chunk[-1]}.json"
+
+    todo = [job for job in jobs if not part(*job).exists()]
+    bar = tqdm(total=len(jobs), initial=len(jobs) - len(todo), desc="batches of 25 episodes")
+    if args.workers == 1:
+        for job in todo:
+            write_json_atomic(part(*job), episodes(*job))
+            bar.update(1)
+    else:
+        with ProcessPoolExecutor(args.workers) as pool:
+            futures = {pool.submit(episodes, *job): job for job in todo}
+            for future in as_completed(futures):
+                write_json_atomic(part(*futures[future]), future.result())
+                bar.update(1)
+    bar.close()
+    rows = {
+        noise: [e for chunk in chunks for e in json.loads(part(noise, chunk).read_text())]
+        for noise in args.noise
+    }
 
     table = []
     for noise in args.noise:
