@@ -200,6 +200,16 @@ def summarise(results: list[dict[str, Any]]) -> dict[str, Any]:
             else None,
             "supervisor_success": round(float(np.mean([r["supervisor_success"] for r in rows])), 4),
         }
+        if arm != "bc":
+            # paired by run (the same 30 evaluation states): this arm minus BC, 60 demonstrations
+            bc_final = {r["run"]: r["success"][-1] for r in results if r["arm"] == "bc"}
+            diffs = [r["success"][-1] - bc_final[r["run"]] for r in rows if r["run"] in bc_final]
+            if len(diffs) > 1:
+                entry["minus_bc_at_60"] = {
+                    "mean": round(float(np.mean(diffs)), 4),
+                    "standard_error": round(float(np.std(diffs, ddof=1) / np.sqrt(len(diffs))), 4),
+                    "runs": len(diffs),
+                }
         if arm in RETRO_MODES:
             entry["measured_label_correlation"] = (
                 np.mean([r["measured_label_correlation"] for r in rows], axis=0).round(3).tolist()
