@@ -219,32 +219,42 @@ def summarise(results: list[dict[str, Any]]) -> dict[str, Any]:
 
 
 def plot(summary: dict[str, Any], path: Path) -> None:
-    figure = new_figure(1, 1, (6.4, 4.2))
-    axes = figure.axes[0]
+    """Success after 60 demonstrations per arm (bars, ± s.e.), and the shared 20-demonstration
+    start (BC's first evaluation; every arm's first 20 demonstrations are the same)."""
     names = {
-        "bc": "off-policy: BC",
-        "dagger": "on-policy: DAgger (clean labels)",
-        "dagger_retro": "on-policy: DAgger, retroactive-label model",
-        "dart": "off-policy: DART",
+        "bc": "BC\n(off-policy)",
+        "dart": "DART\n(off-policy)",
+        "dagger": "DAgger\nclean labels",
+        "dagger_retro": "DAgger\nretroactive\nlabel model",
+        "dagger_shrink_only": "DAgger\nshrinkage\nonly",
+        "dagger_noise_only": "DAgger\nnoise\nonly",
     }
     colours = {
         "bc": "tab:orange",
+        "dart": "tab:green",
         "dagger": "tab:blue",
         "dagger_retro": "tab:purple",
-        "dart": "tab:green",
+        "dagger_shrink_only": "tab:gray",
+        "dagger_noise_only": "tab:brown",
     }
-    for arm, curve in summary.items():
-        x, mean = np.array(curve["demonstrations"]), np.array(curve["mean"])
-        error = np.array(curve["standard_error"] or np.zeros_like(mean))
-        axes.errorbar(
-            x, mean, yerr=error, color=colours[arm], label=names[arm], capsize=3, marker="o"
+    arms = [arm for arm in names if arm in summary]
+    figure = new_figure(1, 1, (1.3 * len(arms) + 2.0, 4.2))
+    axes = figure.axes[0]
+    for k, arm in enumerate(arms):
+        curve = summary[arm]
+        error = (curve["standard_error"] or [0.0])[-1]
+        axes.bar(k, curve["mean"][-1], yerr=error, color=colours[arm], capsize=4)
+        axes.text(k, 0.02, f"{curve['runs']} runs", ha="center", fontsize=8, color="white")
+    if "bc" in summary:
+        start = summary["bc"]["mean"][0]
+        axes.axhline(
+            start, color="black", ls="--", lw=1, label=f"after the 20 shared demos: {start:.2f}"
         )
-    axes.set_xlabel("demonstrations (20 teleoperated, then 40 by each method)")
+    axes.set_xticks(range(len(arms)), [names[a] for a in arms], fontsize=8)
     axes.set_ylabel("success on 30 held-out initial states")
-    runs = max(c["runs"] for c in summary.values())
-    axes.set_title(f"Singulation-v0, ch. 5 Fig. 5.3 protocol, {runs} runs (± s.e.)")
-    axes.set_ylim(-0.02, 1.02)
-    save_png_atomic(figure, path, legend_loc="lower right")
+    axes.set_title("Singulation-v0, Fig. 5.3 protocol: success after 60 demonstrations (± s.e.)")
+    axes.set_ylim(0.0, 1.0)
+    save_png_atomic(figure, path, legend_loc="upper right")
 
 
 def main() -> None:
