@@ -38,6 +38,7 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "Walker2d-IL-v0": ("fluids_bench.tasks.locomotion.env:Walker2dILEnv", 1000, {}),
     "HalfCheetah-IL-v0": ("fluids_bench.tasks.locomotion.env:HalfCheetahILEnv", 1000, {}),
     "Humanoid-IL-v0": ("fluids_bench.tasks.locomotion.env:HumanoidILEnv", 1000, {}),
+    "Singulation-v0": ("fluids_bench.tasks.singulation.env:SingulationEnv", 150, {}),
 }
 
 # PettingZoo ParallelEnv ids, registered with PettingZoo's own registry:

@@ -1,0 +1,301 @@
+"""The singulation world (source ch. 5): a planar arm pushing four polygons on a table (pymunk 7).
+
+Units are SI: metres, radians, seconds. The arm's base is the origin, at the table's near edge;
+the table extends towards +y. The arm has two joints, base rotation ``theta`` (from +x,
+counter-clockwise; 90° points straight across the table) and extension ``r`` (base to
+fingertip). Only the fingertip touches the table: the link passes over the objects, as on the
+source's robot. The fingertip is a kinematic circle driven by velocity so that the commanded
+joint pose is reached at the end of every step (``SUBSTEPS`` physics substeps, the fingertip
+moving along the commanded joint-space segment).
+
+No gravity and a space damping of 0 make pushing quasi-static: an object moves only while
+something pushes it. The four objects are fixed convex polygons of about 10 cm (the source's
+four MDF polygons of 4" diameter) with uniform density.
+
+This module imports neither gymnasium nor another task.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+import pymunk
+import shapely
+
+from fluids_bench.core.validation import check_float
+
+DT = 0.1  # s per env step
+SUBSTEPS = 10
+TIP_RADIUS = 0.01  # m
+AREAL_DENSITY = 57.0  # kg/m², 3" of MDF (750 kg/m³)
+FRICTION_OBJECTS = 0.5
+FRICTION_TIP = 0.5
+SINGULATION_DISTANCE = 0.10  # m between centres
+# "exactly 10 cm" must count whatever float arithmetic produced the centres
+SUCCESS_TOLERANCE = 1e-9
+TOUCH_GAP = 2e-4  # m left between objects packed "touching" (below pymunk's slop)
+MAX_DTHETA = math.radians(1.5)  # per step
+MAX_DR = 0.01  # m per step
+NUM_OBJECTS = 4
+
+
+def _centred(vertices: list[tuple[float, float]]) -> np.ndarray:
+    """Vertices (counter-clockwise) moved so the polygon's centroid is the origin."""
+    poly = shapely.Polygon(vertices)
+    c = poly.centroid
+    return np.array(vertices, dtype=np.float64) - [c.x, c.y]
+
+
+def _regular(n: int, radius: float, squash: float = 1.0, phase: float = 0.0) -> list:
+    return [
+        (
+            radius * math.cos(phase + 2 * math.pi * k / n),
+            squash * radius * math.sin(phase + 2 * math.pi * k / n),
+        )
+        for k in range(n)
+    ]
+
+
+# The four objects: convex polygons of about 10 cm diameter (fixed, like the source's set).
+OBJECT_SHAPES: tuple[np.ndarray, ...] = (
+    _centred(_regular(5, 0.05)),
+    _centred(
+        [(0.05, 0.0), (0.025, 0.045), (-0.025, 0.045), (-0.05, 0.0), (-0.03, -0.04), (0.03, -0.04)]
+    ),
+    _centred([(-0.045, -0.04), (0.05, -0.035), (0.04, 0.045), (-0.04, 0.04)]),
+    _centred(_regular(7, 0.05, squash=0.85, phase=0.3)),
+)
+OBJECT_RADII = np.array([float(np.hypot(*s.T).max()) for s in OBJECT_SHAPES])
+
+
+@dataclass(frozen=True)
+class SceneConfig:
+    """Table, arm limits and the initial-state distribution.
+
+    The cluster's translation is ``N(cluster_mean, cluster_std² I)`` (clipped to
+    ``cluster_clip`` standard deviations so the cluster stays reachable), its rotation uniform
+    in ``[-cluster_rotation, cluster_rotation]``; each object's own orientation is uniform and
+    the objects are packed touching in a random order from random directions.
+    """
+
+    table_width: float = 1.0  # m, x in [-w/2, w/2]
+    table_depth: float = 0.8  # m, y in [0, depth]
+    theta_min: float = math.radians(30.0)
+    theta_max: float = math.radians(150.0)
+    r_min: float = 0.12
+    r_max: float = 0.78
+    home_theta: float = math.radians(90.0)
+    home_r: float = 0.2
+    cluster_mean_x: float = 0.0
+    cluster_mean_y: float = 0.45
+    # ch. 5: "an isotropic Gaussian with variance of 20cm": read as 20 cm² (std 4.47 cm)
+    cluster_std: float = math.sqrt(0.002)
+    cluster_clip: float = 3.0
+    cluster_rotation: float = math.radians(15.0)
+
+    def __post_init__(self) -> None:
+        where = "SceneConfig"
+        check_float(where, "cluster_std", self.cluster_std, 0.0, 0.2)
+        check_float(where, "cluster_rotation", self.cluster_rotation, 0.0, math.pi)
+        check_float(where, "r_min", self.r_min, 0.0, self.r_max, hi_open=True)
+        check_float(where, "theta_min", self.theta_min, 0.0, self.theta_max, hi_open=True)
+
+
+def tip_position(theta: float, r: float) -> tuple[float, float]:
+    return r * math.cos(theta), r * math.sin(theta)
+
+
+def joint_pose(x: float, y: float) -> tuple[float, float]:
+    """(theta, r) of a fingertip at (x, y)."""
+    return math.atan2(y, x), math.hypot(x, y)
+
+
+def progress(centres: np.ndarray) -> float:
+    """The largest, over objects, of the distance from its centre to the nearest other centre."""
+    d = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+    np.fill_diagonal(d, np.inf)
+    return float(d.min(axis=1).max())
+
+
+def is_singulated(centres: np.ndarray) -> bool:
+    """Some object's centre is at least 10 cm from every other object's centre."""
+    return progress(centres) >= SINGULATION_DISTANCE - SUCCESS_TOLERANCE
+
+
+def object_polygon(index: int, x: float, y: float, angle: float) -> np.ndarray:
+    """World vertices (k, 2) of object ``index`` at pose (x, y, angle)."""
+    c, s = math.cos(angle), math.sin(angle)
+    v = OBJECT_SHAPES[index]
+    return np.column_stack((x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]))
+
+
+def sample_cluster(config: SceneConfig, rng: np.random.Generator) -> np.ndarray:
+    """Object poses (4, 3) ``[x, y, angle]``: packed touching, never already singulated."""
+    while True:
+        poses = _pack(rng)
+        if is_singulated(poses[:, :2]):
+            continue  # the source's initial states are clusters, never already singulated
+        # rotate the cluster about its centroid, then translate it
+        spin = rng.uniform(-config.cluster_rotation, config.cluster_rotation)
+        shift = rng.standard_normal(2) * config.cluster_std
+        shift = np.clip(
+            shift,
+            -config.cluster_clip * config.cluster_std,
+            config.cluster_clip * config.cluster_std,
+        )
+        centroid = poses[:, :2].mean(axis=0)
+        c, s = math.cos(spin), math.sin(spin)
+        rel = poses[:, :2] - centroid
+        out = poses.copy()
+        out[:, 0] = c * rel[:, 0] - s * rel[:, 1] + config.cluster_mean_x + shift[0]
+        out[:, 1] = s * rel[:, 0] + c * rel[:, 1] + config.cluster_mean_y + shift[1]
+        out[:, 2] = np.mod(poses[:, 2] + spin + math.pi, 2 * math.pi) - math.pi
+        return out
+
+
+def _pack(rng: np.random.Generator) -> np.ndarray:
+    """Place the objects one at a time, in a random order, each slid in from a random direction
+    towards the centroid of those already placed until it touches them (gap ``TOUCH_GAP``)."""
+    order = rng.permutation(NUM_OBJECTS)
+    angles = rng.uniform(-math.pi, math.pi, NUM_OBJECTS)
+    poses = np.zeros((NUM_OBJECTS, 3))
+    placed: list[shapely.Polygon] = []
+    for k, index in enumerate(order):
+        angle = angles[k]
+        if not placed:
+            poses[index] = (0.0, 0.0, angle)
+            placed.append(shapely.Polygon(object_polygon(index, 0.0, 0.0, angle)))
+            continue
+        union = shapely.union_all(placed)
+        centre = np.array([union.centroid.x, union.centroid.y])
+        direction = rng.uniform(-math.pi, math.pi)
+        u = np.array([math.cos(direction), math.sin(direction)])
+
+        def gap(t: float, index=index, angle=angle, centre=centre, u=u, union=union) -> float:
+            p = centre + t * u
+            return shapely.Polygon(object_polygon(index, p[0], p[1], angle)).distance(union)
+
+        # start just outside: the union's farthest point plus this object's radius
+        xy = np.asarray(
+            union.exterior.coords
+            if union.geom_type == "Polygon"
+            else union.convex_hull.exterior.coords
+        )
+        t = float(np.hypot(*(xy - centre).T).max()) + OBJECT_RADII[index] + 0.005
+        while t > 0 and gap(t) > 0.0:  # march in until the first contact
+            t -= 0.005
+        lo, hi = t, t + 0.005  # lo overlaps (or is at the centre), hi is free
+        for _ in range(14):  # to 0.3 µm
+            mid = 0.5 * (lo + hi)
+            if gap(mid) > 0.0:
+                hi = mid
+            else:
+                lo = mid
+        # back off to leave a tiny gap (no initial interpenetration for the solver to undo)
+        while gap(hi) < TOUCH_GAP:
+            hi += TOUCH_GAP / 4
+        p = centre + hi * u
+        poses[index] = (p[0], p[1], angle)
+        placed.append(shapely.Polygon(object_polygon(index, p[0], p[1], angle)))
+    return poses
+
+
+class SingulationWorld:
+    """The pymunk space: four dynamic polygons and the kinematic fingertip.
+
+    Build one from a joint pose and object poses; two builds from the same numbers step
+    bit-identically. The joint pose is kept as numbers (the commanded pose, reached at the end
+    of every step); the fingertip body follows it.
+    """
+
+    def __init__(
+        self,
+        config: SceneConfig,
+        theta: float,
+        r: float,
+        poses: np.ndarray,
+        substeps: int = SUBSTEPS,
+    ) -> None:
+        self.config = config
+        self.substeps = substeps
+        self.theta = float(theta)
+        self.r = float(r)
+        space = pymunk.Space()
+        space.gravity = (0.0, 0.0)
+        space.damping = 0.0  # quasi-static: free velocity is gone after every substep
+        space.collision_slop = 5e-4  # pymunk's default (0.1) assumes pixels, not metres
+        self.space = space
+        self.bodies: list[pymunk.Body] = []
+        for index, (x, y, angle) in enumerate(np.asarray(poses, dtype=np.float64)):
+            body = pymunk.Body()
+            shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
+            shape.density = AREAL_DENSITY
+            shape.friction = FRICTION_OBJECTS
+            body.position = (float(x), float(y))
+            body.angle = float(angle)
+            space.add(body, shape)
+            self.bodies.append(body)
+        self._poses: np.ndarray | None = None  # read from the bodies once per step
+        self._progress = 0.0
+        self.tip = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self.tip.position = tip_position(self.theta, self.r)
+        tip_shape = pymunk.Circle(self.tip, TIP_RADIUS)
+        tip_shape.friction = FRICTION_TIP
+        space.add(self.tip, tip_shape)
+
+    # -- state ---------------------------------------------------------------------------
+
+    def poses(self) -> np.ndarray:
+        """Object poses (4, 3): x, y (m, centroid) and angle (rad, wrapped to [-pi, pi)).
+        Read from the bodies once per step (a copy is returned)."""
+        if self._poses is None:
+            out = np.array([(*b.position, b.angle) for b in self.bodies])
+            out[:, 2] = np.mod(out[:, 2] + math.pi, 2 * math.pi) - math.pi
+            self._poses = out
+            self._progress = progress(out[:, :2])
+        return self._poses.copy()
+
+    def centres(self) -> np.ndarray:
+        return self.poses()[:, :2]
+
+    def tip_xy(self) -> tuple[float, float]:
+        return tuple(self.tip.position)
+
+    def progress(self) -> float:
+        """The continuous measure: max over objects of the distance to the nearest other (m)."""
+        if self._poses is None:
+            self.poses()
+        return self._progress
+
+    def is_singulated(self) -> bool:
+        return self.progress() >= SINGULATION_DISTANCE - SUCCESS_TOLERANCE
+
+    # -- dynamics ------------------------------------------------------------------------
+
+    def clip_pose(self, theta: float, r: float) -> tuple[float, float]:
+        c = self.config
+        return min(max(theta, c.theta_min), c.theta_max), min(max(r, c.r_min), c.r_max)
+
+    def step(self, dtheta: float, dr: float) -> None:
+        """Command a joint change (rad, m), clipped to the per-step limits and the joint limits;
+        the fingertip moves along the joint-space segment and ends on the commanded pose."""
+        dtheta = min(max(dtheta, -MAX_DTHETA), MAX_DTHETA)
+        dr = min(max(dr, -MAX_DR), MAX_DR)
+        theta0, r0 = self.theta, self.r
+        theta1, r1 = self.clip_pose(theta0 + dtheta, r0 + dr)
+        n = self.substeps
+        h = DT / n
+        tip = self.tip
+        for k in range(1, n + 1):
+            f = k / n
+            x, y = tip_position(theta0 + f * (theta1 - theta0), r0 + f * (r1 - r0))
+            px, py = tip.position
+            tip.velocity = ((x - px) / h, (y - py) / h)
+            self.space.step(h)
+        tip.velocity = (0.0, 0.0)
+        # remove the last ulp of integration drift: the body sits exactly on the command
+        tip.position = tip_position(theta1, r1)
+        self.theta, self.r = theta1, r1
+        self._poses = None
