@@ -223,6 +223,13 @@ class GraspingInClutterEnv(gym.Env):
             self._label = self.supervisor.action(self.world).astype(np.float32)
         return self._label.copy()
 
+    def supervisor_stats(self) -> dict[str, float]:
+        """Behaviour-level replans since the last reset and the CPU time they took (s)."""
+        return {
+            "replans": self.supervisor.replans,
+            "replan_seconds": self.supervisor.replan_seconds,
+        }
+
     # -- helpers -----------------------------------------------------------------------------
 
     def _state_obs(self) -> np.ndarray:

@@ -273,11 +273,12 @@ class GraspSupervisor:
     def reset(self) -> None:
         self.plan_ = None
         self.overran: list[float] = []
+        self.replans, self.replan_seconds = 0, 0.0
 
     # -- behaviour -------------------------------------------------------------------------
 
     def plan(self, world: GraspWorld) -> Plan:
-        start = time.perf_counter()
+        start = time.process_time()
         st = world.state
         ranked = rank_corridors(self.cfg, st, self.fan_deg)
         fresh = [c for c in ranked if all(abs(wrap(c.heading - h)) > 1e-6 for h in self.overran)]
@@ -301,7 +302,7 @@ class GraspSupervisor:
             outcome.steps,
             outcome.cost,
         )
-        self.last_replan_seconds = time.perf_counter() - start
+        self.last_replan_seconds = time.process_time() - start
         self.replan_seconds += self.last_replan_seconds
         self.replans += 1
         return self.plan_
