@@ -30,6 +30,10 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
+    # ch. 6: two laps take ~180 steps; a crashed car is put back ahead, so it always progresses
+    "DrivingTrack-v0": ("fluids_bench.tasks.track.env:DrivingTrackEnv", 600, {}),
+    # the most crash-prone search (depth 1) as the stand-in for the source's imperfect supervisor
+    "DrivingTrack-Source-v0": ("fluids_bench.tasks.track.env:DrivingTrackEnv", 600, {"depth": 1}),
 }
 
 # PettingZoo ParallelEnv ids (not Gymnasium envs, so not registered with gym):
