@@ -37,6 +37,17 @@ def _hog():
     return hog_descriptor()
 
 
+def _python_scalars(init):
+    """Accept numpy scalars wherever a number is expected (``np.int64(3)`` as ``3``)."""
+
+    @functools.wraps(init)
+    def converted(self, *args: Any, **kwargs: Any) -> None:
+        kwargs = {k: v.item() if isinstance(v, np.generic) else v for k, v in kwargs.items()}
+        init(self, *args, **kwargs)
+
+    return converted
+
+
 class DrivingTrackEnv(gym.Env[Any, np.int64]):
     """
     ## Description
@@ -126,6 +137,7 @@ class DrivingTrackEnv(gym.Env[Any, np.int64]):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
 
     @reject_unknown_kwargs
+    @_python_scalars
     def __init__(
         self,
         obs_type: str | list[str] = "hog",
