@@ -79,7 +79,9 @@ def main() -> None:
     args = parser.parse_args()
     panels = [panel(t) for t in args.tracks]
     gap = np.full((panels[0].shape[0], 6, 3), 255, np.uint8)
-    row = np.concatenate([p for pair in zip(panels, [gap] * len(panels)) for p in pair][:-1], 1)
+    row = np.concatenate(
+        [p for pair in zip(panels, [gap] * len(panels), strict=True) for p in pair][:-1], 1
+    )
     ok, png = cv2.imencode(".png", row[..., ::-1])  # RGB -> OpenCV's BGR
     assert ok
     write_bytes_atomic(args.out, png.tobytes())
