@@ -160,7 +160,13 @@ def run_false_negatives(track: int) -> dict:
     return out
 
 
-def units(experiments: list[str], tracks: dict[str, int], iterations: int, episodes: int):
+def units(
+    experiments: list[str],
+    tracks: dict[str, int],
+    iterations: int,
+    episodes: int,
+    sigmas: tuple[float, ...] = TABLE_SIGMAS,
+):
     """(key, function, args) of every unit of work, each computed once."""
     todo: dict[str, tuple] = {}
     if "fig63" in experiments:
@@ -169,7 +175,7 @@ def units(experiments: list[str], tracks: dict[str, int], iterations: int, episo
             todo[f"shiv_s200_t{t}"] = (run_curve, ("shiv", t, SIGMA, iterations, episodes))
     if "table61" in experiments:
         for t in range(tracks["table61"]):
-            for s in TABLE_SIGMAS:
+            for s in sigmas:
                 todo[f"shiv_s{s:g}_t{t}"] = (run_curve, ("shiv", t, s, iterations, episodes))
     if "fig65" in experiments:
         for t in range(tracks["fig65"]):
@@ -306,6 +312,10 @@ def main() -> None:
         choices=["fig63", "fig65", "table61"],
     )  # fmt: skip
     parser.add_argument("--tracks", type=int, default=None, help="cap on tracks per experiment")
+    parser.add_argument(
+        "--sigmas", type=float, nargs="+", default=list(TABLE_SIGMAS),
+        help="Table 6.1's sigmas to run (a subset of the source's six)",
+    )  # fmt: skip
     parser.add_argument("--iterations", type=int, default=6)
     parser.add_argument("--eval-episodes", type=int, default=2)
     parser.add_argument("--workers", type=int, default=2)
@@ -315,7 +325,9 @@ def main() -> None:
     if min(args.iterations, args.eval_episodes, args.workers, args.tracks or 1) < 1:
         parser.error("--iterations, --eval-episodes, --workers, --tracks: >= 1")
     tracks = {k: min(v, args.tracks or v) for k, v in SOURCE_TRACKS.items()}
-    todo = units(args.experiments, tracks, args.iterations, args.eval_episodes)
+    if not set(args.sigmas) <= set(TABLE_SIGMAS):
+        parser.error(f"--sigmas: a subset of {list(TABLE_SIGMAS)}")
+    todo = units(args.experiments, tracks, args.iterations, args.eval_episodes, tuple(args.sigmas))
     unit_dir = args.out / "units"
     done = {}
     for key in todo:
