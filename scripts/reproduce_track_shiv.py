@@ -235,8 +235,12 @@ def summarise_fig63(done: dict[str, dict], n: int) -> dict | None:
     reduction = None
     if crossing["dagger"] and crossing["shiv"] is not None:
         reduction = round(1.0 - crossing["shiv"] / crossing["dagger"], 3)
+    final = {a: (c["labels"][-1], c["normalised"][-1]) for a, c in curves.items()}
     return {
         "curves": curves,
+        # after the last iteration: SHIV's labels as a share of DAgger's, and both performances
+        "final_label_share": round(final["shiv"][0] / final["dagger"][0], 3),
+        "final_normalised": {a: f[1] for a, f in final.items()},
         "level": round(level, 3),
         "labels_to_reach": crossing,
         "reduction": reduction,
