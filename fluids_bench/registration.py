@@ -39,6 +39,10 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "HalfCheetah-IL-v0": ("fluids_bench.tasks.locomotion.env:HalfCheetahILEnv", 1000, {}),
     "Humanoid-IL-v0": ("fluids_bench.tasks.locomotion.env:HumanoidILEnv", 1000, {}),
     "Singulation-v0": ("fluids_bench.tasks.singulation.env:SingulationEnv", 150, {}),
+    # ch. 6: two laps take ~180 steps; a crashed car is put back ahead, so it always progresses
+    "DrivingTrack-v0": ("fluids_bench.tasks.track.env:DrivingTrackEnv", 600, {}),
+    # the most crash-prone search (depth 1) as the stand-in for the source's imperfect supervisor
+    "DrivingTrack-Source-v0": ("fluids_bench.tasks.track.env:DrivingTrackEnv", 600, {"depth": 1}),
 }
 
 # PettingZoo ParallelEnv ids, registered with PettingZoo's own registry:
