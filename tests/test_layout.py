@@ -16,6 +16,9 @@ import fluids_bench
 
 TASKS = Path(fluids_bench.__file__).parent / "tasks"
 TASK_NAMES = sorted(p.name for p in TASKS.iterdir() if (p / "__init__.py").exists())
+# Tasks whose world is a library's, held unchanged: locomotion wraps Gymnasium's own MuJoCo v5
+# envs (DESIGN.md: "do not rewrite them"), so it has no world module of its own to check.
+BORROWED_WORLDS = {"locomotion"}
 
 
 def _imports(path: Path) -> set[str]:
@@ -34,7 +37,7 @@ def _world_modules(task: Path) -> list[Path]:
     return [f for f in files if f.exists()]
 
 
-@pytest.mark.parametrize("task", TASK_NAMES)
+@pytest.mark.parametrize("task", sorted(set(TASK_NAMES) - BORROWED_WORLDS))
 def test_a_tasks_world_does_not_import_gymnasium(task):
     modules = _world_modules(TASKS / task)
     assert modules, f"tasks/{task} has no model.py, sim.py or sim/"

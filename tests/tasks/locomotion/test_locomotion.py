@@ -258,6 +258,7 @@ def test_rgb_array_render():
     env = make("HalfCheetah-IL-v0", render_mode="rgb_array", width=96, height=64)
     env.reset(seed=0)
     frame = env.render()
+    env.close()
     assert frame.shape == (64, 96, 3) and frame.dtype == np.uint8 and frame.std() > 0
 
 
