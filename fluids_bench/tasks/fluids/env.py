@@ -16,6 +16,7 @@ from fluids_bench.tasks.fluids.sim.config import (
     SceneConfig,
     check_range,
 )
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.layout.compiled import compile_layout
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
@@ -162,6 +163,7 @@ class FluidsEnv(gym.Env):
         done_when: str = "ego",
         dt: float = 0.1,
         render_mode: str | None = None,
+        defensive: bool = False,
     ) -> None:
         if action_level not in LEVELS:
             raise ValueError(
@@ -182,6 +184,11 @@ class FluidsEnv(gym.Env):
                 f"FluidsEnv: field 'done_when' is {done_when!r}; allowed: ['ego', 'all']"
             )
         self.done_when = done_when
+        if not isinstance(defensive, bool | np.bool_):
+            raise ValueError(
+                f"FluidsEnv: field 'defensive' is {defensive!r}; allowed: true or false"
+            )
+        self.defensive = bool(defensive)
         if trajectory_planner not in TRAJECTORY_PLANNERS:
             raise ValueError(
                 f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
@@ -215,6 +222,7 @@ class FluidsEnv(gym.Env):
             pid=PIDConfig(assumed_mass=CarConfig().mass),
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
+            uncontrolled=(0,) if self.defensive else (),
         )
         self.action_level = action_level
         self.render_mode = render_mode
@@ -230,6 +238,7 @@ class FluidsEnv(gym.Env):
         self.observation_space = self.observer.space
         self.action_space = levels.action_space(action_level, self.world, waypoints)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.faults = FaultTracker(self.world)
         self._route_length = 1.0
         self._last_s = 0.0
         self._ended = False
@@ -241,6 +250,7 @@ class FluidsEnv(gym.Env):
         spawn(self.world, self.np_random)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.supervisor.prepare(self.world)
+        self.faults = FaultTracker(self.world)
         self._ended = False
         self._last_s = float(self.world.route_s[0])
         self._route_length = float(self.world.path_len[0]) - self._last_s
@@ -259,6 +269,7 @@ class FluidsEnv(gym.Env):
         if changed:
             self._route_length = float(w.path_len[0]) - self._last_s
         events = sup.execute(w, controls, memory)
+        self.faults.update()
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
         s_now = float(w.path_len[0]) + float(w.offset[0]) if arrived else float(w.route_s[0])
@@ -322,7 +333,7 @@ class FluidsEnv(gym.Env):
         w = self.world
         return {
             SUPERVISOR_ACTION_KEY: self.supervisor_action(),
-            "collisions": [e.as_dict() for e in events],
+            "collisions": self.faults.annotate(events),
             "ego_arrived": bool(w.reached[0]),
             "route": w.layout.routes.names[w.route[0]],
             "lights": w.lights.describe_states(w.light_state),
