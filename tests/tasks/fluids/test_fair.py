@@ -1,0 +1,163 @@
+"""FLUIDS as a fair benchmark: defensive background drivers and collision fault labels."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
+from fluids_bench.tasks.fluids.sim.world import World
+
+LAYOUTS = ("four_way", "t_junction", "roundabout")
+
+
+# ---------------------------------------------------------------- fault labels, constructed
+def _world(cars: int, peds: int = 0, lights: bool = True) -> World:
+    return World(SceneConfig(num_cars=cars, num_pedestrians=peds, lights=lights))
+
+
+def _route(world: World, name: str) -> int:
+    return world.layout.routes.names.index(name)
+
+
+def _conflict_s(world: World, r0: int, r1: int) -> tuple[float, float]:
+    """Arc lengths on routes r0 and r1 of the points where they come closest."""
+    p0, p1 = world.layout.routes.path[r0], world.layout.routes.path[r1]
+    d = np.hypot(*(p0[:, None, :] - p1[None, :, :]).transpose(2, 0, 1))
+    i, j = np.unravel_index(np.argmin(d), d.shape)
+    from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+
+    return i * PATH_SPACING, j * PATH_SPACING
+
+
+def _run_until_collision(world: World, tracker: FaultTracker, controls=None, steps=100):
+    controls = np.zeros((world.n, 2)) if controls is None else controls
+    for _ in range(steps):
+        events = world.step(controls)
+        tracker.update()
+        if events:
+            return tracker.annotate(events)
+    raise AssertionError("no collision happened")
+
+
+def test_rear_end_is_the_followers_fault():
+    w = _world(2)
+    r = _route(w, "east_in_0->west_out_0")
+    w.place(1, r, 20.0, speed=0.0)
+    w.place(0, r, 8.0, speed=6.0)
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["kind"] == "car-car"
+    assert c["at_fault"] == [0] and c["rule"] == "rear_end" and not c["cut_in"]
+
+
+def test_leader_that_cuts_in_inside_braking_distance_is_flagged():
+    w = _world(2)
+    r = _route(w, "east_in_0->west_out_0")
+    w.place(0, r, 4.0, speed=8.0)
+    w.place(1, _route(w, "north_in_0->south_out_0"), 2.0)
+    tracker = FaultTracker(w)
+    for _ in range(10):  # car 0 drives alone for a second
+        w.step(np.zeros((2, 2)))
+        tracker.update()
+    w.place(1, r, float(w.s[0]) + 7.0, speed=0.0)  # appears 2.5 m ahead of its bumper
+    (c,) = _run_until_collision(w, tracker)
+    assert c["at_fault"] == [0] and c["rule"] == "rear_end" and c["cut_in"]
+
+
+def test_entering_against_a_red_light_is_the_entrants_fault():
+    w = _world(2)  # at t = 0 east-west is green, north-south red
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(0, north, c0 - 12.0, speed=8.0)  # crosses its red stop line
+    w.place(1, east, c1 - 12.0, speed=8.0)  # green
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["at_fault"] == [0] and c["rule"] == "red_light"
+
+
+def test_entering_an_occupied_junction_is_the_entrants_fault():
+    w = _world(2, lights=False)
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(1, east, c1 - 3.5, speed=2.0)  # already in the junction
+    w.place(0, north, c0 - 14.0, speed=8.0)  # enters later, fast enough to arrive together
+    tracker = FaultTracker(w)
+    assert tracker.entry_step[1] == 0 and tracker.entry_step[0] < 0
+    (c,) = _run_until_collision(w, tracker)
+    assert c["at_fault"] == [0] and c["rule"] == "entered_occupied"
+
+
+def test_moving_into_a_stationary_car_is_the_movers_fault():
+    w = _world(2, lights=False)
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(1, east, c1, speed=0.0)  # stopped across the north-south lane
+    w.place(0, north, c0 - 10.0, speed=6.0)
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["at_fault"] == [0] and c["rule"] == "moving_into_stationary"
+
+
+def test_leaving_the_road_is_the_drivers_fault():
+    w = _world(1)
+    w.place(0, _route(w, "east_in_0->west_out_0"), 5.0, speed=8.0)
+    controls = np.array([[0.7, 0.0]])  # full steering lock
+    (c,) = _run_until_collision(w, FaultTracker(w), controls)
+    assert c["kind"] == "offroad" and c["at_fault"] == [0] and c["rule"] == "offroad"
+
+
+# ---------------------------------------------------------------- defensive drivers
+def _ego_policy(kind: str, rng: np.random.Generator, info: dict, step: int, stop_at: int):
+    if kind == "stop":
+        return info["supervisor_action"] if step < stop_at else np.zeros(1, np.float32)
+    if kind == "crawl":
+        return np.ones(1, np.float32)
+    return rng.uniform(0.0, 10.0, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize("layout", LAYOUTS)
+@pytest.mark.parametrize("kind", ["stop", "crawl", "random"])
+def test_supervised_cars_never_rear_end_the_ego(layout, kind):
+    """A stopping, crawling or random-speed ego is never hit from behind by a supervised car
+    (nor hit by one in any other way that is the supervised car's fault and no cut-in)."""
+    env = gym.make(
+        "FLUIDS-v0",
+        layout=layout,
+        num_cars=5,
+        num_pedestrians=2,
+        action_level="velocity",
+        defensive=True,
+    )
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        stop_at = int(rng.integers(0, 60))
+        _, info = env.reset(seed=seed)
+        for step in range(250):
+            _, _, term, trunc, info = env.step(_ego_policy(kind, rng, info, step, stop_at))
+            for c in info["collisions"]:
+                ours = [i for i in c["at_fault"] if i != 0]
+                assert not (ours and not c["cut_in"]), (layout, kind, seed, c)
+            if term or trunc:
+                break
+
+
+def test_without_defensive_drivers_a_stopped_ego_is_rear_ended():
+    """The measurement the option answers: v0's planner assumes the ego follows the plan."""
+    hits = 0
+    env = gym.make("FLUIDS-v0", action_level="velocity")
+    for seed in range(8):
+        env.reset(seed=seed)
+        for _ in range(150):
+            _, _, term, trunc, info = env.step(np.zeros(1, np.float32))
+            hits += any(
+                c["rule"] == "rear_end" and c["at_fault"] != [0] for c in info["collisions"]
+            )
+            if term or trunc:
+                break
+    assert hits > 0
+
+
+def test_defensive_must_be_a_bool():
+    with pytest.raises(ValueError, match="defensive"):
+        gym.make("FLUIDS-v0", defensive="yes")
