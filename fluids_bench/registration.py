@@ -28,6 +28,21 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
             "done_when": "all",
         },
     ),
+    # v1: background drivers are defensive toward the ego (they keep the distance to stop for
+    # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal
+    "FLUIDS-v1": ("fluids_bench.tasks.fluids.env:FluidsEnv", 400, {"defensive": True}),
+    "FLUIDS-Sensitivity-v1": (
+        "fluids_bench.tasks.fluids.env:FluidsEnv",
+        600,
+        {
+            "action_level": "velocity",
+            "obs_type": "qlidar",
+            "num_cars": 3,
+            "num_pedestrians": 2,
+            "done_when": "all",
+            "defensive": True,
+        },
+    ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
 }
@@ -36,6 +51,10 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
 # id -> (factory "module:function", default kwargs); build with make_parallel_env(id, **kwargs)
 PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
+    "FLUIDS-MultiAgent-v1": (
+        "fluids_bench.tasks.fluids.multi_agent:parallel_env",
+        {"defensive": True},
+    ),
 }
 
 
