@@ -30,7 +30,11 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     # v1: background drivers are defensive toward the ego (they keep the distance to stop for
     # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal
-    "FLUIDS-v1": ("fluids_bench.tasks.fluids.env:FluidsEnv", 400, {"defensive": True}),
+    "FLUIDS-v1": (
+        "fluids_bench.tasks.fluids.env:FluidsEnv",
+        400,
+        {"defensive": True, "lidar_version": 1},
+    ),
     "FLUIDS-Sensitivity-v1": (
         "fluids_bench.tasks.fluids.env:FluidsEnv",
         600,
@@ -41,6 +45,7 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
             "num_pedestrians": 2,
             "done_when": "all",
             "defensive": True,
+            "lidar_version": 1,
         },
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
@@ -53,7 +58,7 @@ PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
     "FLUIDS-MultiAgent-v1": (
         "fluids_bench.tasks.fluids.multi_agent:parallel_env",
-        {"defensive": True},
+        {"defensive": True, "lidar_version": 1},
     ),
 }
 

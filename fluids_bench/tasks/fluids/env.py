@@ -164,6 +164,7 @@ class FluidsEnv(gym.Env):
         dt: float = 0.1,
         render_mode: str | None = None,
         defensive: bool = False,
+        lidar_version: int = 0,
     ) -> None:
         if action_level not in LEVELS:
             raise ValueError(
@@ -206,6 +207,7 @@ class FluidsEnv(gym.Env):
             lidar_range=lidar_range,
             lidar_noise=lidar_noise,
             lidar_dropout=lidar_dropout,
+            lidar_version=lidar_version,
         )
         self.scene = SceneConfig(
             layout=layout,

@@ -44,6 +44,7 @@ class ObservationConfig:
     lidar_range: float = 30.0  # qlidar: m
     lidar_noise: float = 0.0  # qlidar: λ_l, variance of the noise on d, ψ_r and v_r
     lidar_dropout: float = 0.0  # qlidar: ε, probability that a ray reads as empty
+    lidar_version: int = 0  # qlidar: 1 adds lights' stop lines, occupied crosswalks, goal row
 
     def __post_init__(self) -> None:
         obs_type = self.obs_type
@@ -68,6 +69,7 @@ class ObservationConfig:
         check_range("FluidsEnv", "lidar_range", self.lidar_range, 1.0, 1000.0)
         check_range("FluidsEnv", "lidar_noise", self.lidar_noise, 0.0, 100.0)
         check_range("FluidsEnv", "lidar_dropout", self.lidar_dropout, 0.0, 1.0)
+        check_range("FluidsEnv", "lidar_version", self.lidar_version, 0, 1, integer=True)
 
     @property
     def kinds(self) -> tuple[str, ...]:
@@ -108,6 +110,7 @@ class _QLidar:
             cfg.lidar_noise,
             cfg.lidar_dropout,
             max_speed=float(world.max_speed.max()),
+            version=cfg.lidar_version,
         )
         low, high = self.sensor.bounds
         self.space = spaces.Box(low, high, dtype=np.float32)

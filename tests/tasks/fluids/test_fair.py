@@ -161,3 +161,74 @@ def test_without_defensive_drivers_a_stopped_ego_is_rear_ended():
 def test_defensive_must_be_a_bool():
     with pytest.raises(ValueError, match="defensive"):
         gym.make("FLUIDS-v0", defensive="yes")
+
+
+# ---------------------------------------------------------------- quasi-LIDAR v1
+def _lidar_env(**kwargs):
+    env = gym.make(
+        "FLUIDS-v1",
+        obs_type="qlidar",
+        action_level="velocity",
+        num_cars=0,
+        num_pedestrians=kwargs.pop("num_pedestrians", 0),
+        **kwargs,
+    )
+    env.reset(seed=0)
+    return env
+
+
+def _observe(env):
+    u = env.unwrapped
+    return u.observer.observe(u.world, u.np_random)
+
+
+def test_qlidar_sees_a_red_stop_line_ahead_until_it_turns_green():
+    env = _lidar_env()
+    w = env.unwrapped.world
+    route = _route(w, "south_in_0->north_out_0")  # red at t = 0, green from 17 s
+    w.place(0, route, 20.0)
+    stop_gap = float(w.layout.routes.stop_s[route]) - 20.0
+    seen = []
+    for _ in range(220):
+        obs = _observe(env)
+        colour = w.lights.describe_states(w.light_state)["tl_south"]
+        seen.append(colour)
+        if colour == "red":
+            assert obs[0, 1] == 4 and obs[0, 0] == pytest.approx(stop_gap, abs=0.05)
+        elif colour == "yellow":
+            assert obs[0, 1] == 5
+        else:
+            assert obs[0, 1] not in (4, 5)  # green: the line is no obstacle
+        env.step(np.zeros(1, np.float32))  # the ego waits
+    assert "red" in seen and "green" in seen
+
+
+def test_qlidar_v1_occupied_crosswalk_reads_as_pedestrian_and_goal_row():
+    env = _lidar_env(num_pedestrians=1, lights=False)
+    w = env.unwrapped.world
+    obs = _observe(env)
+    assert obs.shape == (65, 4) and env.observation_space.contains(obs)
+    assert obs[64, 1] == 6  # the goal row: bearing of the next waypoint, ahead on a straight
+    car = _route(w, "south_in_0->north_out_0")
+    w.place(0, car, 16.0)
+    assert _observe(env)[64, 2] == pytest.approx(0.0, abs=1e-6)
+    assert 2 not in _observe(env)[:64, 1]
+    # a walker in the middle of the crosswalk the ego drives over (ahead of it, to the side)
+    walk = [i for i, n in enumerate(w.layout.routes.names) if n.startswith("walk_south")][0]
+    w.place(1, walk, float(w.layout.routes.enter_s[walk]) + 2.0)
+    obs = _observe(env)
+    ped_rays = obs[:64][obs[:64, 1] == 2]
+    assert len(ped_rays) > 3  # the whole crosswalk blocks rays, not just the walker
+    assert obs[0, 1] == 2
+
+
+def test_qlidar_v0_reading_is_unchanged_by_the_v1_option():
+    v0 = gym.make("FLUIDS-v0", obs_type="qlidar", lidar_noise=0.1, lidar_dropout=0.1)
+    v1 = gym.make(
+        "FLUIDS-v0", obs_type="qlidar", lidar_noise=0.1, lidar_dropout=0.1, lidar_version=1
+    )
+    a, _ = v0.reset(seed=3)
+    b, _ = v1.reset(seed=3)
+    assert a.shape == (64, 4) and b.shape == (65, 4)
+    same = b[:64, 1] < 4  # where v1 sees nothing new, the rays are v0's, noise included
+    assert np.array_equal(a[same], b[:64][same])

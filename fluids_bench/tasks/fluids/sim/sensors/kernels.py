@@ -249,3 +249,38 @@ def fill_explicit(
         out[base + 4] = max(gap, 0.0)
     else:
         out[base + 3] = 1.0
+
+
+@njit(cache=True, nogil=True)
+def qlidar_segments(
+    out, x, y, th, v, cos_k, sin_k, seg_a, seg_e, seg_angle, seg_label
+):  # pragma: no cover (compiled)
+    """Let the first ``len(cos_k)`` rays of a cast reading ``out`` also stop at extra segments
+    (the quasi-LIDAR v1's stop lines of red and yellow lights and occupied crosswalks' edges):
+    where a ray crosses segment i nearer than its current hit, it reads [distance,
+    ``seg_label[i]``, the segment's direction relative to the ego folded to [−π/2, π/2), −v].
+
+    x, y, th, v: the ego's pose and speed; seg_a, seg_e: (S, 2) start and vector of each
+    segment; seg_angle: (S,) its direction (rad, folded to [−π/2, π/2)).
+    """
+    ct, st = math.cos(th), math.sin(th)
+    half = math.pi / 2
+    for k in range(len(cos_k)):
+        dx = ct * cos_k[k] - st * sin_k[k]
+        dy = ct * sin_k[k] + st * cos_k[k]
+        best, hit = out[k, 0], -1
+        for i in range(len(seg_a)):
+            wx, wy = seg_a[i, 0] - x, seg_a[i, 1] - y
+            ex, ey = seg_e[i, 0], seg_e[i, 1]
+            d_cross_e = ey * dx - ex * dy
+            if d_cross_e == 0.0:
+                continue  # parallel
+            t = (wx * ey - wy * ex) / d_cross_e
+            u = (wx * dy - wy * dx) / d_cross_e
+            if t >= 0 and u >= 0 and u <= 1 and t < best:
+                best, hit = t, i
+        if hit >= 0:
+            out[k, 0] = best
+            out[k, 1] = seg_label[hit]
+            out[k, 2] = (seg_angle[hit] - th + half) % (2 * half) - half
+            out[k, 3] = -0.0 - v
