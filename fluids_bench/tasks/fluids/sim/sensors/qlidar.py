@@ -52,7 +52,7 @@ from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.sensors.kernels import (
     qlidar_cast,
     qlidar_noise,
-    qlidar_segments,
+    qlidar_v1_extras,
 )
 
 LABELS = ("nothing", "car", "pedestrian", "road_edge")
@@ -232,51 +232,17 @@ class QLidarSensor:
 
     def _cast_v1(self, world, ego: int, out: np.ndarray) -> None:
         """Stop lines of red/yellow lights, occupied crosswalks, and the goal row (see the
-        module docstring)."""
+        module docstring), in one compiled pass."""
         g = self.respect
-        x, y, th, v = world.state[ego]
-        a, e, angle, label = [], [], [], []
-        if len(g.line_light) and len(world.light_state):
-            state = world.light_state[g.line_light]
-            shown = (state == STOP) | (state == CAUTION)
-            if shown.any():
-                a.append(g.line_a[shown])
-                e.append(g.line_e[shown])
-                angle.append(g.line_angle[shown])
-                label.append(np.where(state[shown] == STOP, RED_LIGHT_HIT, YELLOW_LIGHT_HIT))
-        peds = world.active & ~world.is_car
-        if len(g.cw_centre) and peds.any():
-            rel = world.state[peds, None, :2] - g.cw_centre[None]  # (P, C, 2)
-            along = np.abs((rel * g.cw_axis[None]).sum(-1))
-            across = np.abs(
-                rel[..., 0] * g.cw_axis[None, :, 1] - rel[..., 1] * g.cw_axis[None, :, 0]
-            )
-            r = (world.width[peds] / 2)[:, None]
-            busy = (
-                (along <= g.cw_half[None, :, 0] + r) & (across <= g.cw_half[None, :, 1] + r)
-            ).any(0)
-            if busy.any():
-                a.append(g.cw_a[busy].reshape(-1, 2))
-                e.append(g.cw_e[busy].reshape(-1, 2))
-                angle.append(g.cw_angle[busy].ravel())
-                label.append(np.full(4 * int(busy.sum()), PEDESTRIAN_HIT))
-        if a:
-            qlidar_segments(
-                out, x, y, th, v, self._cos, self._sin,
-                np.concatenate(a), np.concatenate(e), np.concatenate(angle),
-                np.concatenate(label).astype(float),
-            )  # fmt: skip
-        # the goal row: bearing and distance of the next waypoint along the route
         s = min(float(world.s[ego]) + WAYPOINT_AHEAD, float(world.path_len[ego]))
-        k = min(int(round(s / PATH_SPACING)), world.path_z.shape[1] - 1)
-        p = world.path_z[ego, k]
-        dx, dy = p.real - x, p.imag - y
-        out[self.rays] = (
-            min(math.hypot(dx, dy), self.max_range),
-            GOAL_ROW,
-            (math.atan2(dy, dx) - th + math.pi) % (2 * math.pi) - math.pi,
-            -0.0 - v,
-        )
+        goal = world.path_z[ego, min(int(round(s / PATH_SPACING)), world.path_z.shape[1] - 1)]
+        qlidar_v1_extras(
+            out, world.state, world.active, world.is_car, world.width, ego,
+            self._cos, self._sin,
+            g.line_a, g.line_e, g.line_angle, g.line_light, world.light_state, STOP, CAUTION,
+            g.cw_a, g.cw_e, g.cw_angle, g.cw_centre, g.cw_axis, g.cw_half,
+            _V1_LABELS, goal.real, goal.imag, self.max_range,
+        )  # fmt: skip
 
     def observe(self, world, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
         out = self.cast(world, ego)
@@ -292,5 +258,6 @@ class QLidarSensor:
         return out.astype(np.float32)
 
 
+_V1_LABELS = np.array([RED_LIGHT_HIT, YELLOW_LIGHT_HIT, PEDESTRIAN_HIT, GOAL_ROW], dtype=float)
 _NONE = np.zeros((0, 3))
 _NONE_DROPPED = np.zeros(0, dtype=bool)
