@@ -75,6 +75,11 @@ class FluidsEnv(gym.Env):
     variance to d, ψ_r and v_r; with probability ``lidar_dropout`` (ε) a ray reads as empty
     ``[lidar_range, 0, 0, 0]``. See :mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`.
 
+    ``lidar_version=1`` (the v1 ids): ``Box((m + 1, 4), float32)``; rays also stop at the stop
+    line of a red (label 4) or yellow (label 5) traffic light and at the edges of a crosswalk
+    with a pedestrian on it (label 2), and row m is the goal row ``[d, 6, bearing, −v_ego]`` of
+    the waypoint 5 m ahead on the ego's route (noise and dropout apply to the m rays only).
+
     A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
 
     ## Rewards
@@ -96,7 +101,12 @@ class FluidsEnv(gym.Env):
 
     ## Info
     ``supervisor_action`` (the supervisor's label for the ego at ``action_level`` in the new
-    state), ``collisions`` (this step's, as dicts), ``ego_arrived``, ``route``, ``lights``.
+    state), ``collisions`` (this step's, as dicts: ``step``, agents ``a`` and ``b`` (−1 for
+    off-road), ``kind``, and who was at fault: ``at_fault`` (a list of agents), the ``rule``
+    that decided it (``offroad``, ``red_light``, ``rear_end``, ``moving_into_stationary``,
+    ``car_yields_to_pedestrian``, ``entered_occupied``, ``shared``) and ``cut_in`` (a rear-end
+    whose leader came in front inside the follower's stopping distance); see
+    :mod:`fluids_bench.tasks.fluids.sim.fault`), ``ego_arrived``, ``route``, ``lights``.
 
     ## Arguments
     * ``layout``: ``"four_way"`` (default), ``"t_junction"`` or ``"roundabout"``.
@@ -128,8 +138,16 @@ class FluidsEnv(gym.Env):
     * ``planner_period``: steps between velocity-planner runs (default 5: 0.5 s); the plan, and
       the velocity-level label, is held in between.
     * ``dt``: seconds per step (default 0.1).
+    * ``defensive``: background agents treat the ego as a driver that may brake as hard as it
+      can at any time: they only take a target speed from which, holding it until their next
+      plan and braking then, they stop short of wherever the ego can stop (default False;
+      True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
+      in inside its stopping distance.
+    * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
 
     ## Version History
+    * v1: ``defensive=True`` and ``lidar_version=1`` by default (``FLUIDS-v1``,
+      ``FLUIDS-Sensitivity-v1``); collisions carry fault labels (in every version).
     * v0: initial release.
     """
 

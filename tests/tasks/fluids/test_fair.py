@@ -232,3 +232,64 @@ def test_qlidar_v0_reading_is_unchanged_by_the_v1_option():
     assert a.shape == (64, 4) and b.shape == (65, 4)
     same = b[:64, 1] < 4  # where v1 sees nothing new, the rays are v0's, noise included
     assert np.array_equal(a[same], b[:64][same])
+
+
+# ---------------------------------------------------------------- the v1 ids (registry checks)
+V1_IDS = ("FLUIDS-v1", "FLUIDS-Sensitivity-v1")
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
+def test_v1_ids_pass_check_env(env_id):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(env_id, obs_type=["qlidar", "explicit"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*symmetric and normalized.*")
+        check_env(env.unwrapped, skip_render_check=True)
+
+
+def _v1_rollout(env_id: str, seed: int, steps: int = 80):
+    env = gym.make(
+        env_id, obs_type="qlidar", lidar_noise=0.1, num_pedestrians=3, action_level="velocity"
+    )
+    rng = np.random.default_rng(seed)
+    env.action_space.seed(seed)
+    obs, info = env.reset(seed=seed)
+    trace = [obs, info]
+    for _ in range(steps):
+        a = info["supervisor_action"]
+        assert env.action_space.contains(a)
+        assert np.array_equal(a, env.unwrapped.supervisor_action())
+        assert np.array_equal(a, env.unwrapped.supervisor_action())  # a second call agrees
+        if rng.random() < 0.3:
+            a = env.action_space.sample()
+        obs, r, term, trunc, info = env.step(a)
+        trace += [obs, r, term, trunc, info]
+        if term or trunc:
+            break
+    return env, trace
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
+def test_v1_ids_are_deterministic_and_pickle_mid_episode(env_id):
+    import pickle
+
+    from exact_compare import exactly_equal
+
+    _, a = _v1_rollout(env_id, 5)
+    _, b = _v1_rollout(env_id, 5)
+    assert exactly_equal(a, b)
+    env = gym.make(env_id, obs_type="qlidar", action_level="velocity")
+    _, info = env.reset(seed=9)
+    for _ in range(20):
+        _, _, _, _, info = env.step(info["supervisor_action"])
+    clone = pickle.loads(pickle.dumps(env))
+    act = np.array([3.0], np.float32)
+    for _ in range(30):
+        out1, out2 = env.step(act), clone.step(act)
+        assert exactly_equal(list(out1), list(out2))
+        if out1[2] or out1[3]:
+            break
