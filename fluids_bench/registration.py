@@ -29,11 +29,12 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
         },
     ),
     # v1: background drivers are defensive toward the ego (they keep the distance to stop for
-    # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal
+    # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal;
+    # success requires the ego not to run a red light
     "FLUIDS-v1": (
         "fluids_bench.tasks.fluids.env:FluidsEnv",
         400,
-        {"defensive": True, "lidar_version": 1},
+        {"defensive": True, "lidar_version": 1, "obey_lights": True},
     ),
     "FLUIDS-Sensitivity-v1": (
         "fluids_bench.tasks.fluids.env:FluidsEnv",
@@ -46,6 +47,7 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
             "done_when": "all",
             "defensive": True,
             "lidar_version": 1,
+            "obey_lights": True,
         },
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),

@@ -94,7 +94,8 @@ class FluidsEnv(gym.Env):
     ## Episode End
     ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
     (with a car, a pedestrian, or leaving the road); ``info["is_success"]`` is True iff the ego
-    arrived and no collision happened in the episode. ``done_when="all"`` (the sensitivity
+    arrived and no collision happened in the episode (and, with ``obey_lights``, the ego ran no
+    red light). ``done_when="all"`` (the sensitivity
     analysis' criterion): terminated when every car has arrived or on any collision;
     ``is_success`` iff every car arrived without one (after the ego arrives, actions are ignored
     and rewards are 0). Truncated by ``TimeLimit`` (400 steps = 40 s by default).
@@ -144,9 +145,11 @@ class FluidsEnv(gym.Env):
       True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
       in inside its stopping distance.
     * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
+    * ``obey_lights``: success also requires that the ego never entered its junction against
+      a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
 
     ## Version History
-    * v1: ``defensive=True`` and ``lidar_version=1`` by default (``FLUIDS-v1``,
+    * v1: ``defensive=True``, ``lidar_version=1`` and ``obey_lights=True`` by default (``FLUIDS-v1``,
       ``FLUIDS-Sensitivity-v1``); collisions carry fault labels (in every version).
     * v0: initial release.
     """
@@ -183,6 +186,7 @@ class FluidsEnv(gym.Env):
         render_mode: str | None = None,
         defensive: bool = False,
         lidar_version: int = 0,
+        obey_lights: bool = False,
     ) -> None:
         if action_level not in LEVELS:
             raise ValueError(
@@ -208,6 +212,11 @@ class FluidsEnv(gym.Env):
                 f"FluidsEnv: field 'defensive' is {defensive!r}; allowed: true or false"
             )
         self.defensive = bool(defensive)
+        if not isinstance(obey_lights, bool | np.bool_):
+            raise ValueError(
+                f"FluidsEnv: field 'obey_lights' is {obey_lights!r}; allowed: true or false"
+            )
+        self.obey_lights = bool(obey_lights)
         if trajectory_planner not in TRAJECTORY_PLANNERS:
             raise ValueError(
                 f"FluidsEnv: field 'trajectory_planner' is {trajectory_planner!r}; "
@@ -304,6 +313,8 @@ class FluidsEnv(gym.Env):
             cars_done = bool(w.reached[w.is_car].all())
             terminated = cars_done or bool(events)
             success = cars_done and not w.log
+        if self.obey_lights and self.faults.ran_red[0]:
+            success = False  # the ego entered its junction against a red light
         self._ended = terminated
         if not terminated:
             sup.prepare(w)
@@ -357,4 +368,5 @@ class FluidsEnv(gym.Env):
             "ego_arrived": bool(w.reached[0]),
             "route": w.layout.routes.names[w.route[0]],
             "lights": w.lights.describe_states(w.light_state),
+            "ego_ran_red_light": bool(self.faults.ran_red[0]),
         }

@@ -293,3 +293,19 @@ def test_v1_ids_are_deterministic_and_pickle_mid_episode(env_id):
         assert exactly_equal(list(out1), list(out2))
         if out1[2] or out1[3]:
             break
+
+
+@pytest.mark.parametrize("obey", [False, True])
+def test_running_a_red_light_fails_the_episode_only_with_obey_lights(obey):
+    env = gym.make(
+        "FLUIDS-v1", action_level="velocity", num_cars=0, num_pedestrians=0, obey_lights=obey
+    )
+    env.reset(seed=0)
+    w = env.unwrapped.world
+    w.place(0, _route(w, "south_in_0->north_out_0"), 6.0)  # red for the first 17 s
+    for _ in range(400):
+        _, _, term, trunc, info = env.step(np.array([10.0], np.float32))
+        if term or trunc:
+            break
+    assert info["ego_arrived"] and info["ego_ran_red_light"] and not info["collisions"]
+    assert info["is_success"] is (not obey)
