@@ -12,7 +12,7 @@ collisions by who was at fault (``info["collisions"][i]["at_fault"]``, see
 * ``noisy``: the supervisor's label plus N(0, 2²) m/s noise, clipped.
 
 ``--defensive`` compares both planners (v0's: off; v1's: on). An episode runs until the ego
-arrives or collides, or 400 steps. Rows append to ``--out``.jsonl as they finish and a rerun
+arrives or collides, or 400 steps; scene (c cars, p pedestrians) uses seeds 1000c + 100p + i. Rows append to ``--out``.jsonl as they finish and a rerun
 skips them (resumable); the summary is written atomically to ``--out``.
 
     python scripts/defensive_driving.py --episodes 200 --workers 2 --out defensive.json
@@ -85,7 +85,10 @@ def run_episode(layout: str, cars: int, peds: int, policy: str, defensive: bool,
 def scene_row(job: tuple) -> dict:
     layout, cars, peds, policy, defensive, episodes = job
     t0 = time.process_time()
-    rows = [run_episode(layout, cars, peds, policy, defensive, s) for s in range(episodes)]
+    # distinct seeds per scene (a scene's first seed is 1000 · cars + 100 · pedestrians), so
+    # scenes that differ only in walkers do not replay the same cars
+    base = 1000 * cars + 100 * peds
+    rows = [run_episode(layout, cars, peds, policy, defensive, base + s) for s in range(episodes)]
     return {
         "layout": layout,
         "cars": cars,
