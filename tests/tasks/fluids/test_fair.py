@@ -309,3 +309,24 @@ def test_running_a_red_light_fails_the_episode_only_with_obey_lights(obey):
             break
     assert info["ego_arrived"] and info["ego_ran_red_light"] and not info["collisions"]
     assert info["is_success"] is (not obey)
+
+
+def test_turning_across_oncoming_traffic_is_the_turners_fault():
+    w = _world(2, lights=False)
+    left = _route(w, "east_in_0->south_out_0")  # from the east, turning left across
+    straight = _route(w, "west_in_0->east_out_0")  # oncoming, straight on
+    c0, c1 = _conflict_s(w, left, straight)
+    w.place(0, straight, c1 - 10.0, speed=5.0)
+    w.place(1, left, c0 - 10.0, speed=5.0)
+    from fluids_bench.tasks.fluids.supervisor.control import PIDController
+
+    pid, tracker = PIDController(w), FaultTracker(w)
+    for _ in range(60):  # both steer along their routes at 5 m/s
+        controls, memory = pid.controls(w, np.full(2, 5.0))
+        pid.commit(memory)
+        events = w.step(controls)
+        tracker.update()
+        if events:
+            break
+    (c,) = tracker.annotate(events)
+    assert c["at_fault"] == [1] and c["rule"] == "turn_yields"

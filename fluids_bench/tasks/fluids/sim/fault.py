@@ -15,9 +15,12 @@ seconds of states) and labels each collision. The rules, first match wins:
 4. ``moving_into_stationary``: exactly one of the two was moving (faster than
    :data:`STATIONARY_SPEED`): the mover.
 5. ``car_yields_to_pedestrian``: a car and a pedestrian, both moving: the car.
-6. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
+6. ``turn_yields``: two moving cars that came from opposite approaches (their routes' entry
+   headings more than 135° apart), exactly one of them turning (its route's heading changes
+   by more than 45°): the turning one, which crosses the oncoming lane and must yield.
+7. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
    car not yet in the junction counts as entering now). Same step: both.
-7. ``shared``: otherwise both.
+8. ``shared``: otherwise both.
 """
 
 from __future__ import annotations
@@ -26,6 +29,7 @@ from collections import deque
 
 import numpy as np
 
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import STOP
 
 HISTORY = 40  # steps of states kept for the cut-in test (4 s at dt = 0.1)
@@ -101,6 +105,9 @@ class FaultTracker:
             car = a if w.is_car[a] else b
             return {"at_fault": [car], "rule": "car_yields_to_pedestrian", "cut_in": False}
         if moving.all():
+            turner = self._turning_across(a, b)
+            if turner is not None:
+                return {"at_fault": [turner], "rule": "turn_yields", "cut_in": False}
             now = w.steps
             ea = self.entry_step[a] if self.entry_step[a] >= 0 else now
             eb = self.entry_step[b] if self.entry_step[b] >= 0 else now
@@ -111,6 +118,22 @@ class FaultTracker:
                     "cut_in": False,
                 }
         return {"at_fault": [a, b], "rule": "shared", "cut_in": False}
+
+    def _turning_across(self, a: int, b: int) -> int | None:
+        """Of two cars from opposite approaches, the one that turns (None unless exactly one)."""
+        routes, w = self.world.layout.routes, self.world
+        ra, rb = w.route[a], w.route[b]
+        if ra < 0 or rb < 0:
+            return None
+        if abs(_wrap(routes.heading[ra, 0] - routes.heading[rb, 0])) <= 3 * np.pi / 4:
+            return None
+        turns = []
+        for r in (ra, rb):
+            last = min(int(round(routes.length[r] / PATH_SPACING)), routes.heading.shape[1] - 1)
+            turns.append(abs(_wrap(routes.heading[r, last] - routes.heading[r, 0])) > np.pi / 4)
+        if turns[0] == turns[1]:
+            return None
+        return a if turns[0] else b
 
     def _follower(self, a: int, b: int, state: np.ndarray) -> int | None:
         """The car behind when ``a`` and ``b`` head within 45° of each other, else None."""

@@ -188,10 +188,18 @@ class VelocityPlanner:
         return np.column_stack([ii, jj])[keep], conflict[keep]
 
     def _conflict_tables(
-        self, world: World, agents: np.ndarray, s_proj: np.ndarray, ii: np.ndarray, jj: np.ndarray
+        self,
+        world: World,
+        agents: np.ndarray,
+        s_proj: np.ndarray,
+        ii: np.ndarray,
+        jj: np.ndarray,
+        relax: bool = True,
     ) -> np.ndarray:
         """conflict[p, a, b] (P, K, K) for the pairs (``ii[p]``, ``jj[p]``) of positions in
-        ``agents`` projected to ``s_proj`` (A, K, T)."""
+        ``agents`` projected to ``s_proj`` (A, K, T). ``relax``: a pair already closer than its
+        clearance conflicts only where it gets closer still (so that braking stays feasible
+        for the CSP); without it, wherever it stays inside the clearance."""
         cars = world.is_car[agents]
         pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
         bound = self._reach[agents]
@@ -210,7 +218,8 @@ class VelocityPlanner:
         margin = np.where(
             crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
         )
-        thresh = np.maximum(np.minimum(radius[ii] + radius[jj] + margin, d_now - 0.05), 0.0)
+        clearance = radius[ii] + radius[jj] + margin
+        thresh = np.maximum(np.minimum(clearance, d_now - 0.05), 0.0) if relax else clearance
         reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
         return conflict_tables(
             pts.real,
@@ -233,7 +242,8 @@ class VelocityPlanner:
         """Unary constraints toward uncontrolled agents: allowed[a, k] is False where supervised
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
         uncontrolled agent (``wild``, positions in ``agents``) that brakes as hard as it can
-        now or at any of a few later steps before the next plan (holding its speed until then).
+        now or at any of a few later steps before the next plan (holding its speed until then),
+        or that holds its speed throughout (it need not yield: junction clearance).
 
         Pairs in which the uncontrolled agent follows the supervised one (within 45° of its
         heading, behind it) are skipped: a rear-end is the follower's fault. Braking now
@@ -261,8 +271,10 @@ class VelocityPlanner:
         steps = int(round(cfg.horizon / dt))
         v = world.state[agents, 3]
         hold = np.full(targets.shape, cfg.period, dtype=np.int64)
-        # uncontrolled: hold the current speed for 0 … period steps, then brake at the limit
-        hold[wild] = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
+        # uncontrolled: hold the current speed for 0 … period steps, then brake at the limit;
+        # the last scenario holds it throughout (it may not yield either)
+        holds = np.append(np.rint(np.linspace(0, cfg.period, max(k - 1, 1))), steps)[-k:]
+        hold[wild] = holds.astype(np.int64)
         goal = np.where(wild[:, None], v[:, None], targets)
         car = world.scene.car
         limit = np.where(
@@ -284,7 +296,10 @@ class VelocityPlanner:
             decel,
             gain,
         )
-        conflict = self._conflict_tables(world, agents, s_def, ii, jj)
+        # full clearance, not relaxed to the distance now: positions are path samples
+        # (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step
+        # at a time, into an uncontrolled one already near it; braking is never pruned anyway
+        conflict = self._conflict_tables(world, agents, s_def, ii, jj, relax=False)
         bad_i = conflict.any(axis=2)  # (P, K): candidate of ii against any scenario of jj
         bad_j = conflict.any(axis=1)
         forbid = np.zeros(targets.shape, dtype=bool)
