@@ -23,6 +23,14 @@ def test_black_death_passes_the_pettingzoo_api_test():
     parallel_api_test(env, num_cycles=60)
 
 
+def test_multi_agent_v1_with_quasi_lidar_v1_passes_the_api_test():
+    env = make_parallel_env(
+        "FLUIDS-MultiAgent-v1", controlled_cars=3, num_cars=2, obs_type="qlidar", black_death=True
+    )
+    assert env.observation_space("car_0").shape == (65, 4)
+    parallel_api_test(env, num_cycles=40)
+
+
 def test_black_death_keeps_finished_agents_until_everyone_is_done():
     env = parallel_env(
         controlled_cars=3, num_cars=2, num_pedestrians=1, black_death=True, max_cycles=400
