@@ -83,6 +83,7 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
             policy=PolicySpec("tree"),
             iterations=demos,
             update_at=(max(2, demos // 4), max(3, demos // 2)),
+            heldout_fraction=0.1,  # whole episodes are kept, so hold out pairs to fit the noise
             **common,
         )
     policy = result.policy
