@@ -29,6 +29,28 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
             "done_when": "all",
         },
     ),
+    # v1: background drivers are defensive toward the ego (they keep the distance to stop for
+    # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal;
+    # success requires the ego not to run a red light
+    "FLUIDS-v1": (
+        "fluids_bench.tasks.fluids.env:FluidsEnv",
+        400,
+        {"defensive": True, "lidar_version": 1, "obey_lights": True},
+    ),
+    "FLUIDS-Sensitivity-v1": (
+        "fluids_bench.tasks.fluids.env:FluidsEnv",
+        600,
+        {
+            "action_level": "velocity",
+            "obs_type": "qlidar",
+            "num_cars": 3,
+            "num_pedestrians": 2,
+            "done_when": "all",
+            "defensive": True,
+            "lidar_version": 1,
+            "obey_lights": True,
+        },
+    ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
@@ -51,6 +73,10 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
 # PettingZoo's ``max_cycles`` keyword (the registry tests shorten episodes with it).
 PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
+    "FLUIDS-MultiAgent-v1": (
+        "fluids_bench.tasks.fluids.multi_agent:parallel_env",
+        {"defensive": True, "lidar_version": 1},
+    ),
 }
 
 # Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or

@@ -18,6 +18,7 @@ Run on one core for steadier numbers: ``taskset -c 0 python scripts/bench_sensor
 from __future__ import annotations
 
 import argparse
+import inspect
 import json
 import platform
 import time
@@ -36,12 +37,21 @@ ENV_VARIANTS = {
     "S2 explicit": {"obs_type": "explicit"},
     "S2 + qlidar 64": {"obs_type": "qlidar", "lidar_rays": 64},
     "S2 + birdseye 84": {"obs_type": "birdseye", "birdseye_size": 84},
+    # only where the code under test has it (bench_ab.py also runs older revisions)
+    "S2 + qlidar v1 64": {"obs_type": "qlidar", "lidar_rays": 64, "lidar_version": 1},
     "S2 + birdseye 400": {"obs_type": "birdseye", "birdseye_size": 400},
 }
 
 
+HAS_V1 = "version" in inspect.signature(QLidarSensor).parameters
+if not HAS_V1:
+    del ENV_VARIANTS["S2 + qlidar v1 64"]
+
+
 def sensor_table(layout) -> dict:
+    v1 = {"qlidar v1 64": QLidarSensor(layout, 64, 30.0, version=1)} if HAS_V1 else {}
     return {
+        **v1,
         "qlidar 64": QLidarSensor(layout, 64, 30.0),
         "qlidar 64 noise+dropout": QLidarSensor(layout, 64, 30.0, noise_var=0.1, dropout=0.1),
         "qlidar 256": QLidarSensor(layout, 256, 30.0),

@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, reject_unknown_kwargs
+from fluids_bench.core.validation import check_bool, check_choice, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -18,6 +18,7 @@ from fluids_bench.tasks.fluids.scenario import (
     progress,
     step_reward,
 )
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
@@ -71,6 +72,11 @@ class FluidsEnv(gym.Env):
     variance to d, ψ_r and v_r; with probability ``lidar_dropout`` (ε) a ray reads as empty
     ``[lidar_range, 0, 0, 0]``. See :mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`.
 
+    ``lidar_version=1`` (the v1 ids): ``Box((m + 1, 4), float32)``; rays also stop at the stop
+    line of a red (label 4) or yellow (label 5) traffic light and at the edges of a crosswalk
+    with a pedestrian on it (label 2), and row m is the goal row ``[d, 6, bearing, −v_ego]`` of
+    the waypoint 5 m ahead on the ego's route (noise and dropout apply to the m rays only).
+
     A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
 
     ## Rewards
@@ -101,10 +107,17 @@ class FluidsEnv(gym.Env):
     * ``supervisor_action``: the supervisor's label for the ego at ``action_level`` in the new
       state.
     * ``collisions``: every new collision of this step in the world, as dicts
-      ``{step, a, b, kind}`` (the ego's have 0 in ``a`` or ``b``; ``b = -1`` off the road).
+      ``{step, a, b, kind}`` (the ego's have 0 in ``a`` or ``b``; ``b = -1`` off the road), and
+      who was at fault: ``at_fault`` (a list of agents), the ``rule`` that decided it
+      (``offroad``, ``red_light``, ``rear_end``, ``moving_into_stationary``,
+      ``car_yields_to_pedestrian``, ``turn_yields``, ``entered_occupied``, ``shared``) and
+      ``cut_in`` (a rear-end whose leader came in front inside the follower's stopping
+      distance); see :mod:`fluids_bench.tasks.fluids.sim.fault`.
     * ``is_success`` (on the terminating step): the cars the episode is about reached their goals
       and none of them was ever in a collision: the ego with ``done_when="ego"`` (collisions
-      between other agents do not count), every car with ``done_when="all"``.
+      between other agents do not count), every car with ``done_when="all"``; with
+      ``obey_lights``, the ego also never entered its junction against a red light.
+    * ``ego_ran_red_light``: the ego entered its junction against a red light.
     * ``ego_arrived``: the ego reached its goal. ``route``: the ego's route's name. ``lights``:
       every light's state.
 
@@ -141,12 +154,21 @@ class FluidsEnv(gym.Env):
     * ``planner_period``: steps between velocity-planner runs, 1 to 50 (default 5: 0.5 s); the
       plan, and the velocity-level label, is held in between.
     * ``dt``: seconds per step, 0.01 to 0.5 (default 0.1).
-
+    * ``defensive``: background agents treat the ego as a driver that may brake as hard as it
+      can at any time: they only take a target speed from which, holding it until their next
+      plan and braking then, they stop short of wherever the ego can stop (default False;
+      True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
+      in inside its stopping distance.
+    * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
+    * ``obey_lights``: success also requires that the ego never entered its junction against
+      a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
+    * v1: ``defensive=True``, ``lidar_version=1`` and ``obey_lights=True`` by default (``FLUIDS-v1``,
+      ``FLUIDS-Sensitivity-v1``); collisions carry fault labels (in every version).
     * v0: initial release.
     """
 
@@ -181,6 +203,9 @@ class FluidsEnv(gym.Env):
         done_when: str = "ego",
         dt: float = 0.1,
         render_mode: str | None = None,
+        defensive: bool = False,
+        lidar_version: int = 0,
+        obey_lights: bool = False,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -192,6 +217,8 @@ class FluidsEnv(gym.Env):
                 f"allowed: {self.metadata['render_modes']} or None"
             )
         self.done_when = check_choice("FluidsEnv", "done_when", done_when, DONE_WHEN)
+        self.defensive = check_bool("FluidsEnv", "defensive", defensive)
+        self.obey_lights = check_bool("FluidsEnv", "obey_lights", obey_lights)
         scenario = build_scenario(
             "FluidsEnv",
             controlled_cars=None,
@@ -213,6 +240,7 @@ class FluidsEnv(gym.Env):
                 "lidar_range": lidar_range,
                 "lidar_noise": lidar_noise,
                 "lidar_dropout": lidar_dropout,
+                "lidar_version": lidar_version,
             },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
@@ -220,6 +248,7 @@ class FluidsEnv(gym.Env):
             planner_period=planner_period,
             trajectory_planner=trajectory_planner,
             dt=dt,
+            defensive=self.defensive,
         )
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor
@@ -233,6 +262,7 @@ class FluidsEnv(gym.Env):
             action_level, self.world, self.supervisor_config.waypoints
         )
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.faults = FaultTracker(self.world)
         self._route_length = 1.0
         self._last_s = 0.0
         self._ended = False
@@ -244,6 +274,7 @@ class FluidsEnv(gym.Env):
         spawn(self.world, self.np_random)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.supervisor.prepare(self.world)
+        self.faults = FaultTracker(self.world)
         self._ended = False
         self._last_s = float(self.world.route_s[0])
         self._route_length = float(self.world.path_len[0]) - self._last_s
@@ -262,6 +293,7 @@ class FluidsEnv(gym.Env):
         if changed:
             self._route_length = float(w.path_len[0]) - self._last_s
         events = sup.execute(w, controls, memory)
+        self.faults.update()
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
         s_now = progress(w, 0)
@@ -277,7 +309,9 @@ class FluidsEnv(gym.Env):
         info = self._info(events)
         if terminated:
             cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
-            info["is_success"] = is_success(w, cars)
+            # with obey_lights, running a red light fails the episode too
+            ran_red = self.obey_lights and bool(self.faults.ran_red[0])
+            info["is_success"] = is_success(w, cars) and not ran_red
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info
@@ -321,8 +355,9 @@ class FluidsEnv(gym.Env):
         w = self.world
         return {
             SUPERVISOR_ACTION_KEY: self.supervisor_action(),
-            "collisions": [e.as_dict() for e in events],
+            "collisions": self.faults.annotate(events),
             "ego_arrived": bool(w.reached[0]),
             "route": w.layout.routes.names[w.route[0]],
             "lights": w.lights.describe_states(w.light_state),
+            "ego_ran_red_light": bool(self.faults.ran_red[0]),
         }

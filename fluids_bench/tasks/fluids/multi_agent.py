@@ -18,10 +18,11 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import check_bool, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import build_scenario, is_success, progress, step_reward
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
@@ -146,7 +147,12 @@ class FluidsParallelEnv(ParallelEnv):
 
     ## Episode End
     An agent terminates when it reaches its goal or is in a collision (with any car, a
-    pedestrian, or leaving the road). A car in a collision leaves the road: it is removed from
+    pedestrian, or leaving the road). With ``black_death=True`` a finished agent instead stays
+    in ``agents``, neither terminated nor truncated, with an all-zero observation (after its
+    last real one), reward 0 and its actions ignored, until every agent has finished or
+    ``max_cycles`` is reached; then all end in the same step (terminated if it finished,
+    truncated otherwise). That keeps the agent set fixed, as SuperSuit's
+    ``pettingzoo_env_to_vec_env_v1`` needs (see the README's multi-agent recipe). A car in a collision leaves the road: it is removed from
     the world, so the others neither see it nor collide with its wreck. The episode goes on for
     the remaining agents. All live agents are truncated after ``max_cycles`` steps. The episode
     is over when ``agents`` is empty.
@@ -157,7 +163,8 @@ class FluidsParallelEnv(ParallelEnv):
 
     * ``supervisor_action``: its label at ``action_level`` in the new state.
     * ``collisions``: this step's new collisions the agent is part of, as dicts
-      ``{step, a, b, kind}`` (``b = -1`` off the road).
+      ``{step, a, b, kind}`` (``b = -1`` off the road), with who was at fault (``at_fault``,
+      ``rule``, ``cut_in``: see :mod:`fluids_bench.tasks.fluids.sim.fault`).
     * ``is_success`` (in a terminated or truncated agent's last info): the car reached its goal
       and was never in a collision (collisions between other agents do not count), as
       ``FLUIDS-v0``'s with ``done_when="ego"``.
@@ -171,10 +178,15 @@ class FluidsParallelEnv(ParallelEnv):
       the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
       ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
       ``trajectory_planner``, ``dt``: as ``FLUIDS-v0`` (same ranges).
+    * ``defensive``: background agents treat every controlled car (the agents) as one that may
+      brake at its limit at any time and keep the distance to stop for it (default False;
+      True in ``FLUIDS-MultiAgent-v1``); see ``FLUIDS-v1``.
+    * ``black_death``: keep finished agents in the episode (see Episode End; default False).
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
     ## Version History
+    * v1: defensive background drivers by default; fault labels in ``collisions``.
     * v0: initial release.
     """
 
@@ -214,6 +226,9 @@ class FluidsParallelEnv(ParallelEnv):
         lidar_range: float = 30.0,
         lidar_noise: float = 0.0,
         lidar_dropout: float = 0.0,
+        lidar_version: int = 0,
+        defensive: bool = False,
+        black_death: bool = False,
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
@@ -221,6 +236,8 @@ class FluidsParallelEnv(ParallelEnv):
                 f"{self.metadata['render_modes']} or None"
             )
         max_cycles = check_int(WHERE, "max_cycles", max_cycles, 1, 10**9)
+        self.defensive = check_bool(WHERE, "defensive", defensive)
+        self.black_death = check_bool(WHERE, "black_death", black_death)
         scenario = build_scenario(
             WHERE,
             controlled_cars=controlled_cars,
@@ -242,6 +259,7 @@ class FluidsParallelEnv(ParallelEnv):
                 "lidar_range": lidar_range,
                 "lidar_noise": lidar_noise,
                 "lidar_dropout": lidar_dropout,
+                "lidar_version": lidar_version,
             },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
@@ -249,6 +267,7 @@ class FluidsParallelEnv(ParallelEnv):
             planner_period=planner_period,
             trajectory_planner=trajectory_planner,
             dt=dt,
+            defensive=self.defensive,
         )
         controlled_cars = int(controlled_cars)
         self.scene = scenario.scene
@@ -259,6 +278,9 @@ class FluidsParallelEnv(ParallelEnv):
         self.max_cycles = max_cycles
         self.world = World(self.scene, scenario.layout)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
+        self.faults = FaultTracker(self.world)
+        self._dead: set[int] = set()  # black death: finished agents kept in the episode
+        self._just_died: set[int] = set()
         self.observer = Observer(scenario.observation, self.world)
         self._observers, ego_only = agent_observers(self.observer)
         if controlled_cars > 1 and ego_only:
@@ -317,6 +339,8 @@ class FluidsParallelEnv(ParallelEnv):
         spawn(self.world, rng)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.supervisor.prepare(self.world)
+        self.faults = FaultTracker(self.world)
+        self._dead, self._just_died = set(), set()
         self.agents = list(self.possible_agents)
         self._cycles = 0
         n = len(self.possible_agents)
@@ -339,7 +363,8 @@ class FluidsParallelEnv(ParallelEnv):
             raise ValueError(
                 f"{WHERE}: actions for unknown agents {unknown}; allowed: {self.possible_agents}"
             )
-        live = [self._index[a] for a in self.agents]
+        everyone = [self._index[a] for a in self.agents]
+        live = [i for i in everyone if i not in self._dead]  # black death: the dead are no-ops
         chosen = {
             i: self._validate(actions[agent_name(i)], agent_name(i))
             for i in live
@@ -348,6 +373,7 @@ class FluidsParallelEnv(ParallelEnv):
         w, sup = self.world, self.supervisor
         controls, memory = self._controls(chosen)
         events = sup.execute(w, controls, memory)
+        self.faults.update()
         self._cycles += 1
 
         hit = {i: [e for e in events if i in (e.a, e.b)] for i in live}
@@ -362,16 +388,39 @@ class FluidsParallelEnv(ParallelEnv):
             truncations[a] = not terminations[a] and self._cycles >= self.max_cycles
             if hit[i]:
                 w.active[i] = False  # the car leaves the road with its episode
-        self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
-        if self.agents:
+        finished = [i for i in live if terminations[agent_name(i)] or truncations[agent_name(i)]]
+        if self.black_death:
+            self._black_death(everyone, live, rewards, terminations, truncations)
+        else:
+            self.agents = [a for a in self.agents if not (terminations[a] or truncations[a])]
+        if len(self._dead) < len(self.agents):
             sup.prepare(w)
-        observations = {agent_name(i): self._observe(i) for i in live}
-        infos = {agent_name(i): self._info(i, hit[i]) for i in live}
-        for i in live:
-            a = agent_name(i)
-            if terminations[a] or truncations[a]:
-                infos[a]["is_success"] = is_success(w, i)
+        observations = {agent_name(i): self._observe(i) for i in everyone}
+        infos = {agent_name(i): self._info(i, hit.get(i, [])) for i in everyone}
+        for i in finished:
+            infos[agent_name(i)]["is_success"] = is_success(w, i)
         return observations, rewards, terminations, truncations, infos
+
+    def _black_death(self, everyone, live, rewards, terminations, truncations) -> None:
+        """Keep finished agents in the episode (zero observation, reward 0, action ignored,
+        neither terminated nor truncated) until every agent has finished or ``max_cycles``
+        is reached; then end the episode for all of them at once."""
+        self._just_died = {
+            i for i in live if terminations[agent_name(i)] or truncations[agent_name(i)]
+        }
+        self._dead |= self._just_died
+        over = len(self._dead) == len(everyone) or self._cycles >= self.max_cycles
+        for i in everyone:
+            a = agent_name(i)
+            if i in live:
+                done = terminations[a]
+            else:
+                rewards[a] = 0.0
+                done = True
+            terminations[a] = over and (done or bool(self.world.reached[i]))
+            truncations[a] = over and not terminations[a]
+        if over:
+            self.agents = []
 
     def state(self) -> np.ndarray:
         w = self.world
@@ -429,6 +478,8 @@ class FluidsParallelEnv(ParallelEnv):
         return levels.validate(self.action_level, self._action_space, action, f"{WHERE} {agent}")
 
     def _observe(self, i: int):
+        if i in self._dead and i not in self._just_died:  # its last real observation, then 0
+            return _zeros(self._observation_spaces[agent_name(i)])
         rng, w = self.np_random, self.world
         if self.observer.single:
             return next(iter(self._observers.values()))(w, rng, i)
@@ -438,10 +489,17 @@ class FluidsParallelEnv(ParallelEnv):
         w = self.world
         return {
             SUPERVISOR_ACTION_KEY: self._label(i),
-            "collisions": [e.as_dict() for e in events],
+            "collisions": self.faults.annotate(events),
             "arrived": bool(w.reached[i]),
             "route": w.layout.routes.names[w.route[i]],
         }
+
+
+def _zeros(space: spaces.Space):
+    """An all-zero observation of ``space`` (clipped into a Box's bounds)."""
+    if isinstance(space, spaces.Dict):
+        return {k: _zeros(sub) for k, sub in space.spaces.items()}
+    return np.clip(np.zeros(space.shape, space.dtype), space.low, space.high).astype(space.dtype)
 
 
 def parallel_env(**kwargs: Any) -> FluidsParallelEnv:

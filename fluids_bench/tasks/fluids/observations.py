@@ -59,6 +59,7 @@ SENSOR_RANGES: dict[str, tuple[bool, float, float]] = {
     "lidar_range": (False, 1.0, 1000.0),
     "lidar_noise": (False, 0.0, 100.0),
     "lidar_dropout": (False, 0.0, 1.0),
+    "lidar_version": (True, 0, 1),
 }
 
 
@@ -78,6 +79,7 @@ class ObservationConfig:
     lidar_range: float = 30.0  # qlidar: m
     lidar_noise: float = 0.0  # qlidar: λ_l, variance of the noise on d, ψ_r and v_r
     lidar_dropout: float = 0.0  # qlidar: ε, probability that a ray reads as empty
+    lidar_version: int = 0  # qlidar: 1 adds lights' stop lines, occupied crosswalks, goal row
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obs_type", _obs_type("ObservationConfig", self.obs_type))
@@ -138,6 +140,7 @@ class _QLidar:
             cfg.lidar_noise,
             cfg.lidar_dropout,
             max_speed=float(world.max_speed.max()),
+            version=cfg.lidar_version,
         )
         low, high = self.sensor.bounds
         self.space = spaces.Box(low, high, dtype=np.float32)

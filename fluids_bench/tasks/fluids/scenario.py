@@ -82,11 +82,14 @@ def build_scenario(
     planner_period: Any,
     trajectory_planner: Any,
     dt: Any,
+    defensive: bool = False,
 ) -> Scenario:
     """Check the env's arguments (``where`` names the env in errors) and build its scenario.
 
     ``controlled_cars=None`` is ``FLUIDS-v0``: one ego car, not a user argument. numpy scalars
-    are accepted like the Python numbers they hold."""
+    are accepted like the Python numbers they hold. ``defensive``: the supervised agents treat
+    the controlled cars (agents ``0 .. controlled - 1``) as drivers that may brake at their limit
+    at any time (see :class:`~fluids_bench.tasks.fluids.supervisor.stack.SupervisorConfig`)."""
     check_choice(where, "action_level", action_level, LEVELS)
     check_choice(where, "layout", layout, LAYOUTS)
     check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
@@ -134,6 +137,7 @@ def build_scenario(
         pid=PIDConfig(assumed_mass=ASSUMED_MASS),
         waypoints=waypoints,
         waypoint_spacing=waypoint_spacing,
+        uncontrolled=tuple(range(controlled)) if defensive else (),
     )
     return Scenario(scene, supervisor, observation, compiled, action_level)
 

@@ -163,3 +163,34 @@ def pid_controls(
         accel = min(max(accel, -max_decel), max_accel)
         out[i, 1] = min(max(accel * gain[i], low[i]), high[i])
     return out, err, integ, v_int
+
+
+@njit(cache=True, nogil=True)
+def hold_then_brake(
+    s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+):  # pragma: no cover (compiled)
+    """Arc lengths (A, K, T) of agents that track ``targets`` (A, K) for ``hold`` (A, K) steps
+    and then brake to a stop, sampled every ``every`` of ``steps`` steps (the defensive check's
+    projections; stepped, not in closed form, because the target changes mid-way).
+
+    The speed law is the PID's, v += clip(gain · (target − v), −decel, max_accel) · dt, floored
+    at 0, with per-agent ``decel`` (A,) and ``gain`` (A,): a supervised agent brakes as its
+    controller does; an uncontrolled one with ``gain = 1 / dt`` and its physical limit, i.e.
+    as hard as it can. Speeds are integrated with the trapezoid rule, as in
+    :func:`projected_arc_lengths`.
+    """
+    n_agents, n_cand = targets.shape
+    out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    for a in range(n_agents):
+        for k in range(n_cand):
+            v, travelled = v0[a], 0.0
+            for m in range(1, steps + 1):
+                target = targets[a, k] if m <= hold[a, k] else 0.0
+                dv = gain[a] * (target - v)
+                dv = min(max(dv, -decel[a]), max_accel)
+                nv = max(v + dv * dt, 0.0)
+                travelled += 0.5 * (v + nv) * dt
+                v = nv
+                if m % every == 0:
+                    out[a, k, m // every - 1] = s0[a] + travelled
+    return out

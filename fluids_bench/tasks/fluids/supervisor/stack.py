@@ -34,10 +34,15 @@ class SupervisorConfig:
     waypoints: int = 5  # trajectory level: how many points
     waypoint_spacing: float = 2.0  # m between them
     recovery: bool = True  # plan back to the route with OMPL when off it
+    # agents that may not follow the plan (the learner's cars): the others drive defensively
+    # toward them (VelocityPlanner.defensive_domains); empty: everyone is assumed to follow it
+    uncontrolled: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
         check_range("SupervisorConfig", "waypoints", self.waypoints, 1, 50, integer=True)
         check_range("SupervisorConfig", "waypoint_spacing", self.waypoint_spacing, 0.5, 20.0)
+        for i in self.uncontrolled:
+            check_range("SupervisorConfig", "uncontrolled", i, 0, 127, integer=True)
 
 
 class DrivingSupervisor:
@@ -56,6 +61,10 @@ class DrivingSupervisor:
         self.proposed = np.zeros((world.n, 2))
         self._memory: tuple = ()
         self.recoveries = 0
+        self.uncontrolled = None
+        if self.config.uncontrolled:
+            self.uncontrolled = np.zeros(world.n, dtype=bool)
+            self.uncontrolled[[i for i in self.config.uncontrolled if i < world.n]] = True
 
     def __getstate__(self) -> dict:
         state = self.__dict__.copy()
@@ -74,7 +83,11 @@ class DrivingSupervisor:
                 if self.recovery_planner(world).plan(world, int(agent)):
                     self.recoveries += 1
         if world.steps % self.config.velocity.period == 0:
-            self.targets = self.planner.plan(world)
+            self.targets = (
+                self.planner.plan(world)
+                if self.uncontrolled is None
+                else self.planner.plan(world, self.uncontrolled)
+            )
         self.proposed, self._memory = self.pid.controls(world, self.targets)
 
     def execute(

@@ -250,3 +250,118 @@ def fill_explicit(
         out[base + 4] = max(gap, 0.0)
     else:
         out[base + 3] = 1.0
+
+
+@njit(cache=True, nogil=True)
+def qlidar_segments(
+    out, x, y, th, v, cos_k, sin_k, seg_a, seg_e, seg_angle, seg_label
+):  # pragma: no cover (compiled)
+    """Let the first ``len(cos_k)`` rays of a cast reading ``out`` also stop at extra segments
+    (the quasi-LIDAR v1's stop lines of red and yellow lights and occupied crosswalks' edges):
+    where a ray crosses segment i nearer than its current hit, it reads [distance,
+    ``seg_label[i]``, the segment's direction relative to the ego folded to [−π/2, π/2), −v].
+
+    x, y, th, v: the ego's pose and speed; seg_a, seg_e: (S, 2) start and vector of each
+    segment; seg_angle: (S,) its direction (rad, folded to [−π/2, π/2)).
+    """
+    ct, st = math.cos(th), math.sin(th)
+    half = math.pi / 2
+    for k in range(len(cos_k)):
+        dx = ct * cos_k[k] - st * sin_k[k]
+        dy = ct * sin_k[k] + st * cos_k[k]
+        best, hit = out[k, 0], -1
+        for i in range(len(seg_a)):
+            wx, wy = seg_a[i, 0] - x, seg_a[i, 1] - y
+            ex, ey = seg_e[i, 0], seg_e[i, 1]
+            d_cross_e = ey * dx - ex * dy
+            if d_cross_e == 0.0:
+                continue  # parallel
+            t = (wx * ey - wy * ex) / d_cross_e
+            u = (wx * dy - wy * dx) / d_cross_e
+            if t >= 0 and u >= 0 and u <= 1 and t < best:
+                best, hit = t, i
+        if hit >= 0:
+            out[k, 0] = best
+            out[k, 1] = seg_label[hit]
+            out[k, 2] = (seg_angle[hit] - th + half) % (2 * half) - half
+            out[k, 3] = -0.0 - v
+
+
+@njit(cache=True, nogil=True)
+def qlidar_v1_extras(
+    out,
+    state,
+    active,
+    is_car,
+    width,
+    ego,
+    cos_k,
+    sin_k,
+    line_a,
+    line_e,
+    line_angle,
+    line_light,
+    light_state,
+    stop_code,
+    caution_code,
+    cw_a,
+    cw_e,
+    cw_angle,
+    cw_centre,
+    cw_axis,
+    cw_half,
+    labels,
+    goal_x,
+    goal_y,
+    max_range,
+):  # pragma: no cover (compiled)
+    """Everything the quasi-LIDAR v1 adds to a cast reading ``out`` (m + 1, 4), in one pass:
+    the stop lines whose light shows ``stop_code`` or ``caution_code`` and the edges of every
+    crosswalk with an active pedestrian on it join the obstacles (:func:`qlidar_segments`),
+    and row m becomes the goal row towards (goal_x, goal_y).
+
+    line_*: (L, ...) stop lines (start, vector, folded direction, light index); cw_a, cw_e,
+    cw_angle: (C, 4, ...) crosswalk edges; cw_centre, cw_axis: (C, 2) centre and unit axis;
+    cw_half: (C, 2) half length and half width; labels: [red, yellow, pedestrian, goal].
+    """
+    n_seg = 0
+    seg_a = np.empty((len(line_a) + 4 * len(cw_a), 2))
+    seg_e = np.empty((len(line_a) + 4 * len(cw_a), 2))
+    seg_angle = np.empty(len(line_a) + 4 * len(cw_a))
+    seg_label = np.empty(len(line_a) + 4 * len(cw_a))
+    for i in range(len(line_a)):
+        code = light_state[line_light[i]] if len(light_state) else -1
+        if code == stop_code or code == caution_code:
+            seg_a[n_seg], seg_e[n_seg] = line_a[i], line_e[i]
+            seg_angle[n_seg] = line_angle[i]
+            seg_label[n_seg] = labels[0] if code == stop_code else labels[1]
+            n_seg += 1
+    for c in range(len(cw_a)):
+        busy = False
+        for j in range(len(state)):
+            if is_car[j] or not active[j]:
+                continue
+            rx, ry = state[j, 0] - cw_centre[c, 0], state[j, 1] - cw_centre[c, 1]
+            along = abs(rx * cw_axis[c, 0] + ry * cw_axis[c, 1])
+            across = abs(rx * cw_axis[c, 1] - ry * cw_axis[c, 0])
+            r = width[j] / 2
+            if along <= cw_half[c, 0] + r and across <= cw_half[c, 1] + r:
+                busy = True
+                break
+        if busy:
+            for q in range(4):
+                seg_a[n_seg], seg_e[n_seg] = cw_a[c, q], cw_e[c, q]
+                seg_angle[n_seg], seg_label[n_seg] = cw_angle[c, q], labels[2]
+                n_seg += 1
+    x, y, th, v = state[ego, 0], state[ego, 1], state[ego, 2], state[ego, 3]
+    if n_seg:
+        qlidar_segments(
+            out, x, y, th, v, cos_k, sin_k,
+            seg_a[:n_seg], seg_e[:n_seg], seg_angle[:n_seg], seg_label[:n_seg],
+        )  # fmt: skip
+    dx, dy = goal_x - x, goal_y - y
+    m = len(cos_k)
+    out[m, 0] = min(math.hypot(dx, dy), max_range)
+    out[m, 1] = labels[3]
+    out[m, 2] = (math.atan2(dy, dx) - th + math.pi) % (2 * math.pi) - math.pi
+    out[m, 3] = -0.0 - v

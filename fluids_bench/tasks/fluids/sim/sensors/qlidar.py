@@ -18,6 +18,20 @@ Noise (ch. 7): with variance λ_l > 0, zero-mean Gaussian noise of variance λ_l
 [-π, π), v_r clipped to the space); then each ray is independently dropped, i.e. read as empty,
 with probability ε. All draws come from the generator passed to :meth:`QLidarSensor.observe`.
 
+Version 1 (``version=1``; the ``lidar_version`` option, the default of the FLUIDS-v1 ids) also
+sees what a driver must respect, and where to go:
+
+* the stop line of every traffic light that shows red (label 4, ``red_light``) or yellow
+  (label 5, ``yellow_light``) is an obstacle: a segment across its lane(s) at the lane's end;
+  its ψ_r is the line's direction (folded to [-π/2, π/2)), its v_r is −v_ego (it is still);
+* a crosswalk with a pedestrian on it is an obstacle labelled as a pedestrian (2): its
+  rectangle's edges stop rays (ψ_r the edge's direction, folded; v_r = −v_ego);
+* one extra row (index m) reads the direction to the next waypoint of the ego's route, the point
+  :data:`WAYPOINT_AHEAD` metres further along its path (its goal when nearer):
+  ``[distance (m, at most max_range), 6 (goal), its bearing from the ego's heading (rad, in
+  [-π, π)), −v_ego]``. It is exact: noise and dropout apply to the m rays only, with the same
+  draws as version 0, so a v1 reading's rays differ from v0's only where v1 sees more.
+
 Ray casting is a compiled loop (:func:`fluids_bench.tasks.fluids.sim.sensors.kernels.qlidar_cast`): each ray
 against the oriented rectangles of the agents within reach (slab test in each rectangle's frame)
 and against the road-edge segments within reach (segments precomputed once per layout).
@@ -33,10 +47,19 @@ import numpy as np
 import shapely
 
 from fluids_bench.tasks.fluids.sim.layout.compiled import Layout
-from fluids_bench.tasks.fluids.sim.sensors.kernels import qlidar_cast, qlidar_noise
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
+from fluids_bench.tasks.fluids.sim.sensors.kernels import (
+    qlidar_cast,
+    qlidar_noise,
+    qlidar_v1_extras,
+)
 
 LABELS = ("nothing", "car", "pedestrian", "road_edge")
 NOTHING, CAR_HIT, PEDESTRIAN_HIT, EDGE_HIT = range(4)
+LABELS_V1 = (*LABELS, "red_light", "yellow_light", "goal")  # version 1's labels
+RED_LIGHT_HIT, YELLOW_LIGHT_HIT, GOAL_ROW = 4, 5, 6
+WAYPOINT_AHEAD = 5.0  # m along the route to the "next waypoint" of version 1's goal row
 FIELDS = ("distance", "label", "relative_angle", "relative_speed")
 _LABEL_CODES = np.array([NOTHING, CAR_HIT, PEDESTRIAN_HIT, EDGE_HIT], dtype=float)
 
@@ -80,6 +103,72 @@ def road_edges(layout: Layout) -> RoadEdges:
     return edges
 
 
+def _fold(e: np.ndarray) -> np.ndarray:
+    return (np.arctan2(e[:, 1], e[:, 0]) + math.pi / 2) % math.pi - math.pi / 2
+
+
+@dataclass(frozen=True, eq=False)
+class RespectGeometry:
+    """What version 1 adds, per layout: stop lines (start ``line_a``, vector ``line_e``, folded
+    direction ``line_angle``, governing light ``line_light``) and crosswalk rectangles (their
+    four edges ``cw_a``/``cw_e``/``cw_angle``, (C, 4, ...); centre, unit axis, half length and
+    half width for the occupancy test)."""
+
+    line_a: np.ndarray
+    line_e: np.ndarray
+    line_angle: np.ndarray
+    line_light: np.ndarray
+    cw_a: np.ndarray
+    cw_e: np.ndarray
+    cw_angle: np.ndarray
+    cw_centre: np.ndarray
+    cw_axis: np.ndarray
+    cw_half: np.ndarray
+
+
+@functools.lru_cache(maxsize=32)
+def respect_geometry(layout: Layout) -> RespectGeometry:
+    spec = layout.spec
+    light_index = {light.name: i for i, light in enumerate(spec.lights)}
+    a, e, lights = [], [], []
+    for lane in spec.lanes:
+        if lane.light is None:
+            continue
+        end = np.asarray(lane.centerline[-1], float)
+        d = end - np.asarray(lane.centerline[-2], float)
+        d /= np.hypot(*d)
+        across = np.array([-d[1], d[0]]) * lane.width / 2
+        a.append(end - across)
+        e.append(2 * across)
+        lights.append(light_index[lane.light])
+    line_a = np.array(a).reshape(-1, 2)
+    line_e = np.array(e).reshape(-1, 2)
+    ca, ce, centre, axis, half = [], [], [], [], []
+    for cw in spec.crosswalks:
+        p, q = np.asarray(cw.start, float), np.asarray(cw.end, float)
+        u = (q - p) / np.hypot(*(q - p))
+        n = np.array([-u[1], u[0]]) * cw.width / 2
+        corners = np.array([p - n, q - n, q + n, p + n])
+        ca.append(corners)
+        ce.append(np.roll(corners, -1, axis=0) - corners)
+        centre.append((p + q) / 2)
+        axis.append(u)
+        half.append([np.hypot(*(q - p)) / 2, cw.width / 2])
+    cw_e = np.array(ce).reshape(-1, 4, 2)
+    return RespectGeometry(
+        line_a,
+        line_e,
+        _fold(line_e),
+        np.array(lights, dtype=np.int64),
+        np.array(ca).reshape(-1, 4, 2),
+        cw_e,
+        _fold(cw_e.reshape(-1, 2)).reshape(-1, 4),
+        np.array(centre).reshape(-1, 2),
+        np.array(axis).reshape(-1, 2),
+        np.array(half).reshape(-1, 2),
+    )
+
+
 class QLidarSensor:
     """``rays`` rays of ``max_range`` metres; ``noise_var`` is λ_l and ``dropout`` is ε.
 
@@ -95,7 +184,11 @@ class QLidarSensor:
         noise_var: float = 0.0,
         dropout: float = 0.0,
         max_speed: float = 10.0,
+        version: int = 0,
     ) -> None:
+        if version not in (0, 1):
+            raise ValueError(f"QLidarSensor: field 'version' is {version!r}; allowed: 0 or 1")
+        self.version = version
         self.rays = int(rays)
         self.max_range = float(max_range)
         self.noise_std = math.sqrt(noise_var)
@@ -104,15 +197,18 @@ class QLidarSensor:
         self.offsets = 2 * math.pi * np.arange(self.rays) / self.rays  # rad from the ego heading
         self._cos, self._sin = np.cos(self.offsets), np.sin(self.offsets)
         self.edges = road_edges(layout)
-        self.shape = (self.rays, 4)
+        self.respect = respect_geometry(layout) if version == 1 else None
+        self.labels = LABELS_V1 if version == 1 else LABELS
+        self.shape = (self.rays + (version == 1), 4)
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
         """(low, high) of the observation, each (m, 4) float32."""
-        low = np.tile(np.array([0.0, 0.0, -math.pi, -self.speed_bound], np.float32), (self.rays, 1))
+        rows = self.shape[0]
+        low = np.tile(np.array([0.0, 0.0, -math.pi, -self.speed_bound], np.float32), (rows, 1))
         high = np.tile(
-            np.array([self.max_range, len(LABELS) - 1, math.pi, self.speed_bound], np.float32),
-            (self.rays, 1),
+            np.array([self.max_range, len(self.labels) - 1, math.pi, self.speed_bound], np.float32),
+            (rows, 1),
         )
         return low, high
 
@@ -124,11 +220,28 @@ class QLidarSensor:
         ``max_range`` reads as nothing.
         """
         ed = self.edges
-        out = np.empty((self.rays, 4))
-        return qlidar_cast(
+        out = np.empty(self.shape)
+        qlidar_cast(
             world.state, world.active, world.length, world.width, world.is_car, int(ego),
             self._cos, self._sin, self.max_range,
             ed.a, ed.e, ed.angle, ed.mid, ed.half, _LABEL_CODES, out,
+        )  # fmt: skip
+        if self.version == 1:
+            self._cast_v1(world, int(ego), out)
+        return out
+
+    def _cast_v1(self, world, ego: int, out: np.ndarray) -> None:
+        """Stop lines of red/yellow lights, occupied crosswalks, and the goal row (see the
+        module docstring), in one compiled pass."""
+        g = self.respect
+        s = min(float(world.s[ego]) + WAYPOINT_AHEAD, float(world.path_len[ego]))
+        goal = world.path_z[ego, min(int(round(s / PATH_SPACING)), world.path_z.shape[1] - 1)]
+        qlidar_v1_extras(
+            out, world.state, world.active, world.is_car, world.width, ego,
+            self._cos, self._sin,
+            g.line_a, g.line_e, g.line_angle, g.line_light, world.light_state, STOP, CAUTION,
+            g.cw_a, g.cw_e, g.cw_angle, g.cw_centre, g.cw_axis, g.cw_half,
+            _V1_LABELS, goal.real, goal.imag, self.max_range,
         )  # fmt: skip
 
     def observe(self, world, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
@@ -145,5 +258,6 @@ class QLidarSensor:
         return out.astype(np.float32)
 
 
+_V1_LABELS = np.array([RED_LIGHT_HIT, YELLOW_LIGHT_HIT, PEDESTRIAN_HIT, GOAL_ROW], dtype=float)
 _NONE = np.zeros((0, 3))
 _NONE_DROPPED = np.zeros(0, dtype=bool)

@@ -1,0 +1,176 @@
+"""Who was at fault in a collision: rules of the road applied to the world's recent history.
+
+:class:`FaultTracker` watches a world step by step (when each agent entered its shared zone, the
+junction for a car and the crosswalk for a pedestrian, and the light it had then; the last few
+seconds of states) and labels each collision. The rules, first match wins:
+
+1. ``offroad``: the car that left the road.
+2. ``red_light``: exactly one of the two entered its zone against a red light (a red traffic
+   light, a "don't walk" crosswalk light): that one.
+3. ``rear_end``: two cars within 45° of the same heading, one behind the other: the follower.
+   ``cut_in`` is True when the leader came in front of the follower less than
+   :data:`HISTORY` steps ago with a gap (bumper to bumper) shorter than the follower's stopping
+   distance then (one planning period at its speed plus braking at
+   :data:`COMFORT_DECEL`): a follower that could not have stopped.
+4. ``moving_into_stationary``: exactly one of the two was moving (faster than
+   :data:`STATIONARY_SPEED`): the mover.
+5. ``car_yields_to_pedestrian``: a car and a pedestrian, both moving: the car.
+6. ``turn_yields``: two moving cars that came from opposite approaches (their routes' entry
+   headings more than 135° apart), exactly one of them turning (its route's heading changes
+   by more than 45°): the turning one, which crosses the oncoming lane and must yield.
+7. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
+   car not yet in the junction counts as entering now). Same step: both.
+8. ``shared``: otherwise both.
+"""
+
+from __future__ import annotations
+
+from collections import deque
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.lights import STOP
+
+HISTORY = 40  # steps of states kept for the cut-in test (4 s at dt = 0.1)
+STATIONARY_SPEED = 0.2  # m/s
+COMFORT_DECEL = 5.0  # m/s², the supervisor's braking
+REACTION = 0.5  # s, one planning period of the supervisor
+SAME_HEADING = np.pi / 4
+
+
+def _wrap(angle: float) -> float:
+    return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+class FaultTracker:
+    """Follows one world (call :meth:`update` after every ``world.step``) and labels collisions."""
+
+    def __init__(self, world) -> None:
+        self.world = world
+        n = world.n
+        self.entry_step = np.full(n, -1, dtype=np.int64)  # step the agent entered its zone
+        self.ran_red = np.zeros(n, dtype=bool)
+        self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._states: deque[np.ndarray] = deque(maxlen=HISTORY)
+        self._prev_lights = np.array(world.light_state)
+        self._note_entries()
+        self._states.append(world.state.copy())
+
+    def update(self) -> None:
+        """Record this step: new zone entries (with the light seen on the previous step) and
+        the agents' states."""
+        self._note_entries()
+        self._prev_lights = np.array(self.world.light_state)
+        self._states.append(self.world.state.copy())
+
+    def _note_entries(self) -> None:
+        w = self.world
+        routes = w.layout.routes
+        valid = w.route >= 0
+        r = np.maximum(w.route, 0)
+        inside = valid & (w.route_s + self._front >= routes.enter_s[r])
+        new = inside & (self.entry_step < 0)
+        if not new.any():
+            return
+        self.entry_step[new] = w.steps
+        light = routes.light[r]
+        if len(self._prev_lights):
+            red = (light >= 0) & (self._prev_lights[np.maximum(light, 0)] == STOP)
+            self.ran_red[new] = red[new]
+
+    # ------------------------------------------------------------------ labels
+    def label(self, a: int, b: int, kind: str) -> dict:
+        """``{"at_fault": [agents], "rule": name, "cut_in": bool}`` for collision (a, b, kind)."""
+        w = self.world
+        if b < 0 or kind == "offroad":
+            return {"at_fault": [a], "rule": "offroad", "cut_in": False}
+        if self.ran_red[a] != self.ran_red[b]:
+            return {"at_fault": [a if self.ran_red[a] else b], "rule": "red_light", "cut_in": False}
+        both_cars = bool(w.is_car[a] and w.is_car[b])
+        if both_cars:
+            follower = self._follower(a, b, w.state)
+            if follower is not None:
+                leader = b if follower == a else a
+                return {
+                    "at_fault": [follower],
+                    "rule": "rear_end",
+                    "cut_in": self._cut_in(follower, leader),
+                }
+        moving = w.state[[a, b], 3] > STATIONARY_SPEED
+        if moving.sum() == 1:
+            mover = a if moving[0] else b
+            return {"at_fault": [mover], "rule": "moving_into_stationary", "cut_in": False}
+        if not both_cars:
+            car = a if w.is_car[a] else b
+            return {"at_fault": [car], "rule": "car_yields_to_pedestrian", "cut_in": False}
+        if moving.all():
+            turner = self._turning_across(a, b)
+            if turner is not None:
+                return {"at_fault": [turner], "rule": "turn_yields", "cut_in": False}
+            now = w.steps
+            ea = self.entry_step[a] if self.entry_step[a] >= 0 else now
+            eb = self.entry_step[b] if self.entry_step[b] >= 0 else now
+            if ea != eb:
+                return {
+                    "at_fault": [a if ea > eb else b],
+                    "rule": "entered_occupied",
+                    "cut_in": False,
+                }
+        return {"at_fault": [a, b], "rule": "shared", "cut_in": False}
+
+    def _turning_across(self, a: int, b: int) -> int | None:
+        """Of two cars from opposite approaches, the one that turns (None unless exactly one)."""
+        routes, w = self.world.layout.routes, self.world
+        ra, rb = w.route[a], w.route[b]
+        if ra < 0 or rb < 0:
+            return None
+        if abs(_wrap(routes.heading[ra, 0] - routes.heading[rb, 0])) <= 3 * np.pi / 4:
+            return None
+        turns = []
+        for r in (ra, rb):
+            last = min(int(round(routes.length[r] / PATH_SPACING)), routes.heading.shape[1] - 1)
+            turns.append(abs(_wrap(routes.heading[r, last] - routes.heading[r, 0])) > np.pi / 4)
+        if turns[0] == turns[1]:
+            return None
+        return a if turns[0] else b
+
+    def _follower(self, a: int, b: int, state: np.ndarray) -> int | None:
+        """The car behind when ``a`` and ``b`` head within 45° of each other, else None."""
+        if abs(_wrap(state[a, 2] - state[b, 2])) >= SAME_HEADING:
+            return None
+        d = complex(state[b, 0] - state[a, 0], state[b, 1] - state[a, 1])
+        mean = state[a, 2] + 0.5 * _wrap(state[b, 2] - state[a, 2])
+        along = (d * np.exp(-1j * mean)).real  # b's position ahead of a's, along the lane
+        return a if along > 0 else b
+
+    def _cut_in(self, follower: int, leader: int) -> bool:
+        """The leader came in front of the follower within the kept history, closer than the
+        follower's stopping distance at that moment."""
+        states = list(self._states)
+        first = None
+        for k in range(len(states) - 1, -1, -1):
+            if self._ahead_gap(states[k], follower, leader) is None:
+                break
+            first = k
+        if first is None or first == 0:
+            return False  # in front for the whole history (or never seen so): no cut-in
+        gap = self._ahead_gap(states[first], follower, leader)
+        v = states[first][follower, 3]
+        stop = v * REACTION + v * v / (2 * COMFORT_DECEL)
+        return bool(gap < stop)
+
+    def _ahead_gap(self, state: np.ndarray, follower: int, leader: int) -> float | None:
+        """Bumper gap (m) when ``leader`` is in ``follower``'s lane ahead of it, else None."""
+        w = self.world
+        if abs(_wrap(state[leader, 2] - state[follower, 2])) >= SAME_HEADING:
+            return None
+        d = complex(state[leader, 0] - state[follower, 0], state[leader, 1] - state[follower, 1])
+        local = d * np.exp(-1j * state[follower, 2])
+        if local.real <= 0 or abs(local.imag) > w.width[follower]:
+            return None
+        return float(local.real - (w.length[follower] + w.length[leader]) / 2)
+
+    def annotate(self, events) -> list[dict]:
+        """The collisions ``events`` as dicts with their fault labels."""
+        return [{**e.as_dict(), **self.label(e.a, e.b, e.kind)} for e in events]

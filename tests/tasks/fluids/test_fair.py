@@ -1,0 +1,332 @@
+"""FLUIDS as a fair benchmark: defensive background drivers and collision fault labels."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
+from fluids_bench.tasks.fluids.sim.world import World
+
+LAYOUTS = ("four_way", "t_junction", "roundabout")
+
+
+# ---------------------------------------------------------------- fault labels, constructed
+def _world(cars: int, peds: int = 0, lights: bool = True) -> World:
+    return World(SceneConfig(num_cars=cars, num_pedestrians=peds, lights=lights))
+
+
+def _route(world: World, name: str) -> int:
+    return world.layout.routes.names.index(name)
+
+
+def _conflict_s(world: World, r0: int, r1: int) -> tuple[float, float]:
+    """Arc lengths on routes r0 and r1 of the points where they come closest."""
+    p0, p1 = world.layout.routes.path[r0], world.layout.routes.path[r1]
+    d = np.hypot(*(p0[:, None, :] - p1[None, :, :]).transpose(2, 0, 1))
+    i, j = np.unravel_index(np.argmin(d), d.shape)
+    from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+
+    return i * PATH_SPACING, j * PATH_SPACING
+
+
+def _run_until_collision(world: World, tracker: FaultTracker, controls=None, steps=100):
+    controls = np.zeros((world.n, 2)) if controls is None else controls
+    for _ in range(steps):
+        events = world.step(controls)
+        tracker.update()
+        if events:
+            return tracker.annotate(events)
+    raise AssertionError("no collision happened")
+
+
+def test_rear_end_is_the_followers_fault():
+    w = _world(2)
+    r = _route(w, "east_in_0->west_out_0")
+    w.place(1, r, 20.0, speed=0.0)
+    w.place(0, r, 8.0, speed=6.0)
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["kind"] == "car-car"
+    assert c["at_fault"] == [0] and c["rule"] == "rear_end" and not c["cut_in"]
+
+
+def test_leader_that_cuts_in_inside_braking_distance_is_flagged():
+    w = _world(2)
+    r = _route(w, "east_in_0->west_out_0")
+    w.place(0, r, 4.0, speed=8.0)
+    w.place(1, _route(w, "north_in_0->south_out_0"), 2.0)
+    tracker = FaultTracker(w)
+    for _ in range(10):  # car 0 drives alone for a second
+        w.step(np.zeros((2, 2)))
+        tracker.update()
+    w.place(1, r, float(w.s[0]) + 7.0, speed=0.0)  # appears 2.5 m ahead of its bumper
+    (c,) = _run_until_collision(w, tracker)
+    assert c["at_fault"] == [0] and c["rule"] == "rear_end" and c["cut_in"]
+
+
+def test_entering_against_a_red_light_is_the_entrants_fault():
+    w = _world(2)  # at t = 0 east-west is green, north-south red
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(0, north, c0 - 12.0, speed=8.0)  # crosses its red stop line
+    w.place(1, east, c1 - 12.0, speed=8.0)  # green
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["at_fault"] == [0] and c["rule"] == "red_light"
+
+
+def test_entering_an_occupied_junction_is_the_entrants_fault():
+    w = _world(2, lights=False)
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(1, east, c1 - 3.5, speed=2.0)  # already in the junction
+    w.place(0, north, c0 - 14.0, speed=8.0)  # enters later, fast enough to arrive together
+    tracker = FaultTracker(w)
+    assert tracker.entry_step[1] == 0 and tracker.entry_step[0] < 0
+    (c,) = _run_until_collision(w, tracker)
+    assert c["at_fault"] == [0] and c["rule"] == "entered_occupied"
+
+
+def test_moving_into_a_stationary_car_is_the_movers_fault():
+    w = _world(2, lights=False)
+    north, east = _route(w, "north_in_0->south_out_0"), _route(w, "east_in_0->west_out_0")
+    c0, c1 = _conflict_s(w, north, east)
+    w.place(1, east, c1, speed=0.0)  # stopped across the north-south lane
+    w.place(0, north, c0 - 10.0, speed=6.0)
+    (c,) = _run_until_collision(w, FaultTracker(w))
+    assert c["at_fault"] == [0] and c["rule"] == "moving_into_stationary"
+
+
+def test_leaving_the_road_is_the_drivers_fault():
+    w = _world(1)
+    w.place(0, _route(w, "east_in_0->west_out_0"), 5.0, speed=8.0)
+    controls = np.array([[0.7, 0.0]])  # full steering lock
+    (c,) = _run_until_collision(w, FaultTracker(w), controls)
+    assert c["kind"] == "offroad" and c["at_fault"] == [0] and c["rule"] == "offroad"
+
+
+# ---------------------------------------------------------------- defensive drivers
+def _ego_policy(kind: str, rng: np.random.Generator, info: dict, step: int, stop_at: int):
+    if kind == "stop":
+        return info["supervisor_action"] if step < stop_at else np.zeros(1, np.float32)
+    if kind == "crawl":
+        return np.ones(1, np.float32)
+    return rng.uniform(0.0, 10.0, 1).astype(np.float32)
+
+
+@pytest.mark.parametrize("layout", LAYOUTS)
+@pytest.mark.parametrize("kind", ["stop", "crawl", "random"])
+def test_supervised_cars_never_rear_end_the_ego(layout, kind):
+    """A stopping, crawling or random-speed ego is never hit from behind by a supervised car
+    (nor hit by one in any other way that is the supervised car's fault and no cut-in)."""
+    env = gym.make(
+        "FLUIDS-v0",
+        layout=layout,
+        num_cars=5,
+        num_pedestrians=2,
+        action_level="velocity",
+        defensive=True,
+    )
+    for seed in range(3):
+        rng = np.random.default_rng(seed)
+        stop_at = int(rng.integers(0, 60))
+        _, info = env.reset(seed=seed)
+        for step in range(250):
+            _, _, term, trunc, info = env.step(_ego_policy(kind, rng, info, step, stop_at))
+            for c in info["collisions"]:
+                ours = [i for i in c["at_fault"] if i != 0]
+                assert not (ours and not c["cut_in"]), (layout, kind, seed, c)
+            if term or trunc:
+                break
+
+
+def test_without_defensive_drivers_a_stopped_ego_is_rear_ended():
+    """The measurement the option answers: v0's planner assumes the ego follows the plan."""
+    hits = 0
+    env = gym.make("FLUIDS-v0", action_level="velocity")
+    for seed in range(8):
+        env.reset(seed=seed)
+        for _ in range(150):
+            _, _, term, trunc, info = env.step(np.zeros(1, np.float32))
+            hits += any(
+                c["rule"] == "rear_end" and c["at_fault"] != [0] for c in info["collisions"]
+            )
+            if term or trunc:
+                break
+    assert hits > 0
+
+
+def test_defensive_must_be_a_bool():
+    with pytest.raises(ValueError, match="defensive"):
+        gym.make("FLUIDS-v0", defensive="yes")
+
+
+# ---------------------------------------------------------------- quasi-LIDAR v1
+def _lidar_env(**kwargs):
+    env = gym.make(
+        "FLUIDS-v1",
+        obs_type="qlidar",
+        action_level="velocity",
+        num_cars=0,
+        num_pedestrians=kwargs.pop("num_pedestrians", 0),
+        **kwargs,
+    )
+    env.reset(seed=0)
+    return env
+
+
+def _observe(env):
+    u = env.unwrapped
+    return u.observer.observe(u.world, u.np_random)
+
+
+def test_qlidar_sees_a_red_stop_line_ahead_until_it_turns_green():
+    env = _lidar_env()
+    w = env.unwrapped.world
+    route = _route(w, "south_in_0->north_out_0")  # red at t = 0, green from 17 s
+    w.place(0, route, 20.0)
+    stop_gap = float(w.layout.routes.stop_s[route]) - 20.0
+    seen = []
+    for _ in range(220):
+        obs = _observe(env)
+        colour = w.lights.describe_states(w.light_state)["tl_south"]
+        seen.append(colour)
+        if colour == "red":
+            assert obs[0, 1] == 4 and obs[0, 0] == pytest.approx(stop_gap, abs=0.05)
+        elif colour == "yellow":
+            assert obs[0, 1] == 5
+        else:
+            assert obs[0, 1] not in (4, 5)  # green: the line is no obstacle
+        env.step(np.zeros(1, np.float32))  # the ego waits
+    assert "red" in seen and "green" in seen
+
+
+def test_qlidar_v1_occupied_crosswalk_reads_as_pedestrian_and_goal_row():
+    env = _lidar_env(num_pedestrians=1, lights=False)
+    w = env.unwrapped.world
+    obs = _observe(env)
+    assert obs.shape == (65, 4) and env.observation_space.contains(obs)
+    assert obs[64, 1] == 6  # the goal row: bearing of the next waypoint, ahead on a straight
+    car = _route(w, "south_in_0->north_out_0")
+    w.place(0, car, 16.0)
+    assert _observe(env)[64, 2] == pytest.approx(0.0, abs=1e-6)
+    assert 2 not in _observe(env)[:64, 1]
+    # a walker in the middle of the crosswalk the ego drives over (ahead of it, to the side)
+    walk = [i for i, n in enumerate(w.layout.routes.names) if n.startswith("walk_south")][0]
+    w.place(1, walk, float(w.layout.routes.enter_s[walk]) + 2.0)
+    obs = _observe(env)
+    ped_rays = obs[:64][obs[:64, 1] == 2]
+    assert len(ped_rays) > 3  # the whole crosswalk blocks rays, not just the walker
+    assert obs[0, 1] == 2
+
+
+def test_qlidar_v0_reading_is_unchanged_by_the_v1_option():
+    v0 = gym.make("FLUIDS-v0", obs_type="qlidar", lidar_noise=0.1, lidar_dropout=0.1)
+    v1 = gym.make(
+        "FLUIDS-v0", obs_type="qlidar", lidar_noise=0.1, lidar_dropout=0.1, lidar_version=1
+    )
+    a, _ = v0.reset(seed=3)
+    b, _ = v1.reset(seed=3)
+    assert a.shape == (64, 4) and b.shape == (65, 4)
+    same = b[:64, 1] < 4  # where v1 sees nothing new, the rays are v0's, noise included
+    assert np.array_equal(a[same], b[:64][same])
+
+
+# ---------------------------------------------------------------- the v1 ids (registry checks)
+V1_IDS = ("FLUIDS-v1", "FLUIDS-Sensitivity-v1")
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
+def test_v1_ids_pass_check_env(env_id):
+    import warnings
+
+    from gymnasium.utils.env_checker import check_env
+
+    env = gym.make(env_id, obs_type=["qlidar", "explicit"])
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        warnings.filterwarnings("ignore", message=".*symmetric and normalized.*")
+        check_env(env.unwrapped, skip_render_check=True)
+
+
+def _v1_rollout(env_id: str, seed: int, steps: int = 80):
+    env = gym.make(
+        env_id, obs_type="qlidar", lidar_noise=0.1, num_pedestrians=3, action_level="velocity"
+    )
+    rng = np.random.default_rng(seed)
+    env.action_space.seed(seed)
+    obs, info = env.reset(seed=seed)
+    trace = [obs, info]
+    for _ in range(steps):
+        a = info["supervisor_action"]
+        assert env.action_space.contains(a)
+        assert np.array_equal(a, env.unwrapped.supervisor_action())
+        assert np.array_equal(a, env.unwrapped.supervisor_action())  # a second call agrees
+        if rng.random() < 0.3:
+            a = env.action_space.sample()
+        obs, r, term, trunc, info = env.step(a)
+        trace += [obs, r, term, trunc, info]
+        if term or trunc:
+            break
+    return env, trace
+
+
+@pytest.mark.parametrize("env_id", V1_IDS)
+def test_v1_ids_are_deterministic_and_pickle_mid_episode(env_id):
+    import pickle
+
+    from exact_compare import exactly_equal
+
+    _, a = _v1_rollout(env_id, 5)
+    _, b = _v1_rollout(env_id, 5)
+    assert exactly_equal(a, b)
+    env = gym.make(env_id, obs_type="qlidar", action_level="velocity")
+    _, info = env.reset(seed=9)
+    for _ in range(20):
+        _, _, _, _, info = env.step(info["supervisor_action"])
+    clone = pickle.loads(pickle.dumps(env))
+    act = np.array([3.0], np.float32)
+    for _ in range(30):
+        out1, out2 = env.step(act), clone.step(act)
+        assert exactly_equal(list(out1), list(out2))
+        if out1[2] or out1[3]:
+            break
+
+
+@pytest.mark.parametrize("obey", [False, True])
+def test_running_a_red_light_fails_the_episode_only_with_obey_lights(obey):
+    env = gym.make(
+        "FLUIDS-v1", action_level="velocity", num_cars=0, num_pedestrians=0, obey_lights=obey
+    )
+    env.reset(seed=0)
+    w = env.unwrapped.world
+    w.place(0, _route(w, "south_in_0->north_out_0"), 6.0)  # red for the first 17 s
+    for _ in range(400):
+        _, _, term, trunc, info = env.step(np.array([10.0], np.float32))
+        if term or trunc:
+            break
+    assert info["ego_arrived"] and info["ego_ran_red_light"] and not info["collisions"]
+    assert info["is_success"] is (not obey)
+
+
+def test_turning_across_oncoming_traffic_is_the_turners_fault():
+    w = _world(2, lights=False)
+    left = _route(w, "east_in_0->south_out_0")  # from the east, turning left across
+    straight = _route(w, "west_in_0->east_out_0")  # oncoming, straight on
+    c0, c1 = _conflict_s(w, left, straight)
+    w.place(0, straight, c1 - 10.0, speed=5.0)
+    w.place(1, left, c0 - 10.0, speed=5.0)
+    from fluids_bench.tasks.fluids.supervisor.control import PIDController
+
+    pid, tracker = PIDController(w), FaultTracker(w)
+    for _ in range(60):  # both steer along their routes at 5 m/s
+        controls, memory = pid.controls(w, np.full(2, 5.0))
+        pid.commit(memory)
+        events = w.step(controls)
+        tracker.update()
+        if events:
+            break
+    (c,) = tracker.annotate(events)
+    assert c["at_fault"] == [1] and c["rule"] == "turn_yields"
