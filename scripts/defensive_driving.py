@@ -105,8 +105,15 @@ def scene_row(job: tuple) -> dict:
     }
 
 
-def _key(row) -> tuple:
-    return (row[0], row[1], row[2], row[3], row[4], row[5])
+def _key(job) -> tuple:
+    """A job's identity: (layout, cars, pedestrians, policy, defensive, episodes)."""
+    return tuple(job[:6])
+
+
+def _row_key(row: dict) -> tuple:
+    """The identity of a finished row of the log, as :func:`_key` of its job."""
+    fields = ("layout", "cars", "pedestrians", "policy", "defensive", "episodes")
+    return tuple(row[f] for f in fields)
 
 
 def main() -> None:
@@ -138,30 +145,13 @@ def main() -> None:
                     row = json.loads(line)
                 except json.JSONDecodeError:
                     continue  # a torn last line is redone
-                done[
-                    (
-                        row["layout"],
-                        row["cars"],
-                        row["pedestrians"],
-                        row["policy"],
-                        row["defensive"],
-                        row["episodes"],
-                    )
-                ] = row
+                done[_row_key(row)] = row
     todo = [j for j in jobs if _key(j) not in done]
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(scene_row, j) for j in todo]
         for fut in tqdm(as_completed(futures), total=len(futures), unit="scene"):
             row = fut.result()
-            key = (
-                row["layout"],
-                row["cars"],
-                row["pedestrians"],
-                row["policy"],
-                row["defensive"],
-                row["episodes"],
-            )
-            done[key] = row
+            done[_row_key(row)] = row
             if log:
                 with open(log, "a") as f:
                     f.write(json.dumps(row) + "\n")
