@@ -52,6 +52,8 @@ class FaultTracker:
         self.entry_step = np.full(n, -1, dtype=np.int64)  # step the agent entered its zone
         self.ran_red = np.zeros(n, dtype=bool)
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._route_key = b""  # world.route's bytes when _enter was computed
+        self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
         self._states: deque[np.ndarray] = deque(maxlen=HISTORY)
         self._prev_lights = np.array(world.light_state)
         self._note_entries()
@@ -66,15 +68,19 @@ class FaultTracker:
 
     def _note_entries(self) -> None:
         w = self.world
-        routes = w.layout.routes
-        valid = w.route >= 0
-        r = np.maximum(w.route, 0)
-        inside = valid & (w.route_s + self._front >= routes.enter_s[r])
-        new = inside & (self.entry_step < 0)
+        key = w.route.tobytes()
+        if key != self._route_key:  # routes assigned or changed: recompute the thresholds
+            self._route_key = key
+            enter = w.layout.routes.enter_s[np.maximum(w.route, 0)].astype(np.float64)
+            enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
+            self._enter = enter
+        # an agent enters when its front passes its zone's start (each agent once)
+        new = w.route_s + self._front >= self._enter
         if not new.any():
             return
         self.entry_step[new] = w.steps
-        light = routes.light[r]
+        self._enter[new] = np.inf
+        light = w.layout.routes.light[np.maximum(w.route, 0)]
         if len(self._prev_lights):
             red = (light >= 0) & (self._prev_lights[np.maximum(light, 0)] == STOP)
             self.ran_red[new] = red[new]
