@@ -25,10 +25,9 @@ seconds of states) and labels each collision. The rules, first match wins:
 
 from __future__ import annotations
 
-from collections import deque
-
 import numpy as np
 
+from fluids_bench.tasks.fluids.sim.kernels import record_fault_step
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import STOP
 
@@ -54,36 +53,38 @@ class FaultTracker:
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._route_key = b""  # world.route's bytes when _enter was computed
         self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
-        self._states: deque[np.ndarray] = deque(maxlen=HISTORY)
+        self._light_of = np.full(n, -1, dtype=np.int64)  # the light at each agent's zone
+        self._ring = np.empty((HISTORY, n, world.state.shape[1]))  # the last states, a ring
+        self._recorded = 0  # states recorded so far (the newest is in slot recorded - 1)
         self._prev_lights = np.array(world.light_state)
-        self._note_entries()
-        self._states.append(world.state.copy())
+        self._record()
 
     def update(self) -> None:
         """Record this step: new zone entries (with the light seen on the previous step) and
         the agents' states."""
-        self._note_entries()
-        self._prev_lights = np.array(self.world.light_state)
-        self._states.append(self.world.state.copy())
+        self._record()
 
-    def _note_entries(self) -> None:
+    def _record(self) -> None:
         w = self.world
         key = w.route.tobytes()
         if key != self._route_key:  # routes assigned or changed: recompute the thresholds
             self._route_key = key
-            enter = w.layout.routes.enter_s[np.maximum(w.route, 0)].astype(np.float64)
+            r = np.maximum(w.route, 0)
+            enter = w.layout.routes.enter_s[r].astype(np.float64)
             enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
             self._enter = enter
-        # an agent enters when its front passes its zone's start (each agent once)
-        new = w.route_s + self._front >= self._enter
-        if not new.any():
-            return
-        self.entry_step[new] = w.steps
-        self._enter[new] = np.inf
-        light = w.layout.routes.light[np.maximum(w.route, 0)]
-        if len(self._prev_lights):
-            red = (light >= 0) & (self._prev_lights[np.maximum(light, 0)] == STOP)
-            self.ran_red[new] = red[new]
+            self._light_of = np.where(w.route >= 0, w.layout.routes.light[r], -1).astype(np.int64)
+        record_fault_step(
+            w.route_s, self._front, self._enter, self._light_of, self._prev_lights,
+            np.asarray(w.light_state), STOP, self.entry_step, self.ran_red, w.steps,
+            w.state, self._ring, self._recorded % HISTORY,
+        )  # fmt: skip
+        self._recorded += 1
+
+    def _history(self) -> list[np.ndarray]:
+        """The kept states, oldest first (at most :data:`HISTORY`)."""
+        kept = min(self._recorded, HISTORY)
+        return [self._ring[(self._recorded - kept + k) % HISTORY] for k in range(kept)]
 
     # ------------------------------------------------------------------ labels
     def label(self, a: int, b: int, kind: str) -> dict:
@@ -153,7 +154,7 @@ class FaultTracker:
     def _cut_in(self, follower: int, leader: int) -> bool:
         """The leader came in front of the follower within the kept history, closer than the
         follower's stopping distance at that moment."""
-        states = list(self._states)
+        states = self._history()
         first = None
         for k in range(len(states) - 1, -1, -1):
             if self._ahead_gap(states[k], follower, leader) is None:

@@ -111,3 +111,26 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
                 first.append(a)
                 second.append(b)
     return np.array(first, dtype=np.int64), np.array(second, dtype=np.int64)
+
+
+@njit(cache=True, nogil=True)
+def record_fault_step(
+    route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
+    state, ring, slot,
+):  # fmt: skip
+    """One step of :class:`~fluids_bench.tasks.fluids.sim.fault.FaultTracker`, in place: an
+    agent whose front passed its zone's start (``route_s + front >= enter``) enters now (its
+    ``enter`` becomes inf: once only), having run a red light when its light (``light_of``, -1:
+    none) showed ``stop`` on the previous step; then this step's lights become the previous
+    ones and the agents' state goes into history slot ``slot`` of ``ring``."""
+    for i in range(route_s.shape[0]):
+        if route_s[i] + front[i] >= enter[i]:
+            entry_step[i] = step
+            enter[i] = np.inf
+            li = light_of[i]
+            ran_red[i] = li >= 0 and li < prev_lights.shape[0] and prev_lights[li] == stop
+    for k in range(lights.shape[0]):
+        prev_lights[k] = lights[k]
+    for i in range(state.shape[0]):
+        for j in range(state.shape[1]):
+            ring[slot, i, j] = state[i, j]
