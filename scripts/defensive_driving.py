@@ -31,6 +31,7 @@ import numpy as np
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.jsonl import read_rows
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")
 LAYOUTS = ("four_way", "t_junction", "roundabout")
@@ -137,15 +138,7 @@ def main() -> None:
         for p in range(args.peds[0], args.peds[1] + 1)
     ]
     log = f"{args.out}.jsonl" if args.out else None
-    done = {}
-    if log and os.path.exists(log):
-        with open(log) as f:
-            for line in f:
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue  # a torn last line is redone
-                done[_row_key(row)] = row
+    done = {_row_key(row): row for row in read_rows(log)}
     todo = [j for j in jobs if _key(j) not in done]
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(scene_row, j) for j in todo]

@@ -36,6 +36,7 @@ from tqdm import tqdm
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
+from fluids_bench.core.jsonl import read_rows
 
 ENVS = {
     "FLUIDS-v1": {"action_level": "velocity"},
@@ -165,15 +166,10 @@ def main() -> None:
         for m in args.methods
     ]
     log = f"{args.out}.jsonl" if args.out else None
-    done = {}
-    if log and os.path.exists(log):
-        with open(log) as f:
-            for line in f:
-                try:
-                    r = json.loads(line)
-                except json.JSONDecodeError:
-                    continue
-                done[(r["env_id"], r["method"], r.get("episodes"), r["demos"], r["ppo_steps"])] = r
+    done = {
+        (r["env_id"], r["method"], r.get("episodes"), r["demos"], r["ppo_steps"]): r
+        for r in read_rows(log)
+    }
 
     def key(j):
         return (j[0], j[1], j[2], j[3], j[4])

@@ -27,6 +27,7 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.jsonl import read_rows
 
 ENV_ID = "GraspingInClutter-v0"
 
@@ -95,14 +96,7 @@ def main() -> None:
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / "grasping_quality.jsonl"
-    done: dict[tuple[float, int], dict] = {}
-    if log.exists():
-        for line in log.read_text().splitlines():
-            try:  # a torn last line (killed mid-write) is simply redone
-                row = json.loads(line)
-            except json.JSONDecodeError:
-                continue
-            done[(row["noise"], row["seed"])] = row
+    done = {(row["noise"], row["seed"]): row for row in read_rows(log)}
     levels = (0.0, args.noise)
     jobs = [(noise, seed) for noise in levels for seed in range(args.episodes)]
     todo = [job for job in jobs if job not in done]

@@ -19,6 +19,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
+from fluids_bench.core.jsonl import read_rows
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
@@ -62,15 +63,7 @@ def main() -> None:
         for p in range(args.peds[0], args.peds[1] + 1)
     ]
     log = f"{args.out}.jsonl" if args.out else None
-    done = {}
-    if log and os.path.exists(log):
-        with open(log) as f:  # a torn last line (killed mid-write) is simply redone
-            for line in f:
-                try:
-                    row = json.loads(line)
-                except json.JSONDecodeError:
-                    continue
-                done[(row["layout"], row["cars"], row["pedestrians"], row["episodes"])] = row
+    done = {(r["layout"], r["cars"], r["pedestrians"], r["episodes"]): r for r in read_rows(log)}
     todo = [j for j in jobs if j[:4] not in done]
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(_scene_result, job) for job in todo]
