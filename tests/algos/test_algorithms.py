@@ -38,20 +38,6 @@ def collected(monkeypatch: pytest.MonkeyPatch) -> list[Trajectory]:
     return trajectories
 
 
-@pytest.fixture
-def fits(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Training-set sizes of every fit an algorithm asks for (Harness.fit)."""
-    sizes: list[int] = []
-    original = Harness.fit
-
-    def spy(self: Harness) -> Any:
-        sizes.append(len(self.train))
-        return original(self)
-
-    monkeypatch.setattr(Harness, "fit", spy)
-    return sizes
-
-
 def test_bc_aggregates_supervisor_demonstrations(collected: list[Trajectory]) -> None:
     result = bc.run(bc.BCConfig(**GRID, **SMALL, policy=TREE))
     assert len(collected) == 3

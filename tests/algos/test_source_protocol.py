@@ -38,20 +38,6 @@ TREE = PolicySpec("tree", {"max_depth": 100})
 ROOT = Path(__file__).resolve().parents[2]
 
 
-@pytest.fixture
-def fits(monkeypatch: pytest.MonkeyPatch) -> list[int]:
-    """Training-set sizes of every fit an algorithm asks for (Harness.fit)."""
-    sizes: list[int] = []
-    original = Harness.fit
-
-    def spy(self: Harness) -> Any:
-        sizes.append(len(self.train))
-        return original(self)
-
-    monkeypatch.setattr(Harness, "fit", spy)
-    return sizes
-
-
 # -- 1. SHIV ---------------------------------------------------------------------------------
 
 
