@@ -152,7 +152,13 @@ def test_ctrl_c_ends_with_one_line_and_exit_code_130(workers):
     family = _wait_for_workers(process, 4 if workers > 1 else 0)
     time.sleep(4.0 if workers == 1 else 1.0)  # well into the episodes (compiled kernels running)
     os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
-    _, err = process.communicate(timeout=60)
+    try:
+        _, err = process.communicate(timeout=60)
+    except subprocess.TimeoutExpired:  # say where it stood, then clean up
+        alive = [pid for pid in [process.pid, *family] if _running(pid)]
+        os.killpg(process.pid, signal.SIGKILL)
+        _, err = process.communicate()
+        pytest.fail(f"not ended 60 s after Ctrl-C; processes alive: {alive}; stderr:\n{err}")
     assert process.returncode == 130, err
     assert err.strip().splitlines() == ["fluids-bench collect: interrupted"], err
     deadline = time.monotonic() + 10
