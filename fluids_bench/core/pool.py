@@ -11,8 +11,9 @@
 * Ctrl-C is the calling program's: workers ignore SIGINT (the terminal sends it to the whole
   process group), so there is one ``KeyboardInterrupt``, in the caller, not one traceback per
   worker;
-* leaving the block by an exception (Ctrl-C included) cancels the queued tasks and terminates
-  the workers at once, instead of waiting for the running tasks to finish.
+* leaving the block by an exception (Ctrl-C included) cancels the queued tasks, lets each worker
+  finish the task it holds for a few seconds, then terminates what is left, instead of
+  waiting for every queued task.
 """
 
 from __future__ import annotations
@@ -30,6 +31,7 @@ from concurrent.futures import ProcessPoolExecutor
 from typing import Any
 
 WATCH_INTERVAL = 0.5  # s between two checks of the parent in each worker
+STOP_GRACE = 5.0  # s a worker gets to finish its task when the pool is left by an exception
 PR_SET_PDEATHSIG = 1  # linux/prctl.h
 
 
@@ -74,13 +76,21 @@ def _init_worker(
 
 
 def _terminate(pool: ProcessPoolExecutor) -> None:
-    # ``_processes`` is private, but the only handle on the workers: shutdown(wait=False)
-    # alone still lets every running task finish before the interpreter can exit
+    # Cancel what is queued and let each worker finish the task it holds (tasks are short: an
+    # episode), for up to STOP_GRACE seconds; only then kill what is left. Killing a worker
+    # while it writes its result leaves half a message in the result pipe, and the pool's
+    # manager thread, which the interpreter joins at exit, then waits on it for ever.
+    # ``_processes`` is private, but the only handle on the workers.
     processes = list((getattr(pool, "_processes", None) or {}).values())
     pool.shutdown(wait=False, cancel_futures=True)
+    deadline = time.monotonic() + STOP_GRACE
     for process in processes:
         with contextlib.suppress(Exception):
-            process.terminate()
+            process.join(timeout=max(0.0, deadline - time.monotonic()))
+    for process in processes:
+        with contextlib.suppress(Exception):
+            if process.is_alive():
+                process.terminate()
     for process in processes:
         with contextlib.suppress(Exception):
             process.join(timeout=5)
