@@ -38,7 +38,9 @@ def _grasp_centre(p: np.ndarray, q0: float, q1: float, q2: float):
 
 
 @njit(cache=True, nogil=True)
-def _inverse(p: np.ndarray, x: float, y: float, heading: float, elbow: float, out: np.ndarray):
+def inverse_kernel(
+    p: np.ndarray, x: float, y: float, heading: float, elbow: float, out: np.ndarray
+):
     """Inverse kinematics into ``out``; False if the wrist point is out of reach."""
     l1, l2, l3 = p[0], p[1], p[2]
     back = l3 + p[3]
@@ -114,7 +116,7 @@ def arm_step_kernel(p: np.ndarray, q: np.ndarray, vx: float, vy: float) -> np.nd
             turn = max(-cap, min(cap, err * fraction))
         branch = 1.0 if moved[1] >= 0 else -1.0
         exact = np.zeros(3)
-        if _inverse(p, xe, ye, heading + turn, branch, exact):
+        if inverse_kernel(p, xe, ye, heading + turn, branch, exact):
             exact[2] = q[2] + _wrap(exact[2] - q[2])  # keep the wrist's winding
             if _within(p, exact):
                 for j in range(3):

@@ -39,7 +39,7 @@ import numpy as np
 import pymunk
 
 from fluids_bench.core.validation import check_float, check_int, fail
-from fluids_bench.tasks.grasping.kernels import arm_step_kernel
+from fluids_bench.tasks.grasping.kernels import arm_step_kernel, inverse_kernel
 
 JT_ITERATIONS = 6  # Jacobian-transpose iterations per env step (end effector within ~5%)
 N_OBJECTS = 6  # the target (index 0) and five obstacles
@@ -160,19 +160,13 @@ def jacobian(points: list[tuple[float, float]]) -> tuple[list[float], list[float
 def inverse(cfg: GraspConfig, x: float, y: float, heading: float, elbow: float = -1.0):
     """Joint angles putting the grasp centre at (x, y) with the given heading, or None.
 
-    ``elbow`` picks the elbow branch (the sign of q2). Joint limits are not checked."""
-    l1, l2, l3 = cfg.links
-    back = l3 + cfg.grasp_offset
-    wx, wy = x - back * math.cos(heading), y - back * math.sin(heading)
-    d2 = wx * wx + wy * wy
-    c2 = (d2 - l1 * l1 - l2 * l2) / (2 * l1 * l2)
-    if not -1.0 <= c2 <= 1.0:
+    ``elbow`` picks the elbow branch (the sign of q2). Joint limits are not checked. The
+    arithmetic is the compiled controller's (:func:`~fluids_bench.tasks.grasping.kernels.
+    inverse_kernel`), so planner and controller agree on every reachable pose."""
+    out = np.empty(3)
+    if not inverse_kernel(cfg.kernel_params, float(x), float(y), float(heading), float(elbow), out):
         return None
-    q2 = math.copysign(math.acos(c2), elbow)
-    q1 = math.atan2(wy, wx) - math.atan2(l2 * math.sin(q2), l1 + l2 * math.cos(q2))
-    q3 = heading - q1 - q2
-    q3 = (q3 + math.pi) % (2 * math.pi) - math.pi
-    return [q1, q2, q3]
+    return out.tolist()
 
 
 def within_limits(cfg: GraspConfig, q) -> bool:
