@@ -67,8 +67,10 @@ SOURCE_TRACKS = {"fig63": 40, "fig65": 50, "table61": 40}
 LAPS = 2  # per episode: crashes per lap = -return / LAPS
 
 
-def shiv_config(track: int, sigma: float, iterations: int, eval_episodes: int) -> shiv.SHIVConfig:
-    return shiv.SHIVConfig(
+def _protocol(track: int, iterations: int, eval_episodes: int) -> dict:
+    """What DAgger and SHIV share: the track, the learner, one demonstration an iteration,
+    every state of it kept, and the evaluation."""
+    return dict(
         env_id=ENV_ID,
         env_kwargs={"track_seed": track},
         policy=POLICY,
@@ -77,6 +79,12 @@ def shiv_config(track: int, sigma: float, iterations: int, eval_episodes: int) -
         samples_per_demo=None,
         eval_episodes=eval_episodes,
         seed=track,
+    )
+
+
+def shiv_config(track: int, sigma: float, iterations: int, eval_episodes: int) -> shiv.SHIVConfig:
+    return shiv.SHIVConfig(
+        **_protocol(track, iterations, eval_episodes),
         selector="shiv",
         nu=NU,
         sigma=sigma,
@@ -92,14 +100,7 @@ def run_curve(algo: str, track: int, sigma: float, iterations: int, eval_episode
     t0 = time.process_time()
     if algo == "dagger":
         config = dagger.DAggerConfig(
-            env_id=ENV_ID,
-            env_kwargs={"track_seed": track},
-            policy=POLICY,
-            iterations=iterations,
-            demos_per_iteration=1,
-            samples_per_demo=None,
-            eval_episodes=eval_episodes,
-            seed=track,
+            **_protocol(track, iterations, eval_episodes),
             beta=0.0,
             beta_schedule="constant",
             initial_demos=1,
