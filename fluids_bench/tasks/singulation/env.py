@@ -163,7 +163,7 @@ class SingulationEnv(gym.Env):
         return self._supervisor.action(self._world)
 
     def supervisor_stats(self) -> dict[str, float]:
-        """Behaviour-level replans since the last reset and the CPU time they took (s)."""
+        """Behaviour-level replans since the last reset and the time they took (s, wall clock)."""
         return {
             "replans": self._supervisor.replans,
             "replan_seconds": self._supervisor.replan_seconds,

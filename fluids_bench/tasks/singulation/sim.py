@@ -24,6 +24,11 @@ import numpy as np
 import pymunk
 import shapely
 
+# pymunk's own C bindings (cffi), called directly in the stepping loop: the Python property and
+# ``Space.step`` wrappers cost more than the physics of this small scene (same C calls, same
+# results; pymunk is pinned to 7.x)
+from pymunk._chipmunk_cffi import lib as _chipmunk
+
 from fluids_bench.core.validation import check_float
 
 DT = 0.1  # s per env step
@@ -39,6 +44,12 @@ TOUCH_GAP = 2e-4  # m left between objects packed "touching" (below pymunk's slo
 MAX_DTHETA = math.radians(1.5)  # per step
 MAX_DR = 0.01  # m per step
 NUM_OBJECTS = 4
+# the object pairs (i < j), and for each object the indices of the pairs it is in
+_PAIR_I, _PAIR_J = np.triu_indices(NUM_OBJECTS, 1)
+_PAIRS_OF = tuple(
+    tuple(k for k in range(len(_PAIR_I)) if i in (_PAIR_I[k], _PAIR_J[k]))
+    for i in range(NUM_OBJECTS)
+)
 
 
 def _centred(vertices: list[tuple[float, float]]) -> np.ndarray:
@@ -114,9 +125,16 @@ def joint_pose(x: float, y: float) -> tuple[float, float]:
 
 def progress(centres: np.ndarray) -> float:
     """The largest, over objects, of the distance from its centre to the nearest other centre."""
-    d = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
-    np.fill_diagonal(d, np.inf)
-    return float(d.min(axis=1).max())
+    n = len(centres)
+    if n != NUM_OBJECTS:
+        d = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+        np.fill_diagonal(d, np.inf)
+        return float(d.min(axis=1).max())
+    # the scene's four objects: the six pair distances once (same numbers, less numpy overhead)
+    d = np.hypot(
+        centres[_PAIR_I, 0] - centres[_PAIR_J, 0], centres[_PAIR_I, 1] - centres[_PAIR_J, 1]
+    ).tolist()
+    return float(max(min(d[k] for k in pairs) for pairs in _PAIRS_OF))
 
 
 def is_singulated(centres: np.ndarray) -> bool:
@@ -220,30 +238,52 @@ class SingulationWorld:
     ) -> None:
         self.config = config
         self.substeps = substeps
+        # the shapes hold their bodies by weak reference: self.bodies and self.tip keep them
+        self.bodies: list[pymunk.Body] = []
+        self._shapes: list[pymunk.Shape] = []
+        for index in range(len(poses)):
+            body = pymunk.Body()
+            shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
+            shape.density = AREAL_DENSITY  # the body gets its mass when the shape is added
+            shape.friction = FRICTION_OBJECTS
+            self.bodies.append(body)
+            self._shapes.append(shape)
+        self.tip = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self._tip_shape = pymunk.Circle(self.tip, TIP_RADIUS)
+        self._tip_shape.friction = FRICTION_TIP
+        self._place(theta, r, poses)
+
+    def restart(self, theta: float, r: float, poses: np.ndarray) -> None:
+        """Put the world in the state a fresh build from these numbers starts in, bit for bit,
+        at about half the cost: the shapes are kept, with new bodies (a used body keeps the
+        solver's bias velocity) in a new space (no contact cache, the same shape ids). The
+        supervisor's foresight restarts one world for every candidate push."""
+        self.space.remove(*self._shapes, self._tip_shape)  # the old bodies go with the space
+        self.bodies = [pymunk.Body() for _ in self._shapes]
+        for body, shape in zip(self.bodies, self._shapes, strict=True):
+            shape.body = body
+        self.tip = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
+        self._tip_shape.body = self.tip
+        self._place(theta, r, poses)
+
+    def _place(self, theta: float, r: float, poses: np.ndarray) -> None:
+        """Put the (new) bodies at the given poses and add everything to a new space."""
         self.theta = float(theta)
         self.r = float(r)
         space = pymunk.Space()
         space.gravity = (0.0, 0.0)
         space.damping = 0.0  # quasi-static: free velocity is gone after every substep
         space.collision_slop = 5e-4  # pymunk's default (0.1) assumes pixels, not metres
-        self.space = space
-        self.bodies: list[pymunk.Body] = []
-        for index, (x, y, angle) in enumerate(np.asarray(poses, dtype=np.float64)):
-            body = pymunk.Body()
-            shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
-            shape.density = AREAL_DENSITY
-            shape.friction = FRICTION_OBJECTS
+        poses = np.asarray(poses, dtype=np.float64)
+        for body, shape, (x, y, angle) in zip(self.bodies, self._shapes, poses, strict=True):
             body.position = (float(x), float(y))
             body.angle = float(angle)
             space.add(body, shape)
-            self.bodies.append(body)
+        self.tip.position = tip_position(self.theta, self.r)
+        space.add(self.tip, self._tip_shape)
+        self.space = space
         self._poses: np.ndarray | None = None  # read from the bodies once per step
         self._progress = 0.0
-        self.tip = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
-        self.tip.position = tip_position(self.theta, self.r)
-        tip_shape = pymunk.Circle(self.tip, TIP_RADIUS)
-        tip_shape.friction = FRICTION_TIP
-        space.add(self.tip, tip_shape)
 
     # -- state ---------------------------------------------------------------------------
 
@@ -251,7 +291,12 @@ class SingulationWorld:
         """Object poses (4, 3): x, y (m, centroid) and angle (rad, wrapped to [-pi, pi)).
         Read from the bodies once per step (a copy is returned)."""
         if self._poses is None:
-            out = np.array([(*b.position, b.angle) for b in self.bodies])
+            get_position, get_angle = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodyGetAngle
+            out = np.empty((len(self.bodies), 3))
+            for i, body in enumerate(self.bodies):
+                cbody = body._body  # the C body: no Vec2d per read
+                p = get_position(cbody)
+                out[i] = p.x, p.y, get_angle(cbody)
             out[:, 2] = np.mod(out[:, 2] + math.pi, 2 * math.pi) - math.pi
             self._poses = out
             self._progress = progress(out[:, :2])
@@ -287,13 +332,19 @@ class SingulationWorld:
         theta1, r1 = self.clip_pose(theta0 + dtheta, r0 + dr)
         n = self.substeps
         h = DT / n
-        tip = self.tip
+        dtheta, dr = theta1 - theta0, r1 - r0
+        # Space.step and the Body properties, without their Python wrappers (no callbacks,
+        # no bodies added or removed here; every dynamic body has mass and moment > 0)
+        ctip, cspace = self.tip._body, self.space._space
+        get_position, set_velocity = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodySetVelocity
+        space_step = _chipmunk.cpSpaceStep
         for k in range(1, n + 1):
             f = k / n
-            x, y = tip_position(theta0 + f * (theta1 - theta0), r0 + f * (r1 - r0))
-            px, py = tip.position
-            tip.velocity = ((x - px) / h, (y - py) / h)
-            self.space.step(h)
+            x, y = tip_position(theta0 + f * dtheta, r0 + f * dr)
+            p = get_position(ctip)
+            set_velocity(ctip, ((x - p.x) / h, (y - p.y) / h))
+            space_step(cspace, h)
+        tip = self.tip
         tip.velocity = (0.0, 0.0)
         # remove the last ulp of integration drift: the body sits exactly on the command
         tip.position = tip_position(theta1, r1)
