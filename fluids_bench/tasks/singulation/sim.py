@@ -191,10 +191,7 @@ def _pack(rng: np.random.Generator) -> np.ndarray:
         direction = rng.uniform(-math.pi, math.pi)
         u = np.array([math.cos(direction), math.sin(direction)])
 
-        def gap(t: float, index=index, angle=angle, centre=centre, u=u, union=union) -> float:
-            p = centre + t * u
-            return shapely.Polygon(object_polygon(index, p[0], p[1], angle)).distance(union)
-
+        slide = _Slide(index, angle, centre, u, union)
         # start just outside: the union's farthest point plus this object's radius
         xy = np.asarray(
             union.exterior.coords
@@ -202,22 +199,60 @@ def _pack(rng: np.random.Generator) -> np.ndarray:
             else union.convex_hull.exterior.coords
         )
         t = float(np.hypot(*(xy - centre).T).max()) + OBJECT_RADII[index] + 0.005
-        while t > 0 and gap(t) > 0.0:  # march in until the first contact
-            t -= 0.005
+        t = slide.march(t, 0.005)  # march in until the first contact
         lo, hi = t, t + 0.005  # lo overlaps (or is at the centre), hi is free
         for _ in range(14):  # to 0.3 µm
             mid = 0.5 * (lo + hi)
-            if gap(mid) > 0.0:
+            if slide.gaps([mid])[0] > 0.0:
                 hi = mid
             else:
                 lo = mid
         # back off to leave a tiny gap (no initial interpenetration for the solver to undo)
-        while gap(hi) < TOUCH_GAP:
+        while slide.gaps([hi])[0] < TOUCH_GAP:
             hi += TOUCH_GAP / 4
         p = centre + hi * u
         poses[index] = (p[0], p[1], angle)
         placed.append(shapely.Polygon(object_polygon(index, p[0], p[1], angle)))
     return poses
+
+
+class _Slide:
+    """Object ``index`` (at ``angle``) slid along the line ``centre + t u`` towards ``union``:
+    its gap to the union at several ``t`` in one vectorised shapely call (the same vertices,
+    bit for bit, as :func:`object_polygon` at each point)."""
+
+    def __init__(self, index, angle, centre, u, union) -> None:
+        c, s = math.cos(angle), math.sin(angle)
+        v = OBJECT_SHAPES[index]
+        self.cv0, self.sv1, self.sv0, self.cv1 = c * v[:, 0], s * v[:, 1], s * v[:, 0], c * v[:, 1]
+        self.centre, self.u, self.union = centre, u, union
+
+    def gaps(self, ts) -> np.ndarray:
+        ts = np.asarray(ts, dtype=np.float64)
+        x = self.centre[0] + ts * self.u[0]
+        y = self.centre[1] + ts * self.u[1]
+        coords = np.empty((len(ts), len(self.cv0), 2))
+        # evaluated as object_polygon does: (x + c v0) - s v1, (y + s v0) + c v1
+        coords[:, :, 0] = x[:, None] + self.cv0 - self.sv1
+        coords[:, :, 1] = y[:, None] + self.sv0 + self.cv1
+        return shapely.distance(shapely.polygons(coords), self.union)
+
+    def march(self, t: float, step: float) -> float:
+        """``t`` decreased by ``step`` until the object touches the union or ``t`` is not
+        positive (as ``while t > 0 and gap(t) > 0: t -= step``), several ``t`` per call."""
+        while True:
+            ts = [t]
+            while len(ts) < 16 and ts[-1] > 0:
+                ts.append(ts[-1] - step)
+            if ts[-1] <= 0:
+                ts.pop()  # never evaluated: the loop stops on it
+            if ts:
+                touching = np.flatnonzero(self.gaps(ts) <= 0.0)
+                if len(touching):
+                    return ts[touching[0]]
+                t = ts[-1] - step
+            if t <= 0:
+                return t
 
 
 class SingulationWorld:
@@ -275,11 +310,13 @@ class SingulationWorld:
         space.damping = 0.0  # quasi-static: free velocity is gone after every substep
         space.collision_slop = 5e-4  # pymunk's default (0.1) assumes pixels, not metres
         poses = np.asarray(poses, dtype=np.float64)
+        set_position, set_angle = _chipmunk.cpBodySetPosition, _chipmunk.cpBodySetAngle
         for body, shape, (x, y, angle) in zip(self.bodies, self._shapes, poses, strict=True):
-            body.position = (float(x), float(y))
-            body.angle = float(angle)
+            # body.position = ..., body.angle = ..., without the wrappers
+            set_position(body._body, (float(x), float(y)))
+            set_angle(body._body, float(angle))
             space.add(body, shape)
-        self.tip.position = tip_position(self.theta, self.r)
+        set_position(self.tip._body, tip_position(self.theta, self.r))
         space.add(self.tip, self._tip_shape)
         self.space = space
         self._poses: np.ndarray | None = None  # read from the bodies once per step
@@ -292,11 +329,12 @@ class SingulationWorld:
         Read from the bodies once per step (a copy is returned)."""
         if self._poses is None:
             get_position, get_angle = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodyGetAngle
-            out = np.empty((len(self.bodies), 3))
-            for i, body in enumerate(self.bodies):
+            values = []
+            for body in self.bodies:
                 cbody = body._body  # the C body: no Vec2d per read
                 p = get_position(cbody)
-                out[i] = p.x, p.y, get_angle(cbody)
+                values += (p.x, p.y, get_angle(cbody))
+            out = np.array(values).reshape(-1, 3)
             out[:, 2] = np.mod(out[:, 2] + math.pi, 2 * math.pi) - math.pi
             self._poses = out
             self._progress = progress(out[:, :2])
@@ -338,9 +376,11 @@ class SingulationWorld:
         ctip, cspace = self.tip._body, self.space._space
         get_position, set_velocity = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodySetVelocity
         space_step = _chipmunk.cpSpaceStep
+        cos, sin = math.cos, math.sin
         for k in range(1, n + 1):
             f = k / n
-            x, y = tip_position(theta0 + f * dtheta, r0 + f * dr)
+            th, rr = theta0 + f * dtheta, r0 + f * dr
+            x, y = rr * cos(th), rr * sin(th)  # tip_position, inlined
             p = get_position(ctip)
             set_velocity(ctip, ((x - p.x) / h, (y - p.y) / h))
             space_step(cspace, h)

@@ -128,13 +128,18 @@ def route(
     goal: tuple[float, float],
     verts: np.ndarray,
     planes: tuple[np.ndarray, np.ndarray],
+    cache: dict | None = None,
 ) -> tuple[list[tuple[float, float]], float] | None:
     """The shortest collision-free joint-space route start -> goal (waypoints after ``start``
     and its length in steps), trying direct, retract–rotate–extend and extend–rotate–retract;
     None when none is clear. Near the start a fingertip already touching an object may move
-    away from it."""
+    away from it. ``cache`` (a dict, empty at first) keeps what depends only on ``start`` and
+    the objects between calls with the same ones."""
+    cache = {} if cache is None else cache
     r_lo, r_hi = world_limits[2], world_limits[3]
-    inner, outer = radial_extent(verts)
+    if "extent" not in cache:
+        cache["extent"] = radial_extent(verts)
+    inner, outer = cache["extent"]
     r_in = max(r_lo, min(start[1], goal[1], inner - CLEARANCE - ROUTE_MARGIN))
     r_out = min(r_hi, max(start[1], goal[1], outer + CLEARANCE + ROUTE_MARGIN))
     options = [
@@ -143,7 +148,7 @@ def route(
         [(start[0], r_out), (goal[0], r_out), goal],
     ]
     sx, sy = start[1] * math.cos(start[0]), start[1] * math.sin(start[0])
-    start_blocked = None
+    start_blocked = cache.get("start_blocked")
     costed = []
     for waypoints in options:
         here, steps = start, 0.0
@@ -162,6 +167,7 @@ def route(
             p = np.concatenate(pts)
             if start_blocked is None:
                 start_blocked = bool(blocked(np.array([[sx, sy]]), planes, CLEARANCE)[0])
+                cache["start_blocked"] = start_blocked
             if start_blocked:  # let a fingertip in contact leave: skip its first 2 cm
                 p = p[np.hypot(p[:, 0] - sx, p[:, 1] - sy) > 0.02]
             if len(p) and blocked(p, planes, CLEARANCE).any():
@@ -391,13 +397,14 @@ def plan_push(world: SingulationWorld, poses: np.ndarray) -> PushPlan | None:
     best: PushPlan | None = None
     best_key = None
     scratch = None  # one foresight world, restarted for every candidate
+    route_cache: dict = {}  # every route starts here, among the same objects
     while heap:
         approach, k, exact = heapq.heappop(heap)
         if best_key is not None and best_key[0] == 0 and approach + 1 >= best_key[1]:
             break
         target, origin, d = candidates[k]
         if not exact:
-            found = route(limits, here, joint_pose(*origin), verts, planes)
+            found = route(limits, here, joint_pose(*origin), verts, planes, route_cache)
             if found is not None:
                 heapq.heappush(heap, (found[1], k, True))
             continue
