@@ -44,12 +44,6 @@ TOUCH_GAP = 2e-4  # m left between objects packed "touching" (below pymunk's slo
 MAX_DTHETA = math.radians(1.5)  # per step
 MAX_DR = 0.01  # m per step
 NUM_OBJECTS = 4
-# the object pairs (i < j), and for each object the indices of the pairs it is in
-_PAIR_I, _PAIR_J = np.triu_indices(NUM_OBJECTS, 1)
-_PAIRS_OF = tuple(
-    tuple(k for k in range(len(_PAIR_I)) if i in (_PAIR_I[k], _PAIR_J[k]))
-    for i in range(NUM_OBJECTS)
-)
 
 
 def _centred(vertices: list[tuple[float, float]]) -> np.ndarray:
@@ -125,16 +119,24 @@ def joint_pose(x: float, y: float) -> tuple[float, float]:
 
 def progress(centres: np.ndarray) -> float:
     """The largest, over objects, of the distance from its centre to the nearest other centre."""
-    n = len(centres)
-    if n != NUM_OBJECTS:
-        d = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
-        np.fill_diagonal(d, np.inf)
-        return float(d.min(axis=1).max())
-    # the scene's four objects: the six pair distances once (same numbers, less numpy overhead)
+    if len(centres) == NUM_OBJECTS:
+        return _progress4(centres[:, 0].tolist(), centres[:, 1].tolist())
+    d = np.hypot(*(centres[:, None, :] - centres[None, :, :]).transpose(2, 0, 1))
+    np.fill_diagonal(d, np.inf)
+    return float(d.min(axis=1).max())
+
+
+def _progress4(x: list[float], y: list[float]) -> float:
+    """:func:`progress` of four centres, from the six pair distances (the same numbers as the
+    all-pairs matrix, a quarter of the cost)."""
     d = np.hypot(
-        centres[_PAIR_I, 0] - centres[_PAIR_J, 0], centres[_PAIR_I, 1] - centres[_PAIR_J, 1]
+        [x[0] - x[1], x[0] - x[2], x[0] - x[3], x[1] - x[2], x[1] - x[3], x[2] - x[3]],
+        [y[0] - y[1], y[0] - y[2], y[0] - y[3], y[1] - y[2], y[1] - y[3], y[2] - y[3]],
     ).tolist()
-    return float(max(min(d[k] for k in pairs) for pairs in _PAIRS_OF))
+    # each object's nearest neighbour: pairs (0,1) (0,2) (0,3) | (0,1) (1,2) (1,3) | ...
+    return max(
+        min(d[0], d[1], d[2]), min(d[0], d[3], d[4]), min(d[1], d[3], d[5]), min(d[2], d[4], d[5])
+    )
 
 
 def is_singulated(centres: np.ndarray) -> bool:
@@ -200,16 +202,10 @@ def _pack(rng: np.random.Generator) -> np.ndarray:
         )
         t = float(np.hypot(*(xy - centre).T).max()) + OBJECT_RADII[index] + 0.005
         t = slide.march(t, 0.005)  # march in until the first contact
-        lo, hi = t, t + 0.005  # lo overlaps (or is at the centre), hi is free
-        for _ in range(14):  # to 0.3 µm
-            mid = 0.5 * (lo + hi)
-            if slide.gaps([mid])[0] > 0.0:
-                hi = mid
-            else:
-                lo = mid
+        # lo overlaps (or is at the centre), hi is free: bisect to 0.3 µm (14 halvings)
+        hi = slide.bisect(t, t + 0.005, 14)
         # back off to leave a tiny gap (no initial interpenetration for the solver to undo)
-        while slide.gaps([hi])[0] < TOUCH_GAP:
-            hi += TOUCH_GAP / 4
+        hi = slide.back_off(hi, TOUCH_GAP / 4, TOUCH_GAP)
         p = centre + hi * u
         poses[index] = (p[0], p[1], angle)
         placed.append(shapely.Polygon(object_polygon(index, p[0], p[1], angle)))
@@ -237,20 +233,60 @@ class _Slide:
         coords[:, :, 1] = y[:, None] + self.sv0 + self.cv1
         return shapely.distance(shapely.polygons(coords), self.union)
 
+    def bisect(self, lo: float, hi: float, halvings: int, per_call: int = 4) -> float:
+        """``hi`` after ``halvings`` of ``mid = (lo + hi) / 2; hi = mid if gap(mid) > 0 else
+        lo = mid``, evaluating ``per_call`` levels of the decision tree per shapely call (the
+        same mids, so the same answer, in a third of the calls)."""
+        while halvings > 0:
+            k = min(per_call, halvings)
+            size = 2**k - 1
+            # the tree's nodes (lo, hi) breadth first: node i's children are 2i + 1 (the gap
+            # at its mid is positive: hi = mid) and 2i + 2 (lo = mid)
+            nodes, mids = [(lo, hi)], []
+            for i in range(size):
+                a, b = nodes[i]
+                mid = 0.5 * (a + b)
+                mids.append(mid)
+                if 2 * i + 1 < size:
+                    nodes += [(a, mid), (mid, b)]
+            gaps = self.gaps(mids)
+            i = 0
+            for _ in range(k):
+                if gaps[i] > 0.0:
+                    lo, hi, i = nodes[i][0], mids[i], 2 * i + 1
+                else:
+                    lo, hi, i = mids[i], nodes[i][1], 2 * i + 2
+            halvings -= k
+        return hi
+
+    def back_off(self, t: float, step: float, gap: float) -> float:
+        """``t`` increased by ``step`` until the gap is at least ``gap`` (as ``while gap(t) <
+        gap: t += step``), several ``t`` per call."""
+        while True:
+            ts = [t]
+            while len(ts) < 8:
+                ts.append(ts[-1] + step)
+            clear = np.flatnonzero(~(self.gaps(ts) < gap))
+            if len(clear):
+                return ts[clear[0]]
+            t = ts[-1] + step
+
     def march(self, t: float, step: float) -> float:
         """``t`` decreased by ``step`` until the object touches the union or ``t`` is not
         positive (as ``while t > 0 and gap(t) > 0: t -= step``), several ``t`` per call."""
+        size = 8  # usually enough (contact after ~6 steps); then 16 at a time
         while True:
             ts = [t]
-            while len(ts) < 16 and ts[-1] > 0:
+            while len(ts) < size and ts[-1] > 0:
                 ts.append(ts[-1] - step)
             if ts[-1] <= 0:
                 ts.pop()  # never evaluated: the loop stops on it
             if ts:
-                touching = np.flatnonzero(self.gaps(ts) <= 0.0)
+                touching = np.flatnonzero(~(self.gaps(ts) > 0.0))
                 if len(touching):
                     return ts[touching[0]]
                 t = ts[-1] - step
+                size = 16
             if t <= 0:
                 return t
 
@@ -319,37 +355,50 @@ class SingulationWorld:
         set_position(self.tip._body, tip_position(self.theta, self.r))
         space.add(self.tip, self._tip_shape)
         self.space = space
-        self._poses: np.ndarray | None = None  # read from the bodies once per step
+        # read from the bodies once per step: poses (as floats, then as an array) and progress
+        self._values: list[float] | None = None
+        self._poses: np.ndarray | None = None
         self._progress = 0.0
 
     # -- state ---------------------------------------------------------------------------
+
+    def _read(self) -> None:
+        """Read the bodies' poses (as floats, through the C bodies: no Vec2d per read) and the
+        progress measure."""
+        get_position, get_angle = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodyGetAngle
+        values = []
+        for body in self.bodies:
+            cbody = body._body
+            p = get_position(cbody)
+            values += (p.x, p.y, get_angle(cbody))
+        self._values = values
+        if len(self.bodies) == NUM_OBJECTS:
+            self._progress = _progress4(values[0::3], values[1::3])
+        else:
+            self._progress = progress(np.array(values).reshape(-1, 3)[:, :2])
 
     def poses(self) -> np.ndarray:
         """Object poses (4, 3): x, y (m, centroid) and angle (rad, wrapped to [-pi, pi)).
         Read from the bodies once per step (a copy is returned)."""
         if self._poses is None:
-            get_position, get_angle = _chipmunk.cpBodyGetPosition, _chipmunk.cpBodyGetAngle
-            values = []
-            for body in self.bodies:
-                cbody = body._body  # the C body: no Vec2d per read
-                p = get_position(cbody)
-                values += (p.x, p.y, get_angle(cbody))
-            out = np.array(values).reshape(-1, 3)
+            self._read()
+            out = np.array(self._values).reshape(-1, 3)
             out[:, 2] = np.mod(out[:, 2] + math.pi, 2 * math.pi) - math.pi
             self._poses = out
-            self._progress = progress(out[:, :2])
         return self._poses.copy()
 
     def centres(self) -> np.ndarray:
         return self.poses()[:, :2]
 
     def tip_xy(self) -> tuple[float, float]:
-        return tuple(self.tip.position)
+        p = _chipmunk.cpBodyGetPosition(self.tip._body)
+        return p.x, p.y
 
     def progress(self) -> float:
-        """The continuous measure: max over objects of the distance to the nearest other (m)."""
-        if self._poses is None:
-            self.poses()
+        """The continuous measure: max over objects of the distance to the nearest other (m).
+        Read from the bodies once per step."""
+        if self._values is None:
+            self._read()
         return self._progress
 
     def is_singulated(self) -> bool:
@@ -384,9 +433,8 @@ class SingulationWorld:
             p = get_position(ctip)
             set_velocity(ctip, ((x - p.x) / h, (y - p.y) / h))
             space_step(cspace, h)
-        tip = self.tip
-        tip.velocity = (0.0, 0.0)
+        set_velocity(ctip, (0.0, 0.0))
         # remove the last ulp of integration drift: the body sits exactly on the command
-        tip.position = tip_position(theta1, r1)
+        _chipmunk.cpBodySetPosition(ctip, tip_position(theta1, r1))
         self.theta, self.r = theta1, r1
-        self._poses = None
+        self._values = self._poses = None

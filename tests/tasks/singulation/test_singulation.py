@@ -28,6 +28,7 @@ from fluids_bench.tasks.singulation.sim import (
     MAX_DTHETA,
     SceneConfig,
     SingulationWorld,
+    _Slide,
     is_singulated,
     joint_pose,
     object_polygon,
@@ -124,6 +125,38 @@ def test_progress_of_four_objects_equals_the_all_pairs_definition() -> None:
     assert progress(np.array([[0.0, 0.0], [0.3, 0.4], [0.0, 0.1]])) == pytest.approx(
         math.hypot(0.3, 0.3)
     )
+
+
+def test_batched_slides_of_the_packing_answer_as_the_one_at_a_time_loops() -> None:
+    # reset packs the cluster by sliding each object in (march, bisect, back off); the batched
+    # versions must give exactly what the plain loops over single gap evaluations give
+    rng = np.random.default_rng(4)
+    for _ in range(15):
+        union = shapely.Polygon(object_polygon(0, 0.0, 0.0, rng.uniform(-3, 3)))
+        direction = rng.uniform(-math.pi, math.pi)
+        u = np.array([math.cos(direction), math.sin(direction)])
+        slide = _Slide(int(rng.integers(1, 4)), rng.uniform(-3, 3), np.zeros(2), u, union)
+
+        def gap(t: float, slide=slide) -> float:
+            return float(slide.gaps([t])[0])
+
+        t = 0.2
+        while t > 0 and gap(t) > 0.0:
+            t -= 0.005
+        assert slide.march(0.2, 0.005) == t
+        lo, hi = t, t + 0.005
+        for _ in range(14):
+            mid = 0.5 * (lo + hi)
+            if gap(mid) > 0.0:
+                hi = mid
+            else:
+                lo = mid
+        assert slide.bisect(t, t + 0.005, 14) == hi
+        back = hi
+        while gap(back) < 2e-4:
+            back += 5e-5
+        assert slide.back_off(hi, 5e-5, 2e-4) == back
+        assert 2e-4 <= gap(back) < 2e-4 + 5e-5  # it stopped at the first clear position
 
 
 def test_a_restarted_world_steps_bit_for_bit_like_a_new_one() -> None:
