@@ -24,6 +24,7 @@ The supervisor reads the world's true state, never an observation.
 
 from __future__ import annotations
 
+import functools
 import heapq
 import math
 import time
@@ -40,7 +41,6 @@ from fluids_bench.tasks.singulation.sim import (
     TIP_RADIUS,
     SingulationWorld,
     joint_pose,
-    object_polygon,
     progress,
 )
 
@@ -64,21 +64,32 @@ LOOKAHEAD = 0.012  # m along the push line per step (the joint limits cap it fur
 # -- geometry ---------------------------------------------------------------------------------
 
 
+# the objects' vertices padded to a common count (padding repeats the last vertex), and each
+# vertex's successor around its polygon (np.roll(..., -1, axis=1) as an index: cheaper)
+_K = max(len(s) for s in OBJECT_SHAPES)
+_SHAPES = np.array([[*s, *[s[-1]] * (_K - len(s))] for s in OBJECT_SHAPES])
+_NEXT = np.roll(np.arange(_K), -1)
+
+
 def polygons(poses: np.ndarray) -> np.ndarray:
-    """World vertices padded to a common count (n, k, 2) (padding repeats the last vertex)."""
-    k = max(len(s) for s in OBJECT_SHAPES)
-    out = np.empty((len(poses), k, 2))
-    for i, (x, y, a) in enumerate(poses):
-        v = object_polygon(i, x, y, a)
-        out[i, : len(v)] = v
-        out[i, len(v) :] = v[-1]
+    """World vertices padded to a common count (n, k, 2) (padding repeats the last vertex):
+    :func:`~fluids_bench.tasks.singulation.sim.object_polygon` of every object, in one go."""
+    if len(poses) != len(OBJECT_SHAPES):
+        raise ValueError(f"polygons: poses has {len(poses)} rows; allowed: {len(OBJECT_SHAPES)}")
+    # math.cos / math.sin as object_polygon (numpy's may differ in the last bit)
+    c = np.array([math.cos(a) for a in poses[:, 2].tolist()])[:, None]
+    s = np.array([math.sin(a) for a in poses[:, 2].tolist()])[:, None]
+    vx, vy = _SHAPES[:, :, 0], _SHAPES[:, :, 1]
+    out = np.empty((len(poses), _K, 2))
+    out[:, :, 0] = poses[:, 0:1] + c * vx - s * vy
+    out[:, :, 1] = poses[:, 1:2] + s * vx + c * vy
     return out
 
 
 def edge_planes(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Outward unit normals (n, k, 2) and offsets (n, k) of counter-clockwise convex polygons;
     padded (zero-length) edges get a plane that never binds."""
-    e = np.roll(verts, -1, axis=1) - verts
+    e = verts[:, _NEXT] - verts
     length = np.hypot(e[..., 0], e[..., 1])
     safe = np.where(length > 0, length, 1.0)
     normals = np.stack((e[..., 1], -e[..., 0]), axis=-1) / safe[..., None]
@@ -103,16 +114,23 @@ def radial_extent(verts: np.ndarray) -> tuple[float, float]:
     """Smallest and largest distance from the arm base to any object (lower bound, exact max)."""
     radii = np.hypot(verts[..., 0], verts[..., 1])
     # a polygon's closest point may lie on an edge: at most half an edge closer than a vertex
-    edges = np.hypot(*(np.roll(verts, -1, axis=1) - verts).transpose(2, 0, 1))
+    edges = np.hypot(*(verts[:, _NEXT] - verts).transpose(2, 0, 1))
     return float((radii - edges / 2).min()), float(radii.max())
+
+
+@functools.lru_cache(maxsize=512)
+def _fractions(n: int) -> np.ndarray:
+    """``np.linspace(0, 1, n)``, made once per ``n`` (read-only)."""
+    f = np.linspace(0.0, 1.0, n)
+    f.setflags(write=False)
+    return f
 
 
 def segment_points(a: tuple[float, float], b: tuple[float, float]) -> np.ndarray:
     """Fingertip positions along the joint-space segment a -> b (theta, r), about 5 mm apart."""
     (t0, r0), (t1, r1) = a, b
     length = abs(t1 - t0) * max(r0, r1) + abs(r1 - r0)
-    n = max(2, int(length / 0.005) + 2)
-    f = np.linspace(0.0, 1.0, n)
+    f = _fractions(max(2, int(length / 0.005) + 2))
     th = t0 + f * (t1 - t0)
     rr = r0 + f * (r1 - r0)
     return np.column_stack((rr * np.cos(th), rr * np.sin(th)))
@@ -236,6 +254,8 @@ class SingulationSupervisor:
     def __init__(self) -> None:
         self.plan: PushPlan | None = None
         self._no_plan_for: np.ndarray | None = None  # poses for which no push was found
+        # the objects' vertices and edge planes, with the poses (as bytes) they are for
+        self._geometry: tuple[bytes, np.ndarray, tuple] | None = None
         self.replans = 0
         # time spent planning (statistics only, never read); wall-clock, because reading a
         # CPU-time clock costs 0.1-2 ms after a burst of work on some sandboxed kernels
@@ -264,9 +284,13 @@ class SingulationSupervisor:
         if plan.route is not None and plan.route_from == here:
             waypoints = plan.route  # the fingertip went where the last label sent it
         else:
-            verts = polygons(poses)
+            key = poses.tobytes()
+            if self._geometry is None or self._geometry[0] != key:  # the objects moved
+                verts = polygons(poses)
+                self._geometry = (key, verts, edge_planes(verts))
+            _, verts, planes = self._geometry
             limits = (c.theta_min, c.theta_max, c.r_min, c.r_max)
-            found = route(limits, here, joint_pose(*plan.origin), verts, edge_planes(verts))
+            found = route(limits, here, joint_pose(*plan.origin), verts, planes)
             if found is None:  # boxed in (a learner's state): back straight out to the base
                 plan.route = None
                 return normalised(*joint_action(here, (here[0], c.r_min)))

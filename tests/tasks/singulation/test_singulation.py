@@ -36,6 +36,7 @@ from fluids_bench.tasks.singulation.sim import (
     sample_cluster,
     tip_position,
 )
+from fluids_bench.tasks.singulation.supervisor import polygons
 
 ENV_ID = "Singulation-v0"
 
@@ -157,6 +158,17 @@ def test_batched_slides_of_the_packing_answer_as_the_one_at_a_time_loops() -> No
             back += 5e-5
         assert slide.back_off(hi, 5e-5, 2e-4) == back
         assert 2e-4 <= gap(back) < 2e-4 + 5e-5  # it stopped at the first clear position
+
+
+def test_supervisor_polygons_are_the_objects_vertices_bit_for_bit() -> None:
+    rng = np.random.default_rng(5)
+    for _ in range(50):
+        poses = np.column_stack((rng.normal(0, 0.1, (4, 2)), rng.uniform(-4, 4, 4)))
+        verts = polygons(poses)
+        for i, pose in enumerate(poses):
+            v = object_polygon(i, *pose)
+            assert verts[i, : len(v)].tobytes() == v.tobytes()
+            assert (verts[i, len(v) :] == v[-1]).all()  # padding repeats the last vertex
 
 
 def test_a_restarted_world_steps_bit_for_bit_like_a_new_one() -> None:
