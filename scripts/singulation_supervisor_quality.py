@@ -117,9 +117,7 @@ def main() -> None:
                 ),
                 "mean_final_progress_m": round(float(np.mean([e["progress"] for e in eps])), 4),
                 "replans_per_episode": round(replans / len(eps), 2),
-                "replan_ms_mean": round(
-                    1e3 * sum(e["replan_s"] for e in eps) / max(replans, 1), 2
-                ),
+                "replan_ms_mean": round(1e3 * sum(e["replan_s"] for e in eps) / max(replans, 1), 2),
                 "failed_seeds": [e["seed"] for e in eps if not e["success"]],
             }
         )
