@@ -14,7 +14,8 @@ each method, trains where needed and evaluates over ``--episodes`` seeded episod
   and said so, when it is not installed).
 
 Per method: success rate, episodes with a collision, collisions by fault (the ego's, a
-supervised agent's, cut-ins), red-light runs, and mean time to goal (s) of arrived episodes.
+supervised agent's, cut-ins), red-light runs, timeouts, and mean time to goal (s) of arrived
+episodes. ``--env-kwargs '{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
 Rows append to ``--out``.jsonl as each (id, method) finishes; a rerun skips them (resumable);
 the table is written atomically to ``--out``. ``--workers`` runs (id, method) jobs in parallel.
 
@@ -43,6 +44,7 @@ ENVS = {
     "FLUIDS-Sensitivity-v1": {},
 }
 METHODS = ("random", "constant", "supervisor", "bc_tree", "bc_mlp", "dagger", "dart", "ppo")
+SLOW = ("ppo", "bc_mlp", "dart", "dagger")
 EVAL_SEED = 100_000
 
 
@@ -61,6 +63,9 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
         except ImportError:
             return None
         # "fluids_bench:<id>" imports the package in subprocess workers too
+        import torch
+
+        torch.set_num_threads(1)  # the pool's workers share the cores: one thread each
         venv = make_vec_env(f"fluids_bench:{env_id}", n_envs=2, seed=seed, env_kwargs=kwargs)
         model = PPO("MlpPolicy", venv, seed=seed, verbose=0)
         model.learn(total_timesteps=ppo_steps)
@@ -102,6 +107,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         "supervised_fault": 0,
         "cut_in": 0,
         "red_light_runs": 0,
+        "timeouts": 0,
         "time_to_goal_s": [],
     }
     for i in range(episodes):
@@ -125,6 +131,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         out["success"] += bool(info.get("is_success", False))
         out["collision_episodes"] += hit
         out["red_light_runs"] += bool(info["ego_ran_red_light"])
+        out["timeouts"] += bool(trunc and not term)
         if info["ego_arrived"]:
             out["time_to_goal_s"].append(steps * dt)
     times = out.pop("time_to_goal_s")
@@ -134,11 +141,12 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
 
 
 def job(args: tuple) -> dict:
-    env_id, method, episodes, demos, ppo_steps, seed = args
-    kwargs = ENVS[env_id]
+    env_id, method, episodes, demos, ppo_steps, seed, extra = args
+    kwargs = {**ENVS[env_id], **json.loads(extra)}
     t0 = time.process_time()
     act = _train(method, env_id, kwargs, demos, ppo_steps, seed)
     row = {"env_id": env_id, "method": method, "demos": demos, "ppo_steps": ppo_steps}
+    row["env_kwargs"] = extra
     if act is None:
         row["skipped"] = "stable-baselines3 not installed (pip install 'fluids-bench[train]')"
         return row
@@ -158,23 +166,37 @@ def main() -> None:
     parser.add_argument("--ppo-steps", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument(
+        "--env-kwargs",
+        default="{}",
+        help="JSON kwargs added to every env (a scene variant), e.g. '{\"num_cars\": 15}'",
+    )
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
+    extra = json.dumps(json.loads(args.env_kwargs), sort_keys=True)
     jobs = [
-        (e, m, args.episodes, args.demos, args.ppo_steps, args.seed)
+        (e, m, args.episodes, args.demos, args.ppo_steps, args.seed, extra)
         for e in args.envs
         for m in args.methods
     ]
     log = f"{args.out}.jsonl" if args.out else None
     done = {
-        (r["env_id"], r["method"], r.get("episodes"), r["demos"], r["ppo_steps"]): r
+        (
+            r["env_id"],
+            r["method"],
+            r.get("episodes"),
+            r["demos"],
+            r["ppo_steps"],
+            r.get("env_kwargs", "{}"),
+        ): r
         for r in read_rows(log)
     }
 
     def key(j):
-        return (j[0], j[1], j[2], j[3], j[4])
+        return (j[0], j[1], j[2], j[3], j[4], j[6])
 
-    todo = [j for j in jobs if key(j) not in done]
+    # the slowest trainers first, so that the cheap jobs fill in around them
+    todo = sorted((j for j in jobs if key(j) not in done), key=lambda j: j[1] not in SLOW)
     with ProcessPoolExecutor(args.workers) as pool:
         futures = {pool.submit(job, j): j for j in todo}
         for fut in tqdm(as_completed(futures), total=len(futures), unit="job"):
@@ -191,17 +213,18 @@ def main() -> None:
         os.replace(f"{args.out}.tmp", args.out)
     print(
         "| env | method | episodes | success | collision episodes | ego at fault | "
-        "supervised at fault | cut-ins | red-light runs | mean time to goal (s) |"
+        "supervised at fault | cut-ins | red-light runs | timeouts | mean time to goal (s) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "skipped" in r:
-            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} |||||||")
+            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} ||||||||")
             continue
         print(
             f"| {r['env_id']} | {r['method']} | {r['episodes']} | {r['success_rate']:.2f} | "
             f"{r['collision_episodes']} | {r['ego_fault']} | {r['supervised_fault']} | "
-            f"{r['cut_in']} | {r['red_light_runs']} | {r['mean_time_to_goal_s']} |"
+            f"{r['cut_in']} | {r['red_light_runs']} | {r.get('timeouts', '–')} | "
+            f"{r['mean_time_to_goal_s']} |"
         )
 
 
