@@ -15,7 +15,8 @@ each method, trains where needed and evaluates over ``--episodes`` seeded episod
 
 Per method: success rate, episodes with a collision, collisions by fault (the ego's, a
 supervised agent's, cut-ins), red-light runs, timeouts, and mean time to goal (s) of arrived
-episodes. ``--env-kwargs '{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
+episodes; also episodes in which the ego entered a crosswalk with a walker on it, and
+successes without such an entry (a candidate rule, measured, not part of success). ``--env-kwargs '{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
 Rows append to ``--out``.jsonl as each (id, method) finishes; a rerun skips them (resumable);
 the table is written atomically to ``--out``. ``--workers`` runs (id, method) jobs in parallel.
 
@@ -32,6 +33,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import gymnasium as gym
 import numpy as np
+import shapely
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -96,6 +98,29 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
     return lambda obs, info, rng: policy.act(obs)
 
 
+class CrosswalkEntries:
+    """Counts the steps in which the ego's footprint starts to overlap a crosswalk with a
+    walker on it (a candidate success rule, "yield to pedestrians", measured, not enforced)."""
+
+    def __init__(self, world) -> None:
+        self.crosswalks = list(world.layout.crosswalks)
+        self.inside = [False] * len(self.crosswalks)
+        self.entered_occupied = 0
+
+    def update(self, world) -> None:
+        if not world.active[0]:
+            return
+        ego = shapely.Polygon(world.corners(np.array([0]))[0])
+        walkers = world.state[~world.is_car & world.active, :2]
+        for c, crosswalk in enumerate(self.crosswalks):
+            inside = bool(ego.intersects(crosswalk))
+            if inside and not self.inside[c] and len(walkers):
+                self.entered_occupied += bool(
+                    shapely.contains_xy(crosswalk, walkers[:, 0], walkers[:, 1]).any()
+                )
+            self.inside[c] = inside
+
+
 def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
     env = gym.make(env_id, **kwargs)
     dt = env.unwrapped.world.dt
@@ -107,6 +132,8 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         "supervised_fault": 0,
         "cut_in": 0,
         "red_light_runs": 0,
+        "occupied_crosswalk_entries": 0,
+        "success_and_yielded": 0,
         "timeouts": 0,
         "time_to_goal_s": [],
     }
@@ -115,9 +142,11 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         rng = np.random.default_rng(seed)
         obs, info = env.reset(seed=seed)
         hit, steps = False, 0
+        crossing = CrosswalkEntries(env.unwrapped.world)
         while True:
             obs, _, term, trunc, info = env.step(act(obs, info, rng))
             steps += 1
+            crossing.update(env.unwrapped.world)
             for c in info["collisions"]:
                 hit = True
                 if c["cut_in"]:
@@ -132,6 +161,9 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         out["collision_episodes"] += hit
         out["red_light_runs"] += bool(info["ego_ran_red_light"])
         out["timeouts"] += bool(trunc and not term)
+        out["occupied_crosswalk_entries"] += crossing.entered_occupied > 0
+        yielded = crossing.entered_occupied == 0
+        out["success_and_yielded"] += bool(info.get("is_success", False)) and yielded
         if info["ego_arrived"]:
             out["time_to_goal_s"].append(steps * dt)
     times = out.pop("time_to_goal_s")
