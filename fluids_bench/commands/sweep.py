@@ -35,6 +35,18 @@ def _values(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _key_value(text: str):
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from fluids_bench.sweep.grid import ORDER
 
@@ -72,6 +84,15 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--demos", type=int, default=100, help="BC demonstrations (default policy)")
     parser.add_argument("--learner", default="tree", help="BC model family (default policy)")
     parser.add_argument("--train-seed", type=int, default=0, help="BC seed (default policy)")
+    parser.add_argument(
+        "--train-kwarg",
+        action="append",
+        type=_key_value,
+        default=[],
+        metavar="K=V",
+        help="env keyword argument for BC's demonstrations, e.g. lidar_noise=1 (an ablation; "
+        "default: the env's own defaults)",
+    )
     parser.add_argument(
         "--check-episodes",
         type=int,
@@ -156,6 +177,7 @@ def run(args: argparse.Namespace) -> int:
                 before_training=before_training,
                 env_id=env_id,
                 check_episodes=args.check_episodes,
+                train_kwargs=dict(args.train_kwarg),
             )
             _print_check(args.out)
         policy, policy_bytes = load_policy(path)

@@ -147,6 +147,7 @@ def train_default_policy(
     before_training: Callable[[], None] | None = None,
     env_id: str = ENV_ID,
     check_episodes: int = 0,
+    train_kwargs: Mapping[str, Any] | None = None,
 ) -> Path:
     """Behavior Cloning on ``demos`` supervisor demonstrations of ``env_id`` (its defaults: 4
     cars, 2 pedestrians, lights on, no sensor noise, 1500 kg), quasi-LIDAR to target velocity,
@@ -157,13 +158,17 @@ def train_default_policy(
 
     ``check_episodes``: also run the trained policy on that many seeded episodes of the
     training distribution itself (seeds ``CHECK_SEED + i``, never trained on) and record its
-    in-distribution success rate in ``policy.json`` (``in_distribution``)."""
+    in-distribution success rate in ``policy.json`` (``in_distribution``). ``train_kwargs``:
+    env keyword arguments for the demonstrations (e.g. ``{"lidar_noise": 1.0}``, an ablation:
+    BC trained on what it will be tested on); the check then runs under them too."""
     from fluids_bench.algos.bc import BCConfig, run
     from fluids_bench.algos.policies import PolicySpec
 
     path, info_path = folder / POLICY_FILE, folder / "policy.json"
+    train_kwargs = dict(train_kwargs or {})
     config = BCConfig(
         env_id=check_env_id(env_id),
+        env_kwargs=train_kwargs,
         policy=PolicySpec(learner),
         iterations=1,
         demos_per_iteration=demos,
@@ -177,7 +182,9 @@ def train_default_policy(
         if info.get("settings") == settings:
             if check_episodes and info.get("in_distribution", {}).get("episodes") != check_episodes:
                 policy, _ = load_policy(path)
-                info["in_distribution"] = in_distribution_check(env_id, policy, check_episodes)
+                info["in_distribution"] = in_distribution_check(
+                    env_id, policy, check_episodes, train_kwargs
+                )
                 write_json_atomic(info_path, info)
             return path
         if not replace:
@@ -197,17 +204,21 @@ def train_default_policy(
         "supervisor_return": result.supervisor_return,
     }
     if check_episodes:
-        info["in_distribution"] = in_distribution_check(env_id, result.policy, check_episodes)
+        info["in_distribution"] = in_distribution_check(
+            env_id, result.policy, check_episodes, train_kwargs
+        )
     write_json_atomic(info_path, info)
     # the policy last: a cache is complete only once both files are there
     write_bytes_atomic(path, pickle.dumps(result.policy, protocol=pickle.HIGHEST_PROTOCOL))
     return path
 
 
-def in_distribution_check(env_id: str, policy: Any, episodes: int) -> dict[str, Any]:
+def in_distribution_check(
+    env_id: str, policy: Any, episodes: int, env_kwargs: Mapping[str, Any] | None = None
+) -> dict[str, Any]:
     """Success of ``policy`` (None: the supervisor) on ``episodes`` seeded episodes of
-    ``env_id`` with its registered defaults (the distribution BC trains on)."""
-    env = gym.make(env_id, max_episode_steps=MAX_EPISODE_STEPS)
+    ``env_id`` with its registered defaults and ``env_kwargs`` (the distribution BC trains on)."""
+    env = gym.make(env_id, max_episode_steps=MAX_EPISODE_STEPS, **dict(env_kwargs or {}))
     actor: Actor = SUPERVISOR if policy is None else LearnerActor(policy)
     successes = collisions = timeouts = 0
     try:

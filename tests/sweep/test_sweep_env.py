@@ -60,3 +60,18 @@ def test_training_records_the_in_distribution_success(tmp_path):
 def test_supervisor_succeeds_in_distribution_on_v1():
     check = in_distribution_check("FLUIDS-Sensitivity-v1", None, 3)
     assert check == {**check, "episodes": 3, "successes": 3, "success_rate": 1.0}
+
+
+def test_train_kwargs_change_the_demonstrations_and_are_recorded(tmp_path, capsys):
+    noisy = train_default_policy(
+        tmp_path / "noisy", demos=1, env_id="FLUIDS-Sensitivity-v1",
+        train_kwargs={"lidar_noise": 1.0},
+    )  # fmt: skip
+    clean = train_default_policy(tmp_path / "clean", demos=1, env_id="FLUIDS-Sensitivity-v1")
+    info = json.loads((tmp_path / "noisy" / "policy.json").read_text())
+    assert info["settings"]["config"]["env_kwargs"] == {"lidar_noise": 1.0}
+    assert noisy.read_bytes() != clean.read_bytes()  # same seed, other observations
+    out = tmp_path / "cli"
+    args = ["sweep", "--out", str(out), "--env", "FLUIDS-Sensitivity-v1", "--demos", "1", *TINY]
+    assert main([*args, "--train-kwarg", "no_such_option=1"]) == 2
+    assert "no_such_option" in capsys.readouterr().err
