@@ -14,7 +14,9 @@ each method, trains where needed and evaluates over ``--episodes`` seeded episod
   and said so, when it is not installed).
 
 Per method: success rate, episodes with a collision, collisions by fault (the ego's, a
-supervised agent's, cut-ins), red-light runs, and mean time to goal (s) of arrived episodes.
+supervised agent's, cut-ins), red-light runs, timeouts, and mean time to goal (s) of arrived
+episodes; also episodes in which the ego entered a crosswalk with a walker on it, and
+successes without such an entry (a candidate rule, measured, not part of success). ``--env-kwargs '{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
 Rows append to ``--out``.jsonl as each (id, method) finishes; a rerun skips them (resumable);
 the table is written atomically to ``--out``. ``--workers`` runs (id, method) jobs in parallel.
 
@@ -31,6 +33,7 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import gymnasium as gym
 import numpy as np
+import shapely
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -43,6 +46,7 @@ ENVS = {
     "FLUIDS-Sensitivity-v1": {},
 }
 METHODS = ("random", "constant", "supervisor", "bc_tree", "bc_mlp", "dagger", "dart", "ppo")
+SLOW = ("ppo", "bc_mlp", "dart", "dagger")
 EVAL_SEED = 100_000
 
 
@@ -61,6 +65,9 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
         except ImportError:
             return None
         # "fluids_bench:<id>" imports the package in subprocess workers too
+        import torch
+
+        torch.set_num_threads(1)  # the pool's workers share the cores: one thread each
         venv = make_vec_env(f"fluids_bench:{env_id}", n_envs=2, seed=seed, env_kwargs=kwargs)
         model = PPO("MlpPolicy", venv, seed=seed, verbose=0)
         model.learn(total_timesteps=ppo_steps)
@@ -91,6 +98,29 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
     return lambda obs, info, rng: policy.act(obs)
 
 
+class CrosswalkEntries:
+    """Counts the steps in which the ego's footprint starts to overlap a crosswalk with a
+    walker on it (a candidate success rule, "yield to pedestrians", measured, not enforced)."""
+
+    def __init__(self, world) -> None:
+        self.crosswalks = list(world.layout.crosswalks)
+        self.inside = [False] * len(self.crosswalks)
+        self.entered_occupied = 0
+
+    def update(self, world) -> None:
+        if not world.active[0]:
+            return
+        ego = shapely.Polygon(world.corners(np.array([0]))[0])
+        walkers = world.state[~world.is_car & world.active, :2]
+        for c, crosswalk in enumerate(self.crosswalks):
+            inside = bool(ego.intersects(crosswalk))
+            if inside and not self.inside[c] and len(walkers):
+                self.entered_occupied += bool(
+                    shapely.contains_xy(crosswalk, walkers[:, 0], walkers[:, 1]).any()
+                )
+            self.inside[c] = inside
+
+
 def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
     env = gym.make(env_id, **kwargs)
     dt = env.unwrapped.world.dt
@@ -102,6 +132,9 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         "supervised_fault": 0,
         "cut_in": 0,
         "red_light_runs": 0,
+        "occupied_crosswalk_entries": 0,
+        "success_and_yielded": 0,
+        "timeouts": 0,
         "time_to_goal_s": [],
     }
     for i in range(episodes):
@@ -109,9 +142,11 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         rng = np.random.default_rng(seed)
         obs, info = env.reset(seed=seed)
         hit, steps = False, 0
+        crossing = CrosswalkEntries(env.unwrapped.world)
         while True:
             obs, _, term, trunc, info = env.step(act(obs, info, rng))
             steps += 1
+            crossing.update(env.unwrapped.world)
             for c in info["collisions"]:
                 hit = True
                 if c["cut_in"]:
@@ -125,6 +160,10 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         out["success"] += bool(info.get("is_success", False))
         out["collision_episodes"] += hit
         out["red_light_runs"] += bool(info["ego_ran_red_light"])
+        out["timeouts"] += bool(trunc and not term)
+        out["occupied_crosswalk_entries"] += crossing.entered_occupied > 0
+        yielded = crossing.entered_occupied == 0
+        out["success_and_yielded"] += bool(info.get("is_success", False)) and yielded
         if info["ego_arrived"]:
             out["time_to_goal_s"].append(steps * dt)
     times = out.pop("time_to_goal_s")
@@ -134,11 +173,12 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
 
 
 def job(args: tuple) -> dict:
-    env_id, method, episodes, demos, ppo_steps, seed = args
-    kwargs = ENVS[env_id]
+    env_id, method, episodes, demos, ppo_steps, seed, extra = args
+    kwargs = {**ENVS[env_id], **json.loads(extra)}
     t0 = time.process_time()
     act = _train(method, env_id, kwargs, demos, ppo_steps, seed)
     row = {"env_id": env_id, "method": method, "demos": demos, "ppo_steps": ppo_steps}
+    row["env_kwargs"] = extra
     if act is None:
         row["skipped"] = "stable-baselines3 not installed (pip install 'fluids-bench[train]')"
         return row
@@ -158,23 +198,37 @@ def main() -> None:
     parser.add_argument("--ppo-steps", type=int, default=100_000)
     parser.add_argument("--seed", type=int, default=0)
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument(
+        "--env-kwargs",
+        default="{}",
+        help="JSON kwargs added to every env (a scene variant), e.g. '{\"num_cars\": 15}'",
+    )
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
+    extra = json.dumps(json.loads(args.env_kwargs), sort_keys=True)
     jobs = [
-        (e, m, args.episodes, args.demos, args.ppo_steps, args.seed)
+        (e, m, args.episodes, args.demos, args.ppo_steps, args.seed, extra)
         for e in args.envs
         for m in args.methods
     ]
     log = f"{args.out}.jsonl" if args.out else None
     done = {
-        (r["env_id"], r["method"], r.get("episodes"), r["demos"], r["ppo_steps"]): r
+        (
+            r["env_id"],
+            r["method"],
+            r.get("episodes"),
+            r["demos"],
+            r["ppo_steps"],
+            r.get("env_kwargs", "{}"),
+        ): r
         for r in read_rows(log)
     }
 
     def key(j):
-        return (j[0], j[1], j[2], j[3], j[4])
+        return (j[0], j[1], j[2], j[3], j[4], j[6])
 
-    todo = [j for j in jobs if key(j) not in done]
+    # the slowest trainers first, so that the cheap jobs fill in around them
+    todo = sorted((j for j in jobs if key(j) not in done), key=lambda j: j[1] not in SLOW)
     with ProcessPoolExecutor(args.workers) as pool:
         futures = {pool.submit(job, j): j for j in todo}
         for fut in tqdm(as_completed(futures), total=len(futures), unit="job"):
@@ -191,17 +245,18 @@ def main() -> None:
         os.replace(f"{args.out}.tmp", args.out)
     print(
         "| env | method | episodes | success | collision episodes | ego at fault | "
-        "supervised at fault | cut-ins | red-light runs | mean time to goal (s) |"
+        "supervised at fault | cut-ins | red-light runs | timeouts | mean time to goal (s) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "skipped" in r:
-            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} |||||||")
+            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} ||||||||")
             continue
         print(
             f"| {r['env_id']} | {r['method']} | {r['episodes']} | {r['success_rate']:.2f} | "
             f"{r['collision_episodes']} | {r['ego_fault']} | {r['supervised_fault']} | "
-            f"{r['cut_in']} | {r['red_light_runs']} | {r['mean_time_to_goal_s']} |"
+            f"{r['cut_in']} | {r['red_light_runs']} | {r.get('timeouts', '–')} | "
+            f"{r['mean_time_to_goal_s']} |"
         )
 
 

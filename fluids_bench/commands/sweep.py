@@ -8,6 +8,8 @@ same command again after an interruption and it resumes. Example::
 
     fluids-bench sweep --out out/sweep --episodes 20 --workers 2
     fluids-bench sweep --out out/small --values cars=2,5 --values pedestrians=0 --episodes 5
+    fluids-bench sweep --env FLUIDS-Sensitivity-v1 --out out/sweep_v1 \
+        --values car_mass=750,1500,3000 --check-episodes 100
 
 The default policy is Behavior Cloning on ``--demos`` supervisor demonstrations (trained once,
 cached in the output folder); ``--policy PATH`` evaluates a pickled policy instead (anything
@@ -33,6 +35,18 @@ def _values(text: str):
         raise argparse.ArgumentTypeError(str(exc)) from None
 
 
+def _key_value(text: str):
+    import json
+
+    key, sep, value = text.partition("=")
+    if not sep or not key:
+        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
+    try:
+        return key, json.loads(value)
+    except json.JSONDecodeError:
+        return key, value
+
+
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from fluids_bench.sweep.grid import ORDER
 
@@ -43,6 +57,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--out", type=Path, default=Path("out/sweep"), help="output folder")
+    parser.add_argument(
+        "--env",
+        default="FLUIDS-Sensitivity-v0",
+        help="FLUIDS-Sensitivity-v0 (default, the source's setting) or FLUIDS-Sensitivity-v1 "
+        "(defensive drivers, quasi-LIDAR v1, success obeys lights)",
+    )
     parser.add_argument("--episodes", type=int, default=20, help="episodes per configuration")
     parser.add_argument(
         "--seed", type=int, default=0, help="sweep seed (episode seeds derive from it)"
@@ -64,6 +84,22 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--demos", type=int, default=100, help="BC demonstrations (default policy)")
     parser.add_argument("--learner", default="tree", help="BC model family (default policy)")
     parser.add_argument("--train-seed", type=int, default=0, help="BC seed (default policy)")
+    parser.add_argument(
+        "--train-kwarg",
+        action="append",
+        type=_key_value,
+        default=[],
+        metavar="K=V",
+        help="env keyword argument for BC's demonstrations, e.g. lidar_noise=1 (an ablation; "
+        "default: the env's own defaults)",
+    )
+    parser.add_argument(
+        "--check-episodes",
+        type=int,
+        default=0,
+        help="after training, the BC policy's success on this many episodes of its own "
+        "training distribution (printed, and kept in OUT/policy.json)",
+    )
     parser.add_argument(
         "--max-episode-steps",
         type=int,
@@ -92,6 +128,7 @@ def run(args: argparse.Namespace) -> int:
     from fluids_bench.sweep.run import (
         MAX_EPISODE_STEPS,
         SUPERVISOR_POLICY,
+        check_env_id,
         check_folder_for_new_policy,
         load_policy,
         probe_env,
@@ -105,8 +142,10 @@ def run(args: argparse.Namespace) -> int:
     check_int("sweep", "workers", workers, 1)
     max_steps = args.max_episode_steps or MAX_EPISODE_STEPS
     check_int("sweep", "max_episode_steps", max_steps, 1)
+    check_int("sweep", "check_episodes", args.check_episodes, 0)
+    env_id = check_env_id(args.env)
     grid = Grid.with_overrides(dict(args.values))
-    probe_env(grid)  # a bad grid fails now, not in a worker
+    probe_env(grid, env_id)  # a bad grid fails now, not in a worker
     if args.backend == "ray":
         try:
             from fluids_bench.data.collect import import_ray
@@ -124,7 +163,9 @@ def run(args: argparse.Namespace) -> int:
 
             def before_training() -> None:  # refuse a folder of another sweep before training
                 if not args.overwrite:
-                    check_folder_for_new_policy(args.out, grid, args.episodes, args.seed, max_steps)
+                    check_folder_for_new_policy(
+                        args.out, grid, args.episodes, args.seed, max_steps, env_id
+                    )
                 print(f"training the default policy: BC on {args.demos} supervisor demonstrations")
 
             path = train_default_policy(
@@ -134,7 +175,11 @@ def run(args: argparse.Namespace) -> int:
                 seed=args.train_seed,
                 replace=args.overwrite,
                 before_training=before_training,
+                env_id=env_id,
+                check_episodes=args.check_episodes,
+                train_kwargs=dict(args.train_kwarg),
             )
+            _print_check(args.out)
         policy, policy_bytes = load_policy(path)
     plot_path = args.plot or args.out / "sweep.png"
     bars = []
@@ -172,6 +217,7 @@ def run(args: argparse.Namespace) -> int:
             overwrite=args.overwrite,
             on_start=on_start,
             on_row=on_row,
+            env_id=env_id,
         )
     finally:
         for bar in bars:
@@ -187,3 +233,15 @@ def run(args: argparse.Namespace) -> int:
     )
     print(f"wrote {args.out / 'results.csv'} and {plot_path}")
     return 0
+
+
+def _print_check(folder: Path) -> None:
+    import json
+
+    info = json.loads((folder / "policy.json").read_text())
+    check = info.get("in_distribution")
+    if check:
+        print(
+            f"BC in distribution: {check['successes']}/{check['episodes']} successes "
+            f"({check['collisions']} collisions, {check['timeouts']} timeouts)"
+        )

@@ -330,3 +330,17 @@ def test_turning_across_oncoming_traffic_is_the_turners_fault():
             break
     (c,) = tracker.annotate(events)
     assert c["at_fault"] == [1] and c["rule"] == "turn_yields"
+
+
+@pytest.mark.parametrize("action_level", ["velocity", "control"])
+def test_supervisor_succeeds_under_the_v1_rule(action_level):
+    """The v1 success rule (arrive, no collision, no red light) is one the supervisor meets:
+    a small seeded sample of the README's 200-episode baseline (200/200 there)."""
+    env = gym.make("FLUIDS-v1", action_level=action_level)
+    for seed in range(6):
+        _, info = env.reset(seed=100_000 + seed)
+        while True:
+            _, _, term, trunc, info = env.step(info["supervisor_action"])
+            if term or trunc:
+                break
+        assert info["is_success"] and not info["ego_ran_red_light"], seed
