@@ -395,7 +395,7 @@ def test_supervisor_with_action_noise_floor():
 
 
 def test_supervisor_replans_only_when_the_objects_move():
-    world = GraspWorld(CFG, sample_scene(CFG, np.random.default_rng(3)))
+    world = GraspWorld(CFG, sample_scene(CFG, np.random.default_rng(7)))  # needs a corridor
     sup = GraspSupervisor(CFG)
     execute(world, sup.action(world))
     assert sup.replans == 1
@@ -403,8 +403,16 @@ def test_supervisor_replans_only_when_the_objects_move():
     assert sup.replans == 1
     world.state.poses[TARGET, 0] += 0.05
     world = GraspWorld.from_state(CFG, world.state)
-    sup.action(world)
+    sup.corridor(world.state)
     assert sup.replans == 2
+    sup.corridor(world.state)
+    assert sup.replans == 2
+    # a gripper already on a clear line to the target needs no corridor at all
+    world = GraspWorld(CFG, sample_scene(CFG, np.random.default_rng(2)))
+    sup = GraspSupervisor(CFG)
+    for _ in range(5):
+        execute(world, sup.action(world))
+    assert sup.replans == 0
 
 
 def test_label_for_a_learner_state_is_what_a_fresh_supervisor_would_do_there():
