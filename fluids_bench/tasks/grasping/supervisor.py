@@ -202,6 +202,9 @@ def line_action(world: GraspWorld) -> tuple[np.ndarray, str] | None:
             speed = min(ADVANCE_SPEED, GAIN * (dist + OVERSHOOT) / cfg.max_speed)
             return np.array([speed * dx / dist, speed * dy / dist, 0.0]), "advance"
         if dist < COMMIT - 0.01:  # short of any corridor's approach: back out
+            # (a switch on the heading error: fading the advance into the retract over the 10
+            # degrees below COMMIT_ANGLE slowed pushes that turn the gripper briefly, and cut
+            # success over 200 episodes from 97.0% to 90.5%, mean cost 0.33 to 0.96)
             return _retract(px, py, h, tx, ty), "retract"
         return None
     if err >= COMMIT_ANGLE or intrusion(cfg, st, bearing) >= 1.0:
@@ -315,7 +318,7 @@ class GraspSupervisor:
         self.foresight = foresight
         self.horizon = horizon
         self.memo: OrderedDict[bytes, Plan] = OrderedDict()
-        self.plan_: Plan | None = None  # the last plan used (for inspection)
+        self.plan_: Plan | None = None  # the corridor the last label followed (for inspection)
         self.replans = 0
         self.replan_seconds = 0.0
         self.last_replan_seconds = 0.0
@@ -375,11 +378,18 @@ class GraspSupervisor:
         self.plan_ = plan
         return plan
 
-    def action(self, world: GraspWorld) -> np.ndarray:
-        """The label: the normalised action (vx, vy, grip) for the world's current state."""
-        out = line_action(world)  # near the target no corridor is needed
+    def decide(self, world: GraspWorld) -> tuple[np.ndarray, str]:
+        """The label for the world's current state and the name of its waypoint phase;
+        :attr:`plan_` is the corridor it followed, or None when it needed none."""
+        out = line_action(world)  # on the line to the target no corridor is needed
         if out is None:
             out = corridor_action(world, self.corridor(world.state).corridor.heading)
+        else:
+            self.plan_ = None
         action = out[0]
         np.clip(action, (-1.0, -1.0, 0.0), (1.0, 1.0, 1.0), out=action)
-        return action
+        return action, out[1]
+
+    def action(self, world: GraspWorld) -> np.ndarray:
+        """The label: the normalised action (vx, vy, grip) for the world's current state."""
+        return self.decide(world)[0]
