@@ -62,6 +62,7 @@ CLOSE_ALONG = 0.01  # m: close once the target's centre is within this of the gr
 GAIN = 8.0  # 1/s: P-gain of the end-effector controller
 LIMIT_MARGIN = 0.1  # rad
 MEMO_SIZE = 16
+PUSHED_AWAY = 0.04  # m: a foresight rollout that pushed the target this far has failed
 
 
 @dataclass(frozen=True)
@@ -282,25 +283,49 @@ def rest_state(cfg: GraspConfig, st: WorldState) -> WorldState:
     return start
 
 
+class Rollout:
+    """The corridor's trajectory and control levels rolled out from the arm's rest pose on a
+    world rebuilt from ``st``'s objects (:func:`rest_state`), until the target is grasped or
+    knocked off, or ``horizon`` steps; :meth:`run` can pause it once the target is pushed
+    :data:`PUSHED_AWAY` from where it lay, which no clean grasp does (in 59 clean foresight
+    grasps it moved at most 2.7 cm; every failed one moved it more than 5 cm)."""
+
+    def __init__(self, cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> None:
+        self.world = GraspWorld(cfg, rest_state(cfg, st))
+        self.before = st.poses[:, :2].copy()
+        self.knocked_before = st.knocked
+        self.heading = heading
+        self.horizon = horizon
+        self.steps = 0
+
+    def done(self) -> bool:
+        st = self.world.state
+        return self.steps >= self.horizon or st.grasped or not st.on_table[TARGET]
+
+    def run(self, pause_when_pushed: bool) -> None:
+        world, (tx, ty) = self.world, self.before[TARGET]
+        target = world.state.poses[TARGET]
+        while not self.done():
+            if pause_when_pushed and math.hypot(target[0] - tx, target[1] - ty) > PUSHED_AWAY:
+                return
+            action, _ = corridor_action(world, self.heading)
+            execute(world, action)
+            self.steps += 1
+
+    def outcome(self) -> Outcome:
+        st = self.world.state
+        moved = np.hypot(*(st.poses[:, :2] - self.before).T)
+        moved[~st.on_table] = 0.0
+        moved[TARGET] = 0.0
+        cost = st.knocked - self.knocked_before + (0 if st.grasped else 10)
+        return Outcome(float(cost), self.steps, float(moved.sum()))
+
+
 def foresee(cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> Outcome:
-    """Roll the corridor's trajectory and control levels out from the arm's rest pose on a world
-    rebuilt from ``st``'s objects (:func:`rest_state`), until the target is grasped or knocked
-    off, or ``horizon`` steps. (Stopping failed rollouts early, e.g. once the target is pushed
-    4 cm away, which no clean grasp does, halves their cost but hides the knock-offs they would
-    still cause, and then the corridor choice among failures got worse: 93.0% success instead
-    of 97.0% over 200 episodes.)"""
-    world = GraspWorld(cfg, rest_state(cfg, st))
-    before = st.poses[:, :2].copy()
-    steps = 0
-    while steps < horizon and not world.state.grasped and world.state.on_table[TARGET]:
-        action, _ = corridor_action(world, heading)
-        execute(world, action)
-        steps += 1
-    moved = np.hypot(*(world.state.poses[:, :2] - before).T)
-    moved[~world.state.on_table] = 0.0
-    moved[TARGET] = 0.0
-    cost = world.state.knocked - st.knocked + (0 if world.state.grasped else 10)
-    return Outcome(float(cost), steps, float(moved.sum()))
+    """The outcome of the corridor's full :class:`Rollout`."""
+    rollout = Rollout(cfg, st, heading, horizon)
+    rollout.run(pause_when_pushed=False)
+    return rollout.outcome()
 
 
 class GraspSupervisor:
@@ -350,13 +375,29 @@ class GraspSupervisor:
         if not ranked:  # nothing reachable by the rules: take the radial approach anyway
             tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
             ranked = [Corridor(math.atan2(ty, tx), 0.0)]
+        # first pass: every candidate until it grasps or pushes the target away; the first
+        # clean grasp in rank order wins. Only if none grasps do the paused rollouts run on to
+        # the horizon, so that failures are compared on what they would knock off. (Comparing
+        # failures as paused, cheaper still, chose worse ones: 93.0% success instead of 97.0%.)
         best: tuple[tuple[float, float, float], Corridor, Outcome] | None = None
+        rollouts = []
         for corridor in ranked[: self.foresight]:
-            outcome = foresee(self.cfg, st, corridor.heading, self.horizon)
-            if best is None or outcome.key < best[0]:
-                best = (outcome.key, corridor, outcome)
-            if outcome.cost == 0:
-                break  # the best cost there is: stop looking (ranked order breaks ties)
+            rollout = Rollout(self.cfg, st, corridor.heading, self.horizon)
+            rollout.run(pause_when_pushed=True)
+            if rollout.done() and rollout.world.state.grasped:
+                outcome = rollout.outcome()
+                if outcome.cost == 0:
+                    best = (outcome.key, corridor, outcome)
+                    break
+            rollouts.append((corridor, rollout))
+        if best is None:
+            for corridor, rollout in rollouts:
+                rollout.run(pause_when_pushed=False)
+                outcome = rollout.outcome()
+                if best is None or outcome.key < best[0]:
+                    best = (outcome.key, corridor, outcome)
+                if outcome.cost == 0:
+                    break  # the best cost there is: stop looking (ranked order breaks ties)
         assert best is not None
         _, corridor, outcome = best
         self.last_replan_seconds = time.process_time() - start
