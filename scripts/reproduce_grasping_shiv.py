@@ -70,6 +70,7 @@ def run_one(
     eval_episodes: int,
     alpha: float,
     sigmas: tuple[float | None, float | None] = (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]),
+    samples_per_demo: int | None = None,
 ) -> dict[str, Any]:
     common = {
         "env_id": ENV_ID,
@@ -77,7 +78,7 @@ def run_one(
         "policy": policy(alpha),
         "iterations": iterations,
         "demos_per_iteration": 1,
-        "samples_per_demo": None,  # every visited state is a candidate query
+        "samples_per_demo": samples_per_demo,  # None: every visited state is a candidate query
         "eval_episodes": eval_episodes,
         "eval_every": 1,
         "eval_at": None,
@@ -221,18 +222,28 @@ def main() -> None:
         help="SHIV's sigma_r (default 5, the source's), or 'auto' (follows sigma)",
     )
     parser.add_argument(
+        "--samples-per-demo",
+        type=int,
+        default=None,
+        help="label at most this many states drawn at random per rollout (default: every one)",
+    )
+    parser.add_argument(
         "--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="learners to run"
     )
     parser.add_argument("--png", type=Path, default=None, help="also write the plot here")
     args = parser.parse_args()
     if min(args.rounds, args.iterations, args.eval_episodes, args.workers) < 1:
         parser.error("--rounds, --iterations, --eval-episodes, --workers: >= 1")
+    if args.samples_per_demo is not None and args.samples_per_demo < 1:
+        parser.error(f"--samples-per-demo {args.samples_per_demo}: allowed: >= 1")
     runs_dir = args.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
     sigmas = (args.sigma, args.sigma_r)
     settings: tuple[Any, ...] = (args.iterations, args.eval_episodes, args.alpha)
     if sigmas != (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]):
         settings = (*settings, *sigmas)  # (the source's bandwidths keep older runs resumable)
+    if args.samples_per_demo is not None:
+        settings = (*settings, "samples_per_demo", args.samples_per_demo)
     jobs = [(algo, r) for r in range(args.rounds) for algo in args.algos]
     runs: dict[tuple[str, int], dict[str, Any]] = {}
     for algo, r in jobs:  # resume: keep finished runs made with the same settings
@@ -250,10 +261,13 @@ def main() -> None:
 
     if args.workers == 1:
         for algo, r in tqdm(todo, desc="runs"):
-            keep(run_one(algo, r, *settings[:3], sigmas))
+            keep(run_one(algo, r, *settings[:3], sigmas, args.samples_per_demo))
     else:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = [pool.submit(run_one, algo, r, *settings[:3], sigmas) for algo, r in todo]
+            futures = [
+                pool.submit(run_one, algo, r, *settings[:3], sigmas, args.samples_per_demo)
+                for algo, r in todo
+            ]
             for future in tqdm(as_completed(futures), total=len(futures), desc="runs"):
                 keep(future.result())
 
@@ -269,6 +283,7 @@ def main() -> None:
             "policy": {"name": "kernel_ridge", "params": dict(policy(args.alpha).params)},
             "shiv": {**SHIV_PARAMS, "sigma": args.sigma, "sigma_r": args.sigma_r},
             "algos": args.algos,
+            "samples_per_demo": args.samples_per_demo,
             "env": f"{ENV_ID} with layout_seed = round",
         },
         "summary": summary,
