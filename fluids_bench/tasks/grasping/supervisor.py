@@ -62,6 +62,7 @@ CLOSE_ALONG = 0.01  # m: close once the target's centre is within this of the gr
 GAIN = 8.0  # 1/s: P-gain of the end-effector controller
 LIMIT_MARGIN = 0.1  # rad
 MEMO_SIZE = 16
+FAILURES_COMPARED = 4  # when no corridor grasps: the failures compared to the horizon
 PUSHED_AWAY = 0.04  # m: a foresight rollout that pushed the target this far has failed
 
 
@@ -376,9 +377,11 @@ class GraspSupervisor:
             tx, ty = st.poses[TARGET, 0], st.poses[TARGET, 1]
             ranked = [Corridor(math.atan2(ty, tx), 0.0)]
         # first pass: every candidate until it grasps or pushes the target away; the first
-        # clean grasp in rank order wins. Only if none grasps do the paused rollouts run on to
-        # the horizon, so that failures are compared on what they would knock off. (Comparing
-        # failures as paused, cheaper still, chose worse ones: 93.0% success instead of 97.0%.)
+        # clean grasp in rank order wins. Only if none grasps do the paused rollouts of the
+        # FAILURES_COMPARED least obstructed run on to the horizon, so that failures are compared
+        # on what they would knock off. (Comparing failures as paused chose worse ones: 93.0%
+        # success instead of 97.0% over 200 episodes; comparing the best 4 instead of all 7 gave
+        # 97.5% and 91.0% with noise, as all 7 did, at ~25% less CPU.)
         best: tuple[tuple[float, float, float], Corridor, Outcome] | None = None
         rollouts = []
         for corridor in ranked[: self.foresight]:
@@ -391,7 +394,7 @@ class GraspSupervisor:
                     break
             rollouts.append((corridor, rollout))
         if best is None:
-            for corridor, rollout in rollouts:
+            for corridor, rollout in rollouts[:FAILURES_COMPARED]:
                 rollout.run(pause_when_pushed=False)
                 outcome = rollout.outcome()
                 if best is None or outcome.key < best[0]:
