@@ -29,7 +29,13 @@ from fluids_bench.tasks.grasping.sim import (
     jacobian,
     sample_scene,
 )
-from fluids_bench.tasks.grasping.supervisor import GraspSupervisor, execute
+from fluids_bench.tasks.grasping.supervisor import (
+    FAILURES_COMPARED,
+    GraspSupervisor,
+    execute,
+    foresee,
+    rank_corridors,
+)
 
 ENV_ID = "GraspingInClutter-v0"
 CFG = GraspConfig()
@@ -413,6 +419,26 @@ def test_supervisor_replans_only_when_the_objects_move():
     for _ in range(5):
         execute(world, sup.action(world))
     assert sup.replans == 0
+
+
+def test_plan_picks_what_full_rollouts_would():
+    """The plan pauses failing rollouts; its choice is the first clean grasp in rank order among
+    full rollouts, or, if none grasps, the best of the first FAILURES_COMPARED full rollouts."""
+    sup = GraspSupervisor(CFG)
+    seen_failure = False
+    for seed in (0, 1, 6, 7):  # at seed 7 no corridor grasps from the rest pose
+        st = sample_scene(CFG, np.random.default_rng(seed))
+        ranked = rank_corridors(CFG, st, sup.fan_deg)[: sup.foresight]
+        outcomes = [foresee(CFG, st, c.heading, sup.horizon) for c in ranked]
+        clean = [c for c, o in zip(ranked, outcomes, strict=True) if o.cost == 0]
+        if clean:
+            expected = clean[0]
+        else:
+            seen_failure = True
+            compared = list(zip(ranked, outcomes, strict=True))[:FAILURES_COMPARED]
+            expected = min(compared, key=lambda co: co[1].key)[0]
+        assert sup.plan(st).corridor == expected
+    assert seen_failure
 
 
 def test_label_for_a_learner_state_is_what_a_fresh_supervisor_would_do_there():
