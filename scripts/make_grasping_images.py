@@ -1,8 +1,8 @@
 """The README picture of the grasping supervisor at work: frames of one seeded episode, side by side.
 
-Each frame is ``env.render()`` (``render_mode="rgb_array"``) with the supervisor's chosen
-corridor drawn over it (the line from the lead-in point to the target) and the waypoint phase
-as a caption. Usage: ``python scripts/make_grasping_images.py`` (writes
+Each frame is ``env.render()`` (``render_mode="rgb_array"``) with the corridor the supervisor's
+label follows drawn over it (the line from the lead-in point to the target; none on the line
+phases, which need no corridor) and the waypoint phase as a caption. Usage: ``python scripts/make_grasping_images.py`` (writes
 ``docs/images/grasping_supervisor.png``). Needs the package importable.
 """
 
@@ -21,13 +21,13 @@ from fluids_bench.algos.results import write_bytes_atomic
 from fluids_bench.core.raster import SHIFT, to_fixed
 from fluids_bench.tasks.grasping.render import view
 from fluids_bench.tasks.grasping.sim import TARGET
-from fluids_bench.tasks.grasping.supervisor import LEAD_IN, corridor_action
+from fluids_bench.tasks.grasping.supervisor import LEAD_IN, GraspSupervisor
 
 
-def annotated_frame(env: gym.Env, caption: str) -> np.ndarray:
+def annotated_frame(env: gym.Env, caption: str, sup: GraspSupervisor) -> np.ndarray:
     inner = env.unwrapped
     frame = env.render().copy()
-    plan = inner.supervisor.plan_
+    plan = sup.plan_
     if plan is not None:
         affine, _ = view(inner.cfg, frame.shape[0])
         tx, ty = inner.world.state.poses[TARGET, :2]
@@ -47,18 +47,19 @@ def main() -> None:
     args = parser.parse_args()
     env = gym.make("GraspingInClutter-v0", render_mode="rgb_array", render_size=args.size)
     _, info = env.reset(seed=args.seed)
+    sup = GraspSupervisor(env.unwrapped.cfg)  # labels depend on the state only: same labels
     frames, seen, step, done = [], set(), 0, False
     while not done:
-        inner = env.unwrapped
-        _, phase = corridor_action(inner.world, inner.supervisor.plan_.corridor.heading)
-        if phase not in seen or done:
+        _, phase = sup.decide(env.unwrapped.world)
+        if phase not in seen:
             seen.add(phase)
-            frames.append(annotated_frame(env, f"t={step} {phase}"))
+            frames.append(annotated_frame(env, f"t={step} {phase}", sup))
         _, _, terminated, truncated, info = env.step(info["supervisor_action"])
         step += 1
         done = terminated or truncated
     outcome = "grasped" if info["grasped"] else "no grasp"
-    frames.append(annotated_frame(env, f"t={step} {outcome}, cost {info['cost']:g}"))
+    sup.decide(env.unwrapped.world)
+    frames.append(annotated_frame(env, f"t={step} {outcome}, cost {info['cost']:g}", sup))
     picked = frames if len(frames) <= 5 else [*frames[:4], frames[-1]]
     strip = np.concatenate([np.pad(f, ((4, 4), (4, 4), (0, 0))) for f in picked], axis=1)
     ok, png = cv2.imencode(".png", cv2.cvtColor(strip, cv2.COLOR_RGB2BGR))

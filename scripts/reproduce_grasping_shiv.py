@@ -53,8 +53,24 @@ def policy(alpha: float) -> PolicySpec:
     return PolicySpec("kernel_ridge", {"alpha": alpha, "gamma": None})
 
 
+def bandwidth(text: str) -> float | None:
+    """A bandwidth argument: a positive number, or 'auto' (None: the scale-aware default)."""
+    if text == "auto":
+        return None
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"bandwidth {text!r}: allowed: a number > 0 or 'auto'")
+    return value
+
+
 def run_one(
-    algo: str, round_: int, iterations: int, eval_episodes: int, alpha: float
+    algo: str,
+    round_: int,
+    iterations: int,
+    eval_episodes: int,
+    alpha: float,
+    sigmas: tuple[float | None, float | None] = (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]),
+    samples_per_demo: int | None = None,
 ) -> dict[str, Any]:
     common = {
         "env_id": ENV_ID,
@@ -62,7 +78,7 @@ def run_one(
         "policy": policy(alpha),
         "iterations": iterations,
         "demos_per_iteration": 1,
-        "samples_per_demo": None,  # every visited state is a candidate query
+        "samples_per_demo": samples_per_demo,  # None: every visited state is a candidate query
         "eval_episodes": eval_episodes,
         "eval_every": 1,
         "eval_at": None,
@@ -79,7 +95,8 @@ def run_one(
         )
         result = dagger.run(config)
     else:
-        config = shiv.SHIVConfig(**common, selector="shiv", initial_demos=1, **SHIV_PARAMS)
+        params = {**SHIV_PARAMS, "sigma": sigmas[0], "sigma_r": sigmas[1]}
+        config = shiv.SHIVConfig(**common, selector="shiv", initial_demos=1, **params)
         result = shiv.run(config)
     records = result.evaluated()
     return {
@@ -107,10 +124,26 @@ def queries_to_reach(labels: np.ndarray, perf: np.ndarray, level: float) -> floa
     return None
 
 
+def queried_share(runs: list[dict[str, Any]]) -> list[float | None]:
+    """Per evaluation: the share of the visited states that were labelled, over the rounds
+    (None where the learner did not query: the initial demonstration, Behavior Cloning)."""
+    out = []
+    for k in range(len(runs[0]["queried"])):
+        queried = [r["queried"][k] for r in runs]
+        visited = [r["visited"][k] for r in runs]
+        if None in queried or None in visited:
+            out.append(None)
+        else:
+            out.append(round(sum(queried) / max(1.0, sum(visited)), 4))
+    return out
+
+
 def summarise(runs: list[dict[str, Any]], levels: tuple[float, ...]) -> dict[str, Any]:
     out: dict[str, Any] = {}
     for algo in ALGOS:
         mine = [r for r in runs if r["algo"] == algo]
+        if not mine:
+            continue
         usable = [r for r in mine if None not in r["normalised"]]
         labels = np.array([r["labels"] for r in mine], dtype=float)
         cost = np.array([r["cost"] for r in mine])
@@ -127,12 +160,15 @@ def summarise(runs: list[dict[str, Any]], levels: tuple[float, ...]) -> dict[str
             if n > 1
             else None,
             "cost_mean": cost.mean(axis=0).round(3).tolist(),
+            "queried_share": queried_share(mine),
             "queries_to_reach": {
                 str(level): queries_to_reach(mean_labels, mean_perf, level) for level in levels
             },
         }
     reductions = {}
     for level in levels:
+        if "dagger" not in out or "shiv" not in out:
+            break
         d, s = (out[a]["queries_to_reach"][str(level)] for a in ("dagger", "shiv"))
         reductions[str(level)] = None if d is None or s is None else round(1.0 - s / d, 4)
     out["query_reduction"] = reductions
@@ -145,6 +181,8 @@ def plot(summary: dict[str, Any], path: Path, rounds: int, alpha: float) -> None
     axes = figure.axes[0]
     names = {"dagger": "DAgger", "shiv": "SHIV (σ = 6, σ_r = 5)", "bc": "BC (off-policy)"}
     for algo, colour in zip(ALGOS, ("tab:blue", "tab:orange", "tab:gray"), strict=True):
+        if algo not in summary:
+            continue
         curve = summary[algo]
         x, mean = np.array(curve["labels"]), np.array(curve["normalised_mean"])
         error = np.array(curve["normalised_stderr"] or np.zeros_like(mean))
@@ -170,14 +208,43 @@ def main() -> None:
         default=1.0,
         help="kernel ridge regularisation (default 1.0, scikit-learn's default)",
     )
+    parser.add_argument(
+        "--sigma",
+        type=bandwidth,
+        default=SHIV_PARAMS["sigma"],
+        help="SHIV's sigma in raw state units (default 6, the source's), or 'auto' (standardised "
+        "features, median distance between training states)",
+    )
+    parser.add_argument(
+        "--sigma-r",
+        type=bandwidth,
+        default=SHIV_PARAMS["sigma_r"],
+        help="SHIV's sigma_r (default 5, the source's), or 'auto' (follows sigma)",
+    )
+    parser.add_argument(
+        "--samples-per-demo",
+        type=int,
+        default=None,
+        help="label at most this many states drawn at random per rollout (default: every one)",
+    )
+    parser.add_argument(
+        "--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="learners to run"
+    )
     parser.add_argument("--png", type=Path, default=None, help="also write the plot here")
     args = parser.parse_args()
     if min(args.rounds, args.iterations, args.eval_episodes, args.workers) < 1:
         parser.error("--rounds, --iterations, --eval-episodes, --workers: >= 1")
+    if args.samples_per_demo is not None and args.samples_per_demo < 1:
+        parser.error(f"--samples-per-demo {args.samples_per_demo}: allowed: >= 1")
     runs_dir = args.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
-    settings = (args.iterations, args.eval_episodes, args.alpha)
-    jobs = [(algo, r) for r in range(args.rounds) for algo in ALGOS]
+    sigmas = (args.sigma, args.sigma_r)
+    settings: tuple[Any, ...] = (args.iterations, args.eval_episodes, args.alpha)
+    if sigmas != (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]):
+        settings = (*settings, *sigmas)  # (the source's bandwidths keep older runs resumable)
+    if args.samples_per_demo is not None:
+        settings = (*settings, "samples_per_demo", args.samples_per_demo)
+    jobs = [(algo, r) for r in range(args.rounds) for algo in args.algos]
     runs: dict[tuple[str, int], dict[str, Any]] = {}
     for algo, r in jobs:  # resume: keep finished runs made with the same settings
         path = runs_dir / f"{algo}_{r}.json"
@@ -194,14 +261,17 @@ def main() -> None:
 
     if args.workers == 1:
         for algo, r in tqdm(todo, desc="runs"):
-            keep(run_one(algo, r, *settings))
+            keep(run_one(algo, r, *settings[:3], sigmas, args.samples_per_demo))
     else:
         with ProcessPoolExecutor(args.workers) as pool:
-            futures = [pool.submit(run_one, algo, r, *settings) for algo, r in todo]
+            futures = [
+                pool.submit(run_one, algo, r, *settings[:3], sigmas, args.samples_per_demo)
+                for algo, r in todo
+            ]
             for future in tqdm(as_completed(futures), total=len(futures), desc="runs"):
                 keep(future.result())
 
-    levels = (0.9, 0.95, 1.0)
+    levels = (0.1, 0.2, 0.3, 0.5, 0.9, 0.95, 1.0)
     ordered = [runs[job] for job in jobs]
     summary = summarise(ordered, levels)
     payload = {
@@ -211,7 +281,9 @@ def main() -> None:
             "iterations": args.iterations,
             "eval_episodes": args.eval_episodes,
             "policy": {"name": "kernel_ridge", "params": dict(policy(args.alpha).params)},
-            "shiv": SHIV_PARAMS,
+            "shiv": {**SHIV_PARAMS, "sigma": args.sigma, "sigma_r": args.sigma_r},
+            "algos": args.algos,
+            "samples_per_demo": args.samples_per_demo,
             "env": f"{ENV_ID} with layout_seed = round",
         },
         "summary": summary,

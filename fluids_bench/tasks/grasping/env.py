@@ -47,9 +47,11 @@ class GraspingInClutterEnv(gym.Env):
     removed, counted once.
 
     The supervisor (`supervisor_action()`, `info["supervisor_action"]`) is hierarchical: it picks
-    an approach corridor to the target by simulating the best-ranked candidates on rebuilt
-    worlds, follows its waypoints (retract, transit, approach, align, advance, close) and steers
-    the end effector toward the current one (see `fluids_bench.tasks.grasping.supervisor`).
+    an approach corridor to the target by simulating the best-ranked candidates on worlds
+    rebuilt from the objects with the arm at rest, follows its waypoints (retract, transit,
+    approach, advance, close) and steers the end effector toward the current one, proportionally
+    to the distance (see `fluids_bench.tasks.grasping.supervisor`). Its label is a function of
+    the current state alone.
 
     ## Action Space
 

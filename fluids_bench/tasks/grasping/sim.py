@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 import pymunk
+from pymunk import _chipmunk
 
 from fluids_bench.core.validation import check_float, check_int, fail
 from fluids_bench.tasks.grasping.kernels import arm_step_kernel, inverse_kernel
@@ -51,6 +52,7 @@ _SET_POSITION = pymunk.Body.position.fset
 _SET_ANGLE = pymunk.Body.angle.fset
 _SET_VELOCITY = pymunk.Body.velocity.fset
 _SET_ANGULAR_VELOCITY = pymunk.Body.angular_velocity.fset
+_CP_SPACE_STEP = _chipmunk.lib.cpSpaceStep  # what Space.step calls (pymunk 7, non-threaded)
 
 # collision categories: objects collide with everything, arm parts only with objects
 _OBJECT_CAT, _ARM_CAT = 0b01, 0b10
@@ -417,8 +419,8 @@ class GraspWorld:
             (px + s * off, py - c * off, heading),
         ]
 
-    def _place_arm(self, q, gripper: float) -> None:
-        self._arm_pose = self.arm_poses(q, gripper)
+    def _place_arm(self, q, gripper: float, poses=None) -> None:
+        self._arm_pose = self.arm_poses(q, gripper) if poses is None else poses
         for body, (x, y, a) in zip(self.arm, self._arm_pose, strict=True):
             _SET_POSITION(body, (x, y))
             _SET_ANGLE(body, a)
@@ -498,16 +500,19 @@ class GraspWorld:
         # step's substeps: a chord of its arc, ~0.1 mm off at typical joint steps (3 mm at
         # full joint speed), and the arm lands exactly on its kinematics at the step's end
         inv = 1.0 / cfg.dt
-        for body, (x0, y0, a0), (x1, y1, a1) in zip(
-            self.arm, self._arm_pose, self.arm_poses(q1, g1), strict=True
-        ):
+        arm1 = self.arm_poses(q1, g1)
+        for body, (x0, y0, a0), (x1, y1, a1) in zip(self.arm, self._arm_pose, arm1, strict=True):
             _SET_VELOCITY(body, ((x1 - x0) * inv, (y1 - y0) * inv))
             _SET_ANGULAR_VELOCITY(body, (a1 - a0) * inv)
         h = cfg.dt / cfg.substeps
-        for _ in range(cfg.substeps):
-            self.space.step(h)
+        # the first substep through pymunk's Space.step (its bookkeeping: new bodies' mass
+        # checks, deferred adds and removes, post-step callbacks, none of which the later
+        # substeps can create here: no collision callbacks), the rest straight into Chipmunk
+        self.space.step(h)
+        for _ in range(cfg.substeps - 1):
+            _CP_SPACE_STEP(self.space._space, h)
         # land the arm exactly on the commanded pose (no floating-point drift)
-        self._place_arm(q1, g1)
+        self._place_arm(q1, g1, arm1)
         st.q = q1
         st.gripper = g1
         st.steps += 1
