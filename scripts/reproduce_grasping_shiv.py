@@ -47,10 +47,11 @@ ALGOS = ("dagger", "shiv", "bc")  # BC: the off-policy reference (supervisor dem
 SHIV_PARAMS = {"nu": 0.1, "sigma": 6.0, "nu_r": 1e-3, "sigma_r": 5.0, "epsilon": None}
 
 
-def policy(alpha: float) -> PolicySpec:
+def policy(alpha: float, standardize: bool = True) -> PolicySpec:
     """RBF kernel ridge regression; scikit-learn's defaults are alpha = 1, gamma = 1 / n_features
-    (the suite's kernel_ridge family fits it on standardised features)."""
-    return PolicySpec("kernel_ridge", {"alpha": alpha, "gamma": None})
+    (the suite's kernel_ridge family fits it on standardised features unless ``standardize`` is
+    False: raw metres and radians, as scikit-learn's KernelRidge comes)."""
+    return PolicySpec("kernel_ridge", {"alpha": alpha, "gamma": None}, standardize=standardize)
 
 
 def bandwidth(text: str) -> float | None:
@@ -71,11 +72,12 @@ def run_one(
     alpha: float,
     sigmas: tuple[float | None, float | None] = (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]),
     samples_per_demo: int | None = None,
+    standardize: bool = True,
 ) -> dict[str, Any]:
     common = {
         "env_id": ENV_ID,
         "env_kwargs": {"layout_seed": round_},
-        "policy": policy(alpha),
+        "policy": policy(alpha, standardize),
         "iterations": iterations,
         "demos_per_iteration": 1,
         "samples_per_demo": samples_per_demo,  # None: every visited state is a candidate query
@@ -228,6 +230,11 @@ def main() -> None:
         help="label at most this many states drawn at random per rollout (default: every one)",
     )
     parser.add_argument(
+        "--raw-features",
+        action="store_true",
+        help="fit kernel ridge on the raw state (metres, radians) instead of standardised features",
+    )
+    parser.add_argument(
         "--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="learners to run"
     )
     parser.add_argument("--png", type=Path, default=None, help="also write the plot here")
@@ -236,6 +243,7 @@ def main() -> None:
         parser.error("--rounds, --iterations, --eval-episodes, --workers: >= 1")
     if args.samples_per_demo is not None and args.samples_per_demo < 1:
         parser.error(f"--samples-per-demo {args.samples_per_demo}: allowed: >= 1")
+    standardize = not args.raw_features
     runs_dir = args.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
     sigmas = (args.sigma, args.sigma_r)
@@ -244,6 +252,8 @@ def main() -> None:
         settings = (*settings, *sigmas)  # (the source's bandwidths keep older runs resumable)
     if args.samples_per_demo is not None:
         settings = (*settings, "samples_per_demo", args.samples_per_demo)
+    if args.raw_features:
+        settings = (*settings, "raw_features")
     jobs = [(algo, r) for r in range(args.rounds) for algo in args.algos]
     runs: dict[tuple[str, int], dict[str, Any]] = {}
     for algo, r in jobs:  # resume: keep finished runs made with the same settings
@@ -261,11 +271,13 @@ def main() -> None:
 
     if args.workers == 1:
         for algo, r in tqdm(todo, desc="runs"):
-            keep(run_one(algo, r, *settings[:3], sigmas, args.samples_per_demo))
+            keep(run_one(algo, r, *settings[:3], sigmas, args.samples_per_demo, standardize))
     else:
         with ProcessPoolExecutor(args.workers) as pool:
             futures = [
-                pool.submit(run_one, algo, r, *settings[:3], sigmas, args.samples_per_demo)
+                pool.submit(
+                    run_one, algo, r, *settings[:3], sigmas, args.samples_per_demo, standardize
+                )
                 for algo, r in todo
             ]
             for future in tqdm(as_completed(futures), total=len(futures), desc="runs"):
@@ -280,7 +292,11 @@ def main() -> None:
             "rounds": args.rounds,
             "iterations": args.iterations,
             "eval_episodes": args.eval_episodes,
-            "policy": {"name": "kernel_ridge", "params": dict(policy(args.alpha).params)},
+            "policy": {
+                "name": "kernel_ridge",
+                "params": dict(policy(args.alpha).params),
+                "standardize": standardize,
+            },
             "shiv": {**SHIV_PARAMS, "sigma": args.sigma, "sigma_r": args.sigma_r},
             "algos": args.algos,
             "samples_per_demo": args.samples_per_demo,

@@ -69,6 +69,8 @@ class RunConfig:
         """JSON-friendly copy (tuples become lists when serialised)."""
         data = asdict(self)
         data["env_kwargs"] = dict(self.env_kwargs)
+        if self.policy.standardize:  # the default is left out: records stay as they were
+            del data["policy"]["standardize"]
         return data
 
 

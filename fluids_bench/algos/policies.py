@@ -41,7 +41,7 @@ from sklearn.preprocessing import StandardScaler
 from sklearn.svm import LinearSVC, LinearSVR
 from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
 
-from fluids_bench.core.validation import check_choice, fail
+from fluids_bench.core.validation import check_bool, check_choice, fail
 
 # Predictions of one fitted policy are memoised per observation, up to this many entries:
 # gridworld-like envs revisit the same few hundred states thousands of times, and a single
@@ -104,9 +104,13 @@ class PolicySpec:
 
     name: str = "tree"
     params: Mapping[str, Any] = field(default_factory=dict)
+    # False: the families that standardise their features (linear_svm, kernel_ridge, knn, mlp)
+    # fit on the raw ones instead (where state units carry meaning, e.g. grasping's metres)
+    standardize: bool = True
 
     def __post_init__(self) -> None:
         check_choice("PolicySpec", "name", self.name, FAMILIES)
+        check_bool("PolicySpec", "standardize", self.standardize)
         if not isinstance(self.params, Mapping):
             raise ValueError(
                 f"PolicySpec: field 'params' is {self.params!r}; allowed: a mapping of keywords"
@@ -240,6 +244,8 @@ def fit_policy(
     if spec.name == "knn":
         params["n_neighbors"] = min(int(params.get("n_neighbors", 5)), len(X))
     estimator = MODELS[spec.name][0 if discrete else 1](params, random_state)  # not constant
+    if not spec.standardize and isinstance(estimator, Pipeline):
+        estimator = estimator[-1]  # the estimator without its StandardScaler
     with warnings.catch_warnings():
         # small imitation datasets rarely let iterative solvers converge; the benchmark reports
         # what the given budget achieves instead of printing a warning per fit

@@ -95,6 +95,25 @@ def test_memoised_act_agrees_with_predict_off_the_training_set() -> None:
     np.testing.assert_array_equal([policy.act(x) for x in fresh], policy.predict(fresh))
 
 
+def test_unstandardised_kernel_ridge_is_sklearns_estimator_on_the_raw_features() -> None:
+    """standardize=False drops the scaler: predictions equal KernelRidge's on the raw state, and
+    differ from the standardised fit (a feature of a different scale changes the RBF distances)."""
+    from sklearn.kernel_ridge import KernelRidge
+
+    rng = np.random.default_rng(2)
+    X = rng.uniform(-1, 1, (80, 2)) * np.array([1.0, 20.0])
+    Y = np.clip(np.column_stack([np.sin(X[:, 0]), np.cos(X[:, 1] / 20)]) * 0.9, -1, 1)
+    params = {"alpha": 1e-3, "gamma": None}
+    raw = fit_policy(PolicySpec("kernel_ridge", params, standardize=False), BOX, X, Y, 0)
+    expected = KernelRidge(kernel="rbf", **params).fit(X, Y).predict(X)
+    # (to rounding: the fitted policy predicts its training states in one batch, in another order)
+    np.testing.assert_allclose(raw.predict(X), np.clip(expected, -1, 1), rtol=1e-9, atol=1e-12)
+    scaled = fit_policy(PolicySpec("kernel_ridge", params), BOX, X, Y, 0)
+    assert not np.allclose(scaled.predict(X), raw.predict(X))
+    with pytest.raises(ValueError, match=r"field 'standardize' is 'no'; allowed: true or false"):
+        PolicySpec("kernel_ridge", standardize="no")
+
+
 def test_bad_specs_and_spaces_are_refused_with_what_is_allowed() -> None:
     with pytest.raises(ValueError, match=r"field 'name' is 'svm'; allowed: one of"):
         PolicySpec("svm")
