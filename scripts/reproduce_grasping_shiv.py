@@ -178,7 +178,9 @@ def summarise(runs: list[dict[str, Any]], levels: tuple[float, ...]) -> dict[str
     return out
 
 
-def plot(summary: dict[str, Any], path: Path, rounds: int, alpha: float) -> None:
+def plot(
+    summary: dict[str, Any], path: Path, rounds: int, alpha: float, standardize: bool = True
+) -> None:
     figure = new_figure(1, 1, (6.4, 4.2))
     axes = figure.axes[0]
     names = {"dagger": "DAgger", "shiv": "SHIV (σ = 6, σ_r = 5)", "bc": "BC (off-policy)"}
@@ -193,7 +195,8 @@ def plot(summary: dict[str, Any], path: Path, rounds: int, alpha: float) -> None
     axes.axhline(1.0, color="black", ls="--", lw=1, label="supervisor")
     axes.set_xlabel("queries to the supervisor (labelled states)")
     axes.set_ylabel("normalised performance")
-    axes.set_title(f"Grasping in clutter, KRR (alpha = {alpha:g}), {rounds} rounds")
+    features = "" if standardize else ", raw features"
+    axes.set_title(f"Grasping in clutter, KRR (alpha = {alpha:g}{features}), {rounds} rounds")
     save_png_atomic(figure, path, legend_loc="lower right")
 
 
@@ -306,9 +309,9 @@ def main() -> None:
         "runs": ordered,
     }
     write_json_atomic(args.out / "grasping_shiv.json", payload)
-    plot(summary, args.out / "grasping_shiv.png", args.rounds, args.alpha)
+    plot(summary, args.out / "grasping_shiv.png", args.rounds, args.alpha, standardize)
     if args.png is not None:
-        plot(summary, args.png, args.rounds, args.alpha)
+        plot(summary, args.png, args.rounds, args.alpha, standardize)
     print(json.dumps(summary, indent=2))
 
 
