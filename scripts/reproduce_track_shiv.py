@@ -108,22 +108,30 @@ def track_scale(track: int) -> float:
     return scale
 
 
-def shiv_config(track: int, sigma: float, iterations: int, eval_episodes: int) -> shiv.SHIVConfig:
-    """SHIV with the source's ``sigma`` (and sigma_r = 200) mapped to the track's scale."""
-    scale = track_scale(track)
+def shiv_config(
+    track: int, sigma: float, iterations: int, eval_episodes: int, raw: bool = False
+) -> shiv.SHIVConfig:
+    """SHIV with the source's ``sigma`` (and sigma_r = 200) mapped to the track's scale
+    (``raw``: both used as they stand, in HOG units, the ablation)."""
+
+    def scaled(value: float) -> float:
+        return value if raw else source_sigma(value, track_scale(track))
+
     return shiv.SHIVConfig(
         **_protocol(track, iterations, eval_episodes),
         selector="shiv",
         nu=NU,
-        sigma=source_sigma(sigma, scale),
+        sigma=scaled(sigma),
         nu_r=NU_R,
-        sigma_r=source_sigma(SIGMA_R, scale),
+        sigma_r=scaled(SIGMA_R),
         epsilon=None,  # Discrete actions: 0/1 loss with epsilon = 0 (Eq. 7)
         initial_demos=1,
     )
 
 
-def run_curve(algo: str, track: int, sigma: float, iterations: int, eval_episodes: int) -> dict:
+def run_curve(
+    algo: str, track: int, sigma: float, iterations: int, eval_episodes: int, raw: bool = False
+) -> dict:
     """One DAgger or SHIV run: crashes per lap and labels after every iteration."""
     t0 = time.process_time()
     if algo == "dagger":
@@ -135,12 +143,13 @@ def run_curve(algo: str, track: int, sigma: float, iterations: int, eval_episode
         )
         result = dagger.run(config)
     else:
-        result = shiv.run(shiv_config(track, sigma, iterations, eval_episodes))
+        result = shiv.run(shiv_config(track, sigma, iterations, eval_episodes, raw))
     records = result.evaluated()
     return {
         "algo": algo,
         "track": track,
         "sigma": sigma,
+        "raw_sigma": raw,
         "hog_scale": track_scale(track) if algo == "shiv" else None,
         "supervisor_crashes_per_lap": -result.supervisor_return / LAPS,
         "labels": [r.labels_requested for r in records],
@@ -199,6 +208,7 @@ def units(
     iterations: int,
     episodes: int,
     sigmas: tuple[float, ...] = TABLE_SIGMAS,
+    raw: bool = False,
 ):
     """(key, function, args) of every unit of work, each computed once."""
     todo: dict[str, tuple] = {}
@@ -209,7 +219,9 @@ def units(
     if "table61" in experiments:
         for t in range(tracks["table61"]):
             for s in sigmas:
-                todo[f"shiv_s{s:g}_t{t}"] = (run_curve, ("shiv", t, s, iterations, episodes))
+                todo[f"{table61_prefix(raw)}{s:g}_t{t}"] = (
+                    run_curve, ("shiv", t, s, iterations, episodes, raw),
+                )  # fmt: skip
     if "fig65" in experiments:
         for t in range(tracks["fig65"]):
             todo[f"fn_t{t}"] = (run_false_negatives, (t,))
@@ -296,12 +308,18 @@ def summarise_fig65(done: dict[str, dict], n: int) -> dict | None:
     return out
 
 
+def table61_prefix(raw: bool) -> str:
+    """Unit key prefix: the raw-sigma ablation never shares units with the mapped runs."""
+    return "shiv_raw_s" if raw else "shiv_s"
+
+
 def summarise_table61(
-    done: dict[str, dict], n: int, sigmas: tuple[float, ...] = TABLE_SIGMAS
+    done: dict[str, dict], n: int, sigmas: tuple[float, ...] = TABLE_SIGMAS, raw: bool = False
 ) -> dict | None:
     rows = {}
     for s in sorted(set(TABLE_SIGMAS) | set(sigmas)):
-        runs = [done[f"shiv_s{s:g}_t{t}"] for t in range(n) if f"shiv_s{s:g}_t{t}" in done]
+        keys = [f"{table61_prefix(raw)}{s:g}_t{t}" for t in range(n)]
+        runs = [done[k] for k in keys if k in done]
         if runs:
             rows[f"{s:g}"] = {
                 "tracks": len(runs),
@@ -365,6 +383,11 @@ def main() -> None:
         help="Table 6.1's sigmas to run (the source's six by default; others as an ablation)",
     )  # fmt: skip
     parser.add_argument(
+        "--raw-sigma", action="store_true",
+        help="ablation: Table 6.1's sigmas (and sigma_r = 200) in raw HOG units, unmapped; "
+        "use its own --out",
+    )  # fmt: skip
+    parser.add_argument(
         "--summarise-only", action="store_true",
         help="run nothing: summarise and plot the finished units",
     )  # fmt: skip
@@ -379,7 +402,12 @@ def main() -> None:
     tracks = {k: min(v, args.tracks or v) for k, v in SOURCE_TRACKS.items()}
     if min(args.sigmas) <= 0:
         parser.error("--sigmas: positive bandwidths")
-    todo = units(args.experiments, tracks, args.iterations, args.eval_episodes, tuple(args.sigmas))
+    if args.raw_sigma and args.experiments != ["table61"]:
+        parser.error("--raw-sigma: with --experiments table61 only")
+    todo = units(
+        args.experiments, tracks, args.iterations, args.eval_episodes, tuple(args.sigmas),
+        args.raw_sigma,
+    )  # fmt: skip
     unit_dir = args.out / "units"
     done = {}
     for key in todo:
@@ -403,8 +431,10 @@ def main() -> None:
                 "sigma": SIGMA,
                 "nu_r": NU_R,
                 "sigma_r": SIGMA_R,
-                "sigma_units": "source; x median HOG distance / 200 on each track",
-            },  # fmt: skip
+                "sigma_units": "HOG (raw ablation)"
+                if args.raw_sigma
+                else "source; x median HOG distance / 200 on each track",
+            },
             "iterations": args.iterations,
             "eval_episodes": args.eval_episodes,
             "tracks": tracks,
@@ -413,7 +443,7 @@ def main() -> None:
         },
         "fig63": summarise_fig63(done, tracks["fig63"]) if "fig63" in args.experiments else None,
         "fig65": summarise_fig65(done, tracks["fig65"]) if "fig65" in args.experiments else None,
-        "table61": summarise_table61(done, tracks["table61"], tuple(args.sigmas))
+        "table61": summarise_table61(done, tracks["table61"], tuple(args.sigmas), args.raw_sigma)
         if "table61" in args.experiments
         else None,
     }
