@@ -212,6 +212,11 @@ def units(
 ):
     """(key, function, args) of every unit of work, each computed once."""
     todo: dict[str, tuple] = {}
+    # cheapest first, and Table 6.1 track by track: a run stopped early leaves whole experiments
+    # and, for Table 6.1, every sigma on the same first tracks
+    if "fig65" in experiments:
+        for t in range(tracks["fig65"]):
+            todo[f"fn_t{t}"] = (run_false_negatives, (t,))
     if "fig63" in experiments:
         for t in range(tracks["fig63"]):
             todo[f"dagger_t{t}"] = (run_curve, ("dagger", t, 0.0, iterations, episodes))
@@ -222,9 +227,6 @@ def units(
                 todo[f"{table61_prefix(raw)}{s:g}_t{t}"] = (
                     run_curve, ("shiv", t, s, iterations, episodes, raw),
                 )  # fmt: skip
-    if "fig65" in experiments:
-        for t in range(tracks["fig65"]):
-            todo[f"fn_t{t}"] = (run_false_negatives, (t,))
     return todo
 
 
