@@ -319,9 +319,13 @@ def summarise_table61(
     done: dict[str, dict], n: int, sigmas: tuple[float, ...] = TABLE_SIGMAS, raw: bool = False
 ) -> dict | None:
     rows = {}
-    for s in sorted(set(TABLE_SIGMAS) | set(sigmas)):
-        keys = [f"{table61_prefix(raw)}{s:g}_t{t}" for t in range(n)]
-        runs = [done[k] for k in keys if k in done]
+    wanted = sorted(set(sigmas))
+    # only tracks where every sigma has run: the rows then compare the same tracks
+    complete = [
+        t for t in range(n) if all(f"{table61_prefix(raw)}{s:g}_t{t}" in done for s in wanted)
+    ]
+    for s in wanted:
+        runs = [done[f"{table61_prefix(raw)}{s:g}_t{t}"] for t in complete]
         if runs:
             rows[f"{s:g}"] = {
                 "tracks": len(runs),
