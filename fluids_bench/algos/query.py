@@ -23,6 +23,8 @@ states of a new rollout as risky (ask) or safe (do not ask):
   ``nu = 0.1``).
 
 The confidence and committee baselines need class labels: they accept Discrete actions only.
+Their linear SVM is ``svm`` (a :class:`~fluids_bench.algos.policies.PolicySpec`; default
+``linear_svm`` with scikit-learn's C = 1).
 The Gaussian kernel is ``k(x, x') = exp(-|x - x'|^2 / (2 sigma^2))``, i.e. scikit-learn's
 ``gamma = 1 / (2 sigma^2)``. Bandwidths (:class:`KernelSpace`): an explicit ``sigma`` is in the
 units of the raw observation, as the source states its values (200 on HOG features, 5 and 6 on
@@ -116,26 +118,52 @@ class KernelSpace:
         return (X - self.mean) / self.scale
 
 
+def _gaussian_kernel(A: np.ndarray, B: np.ndarray, sigma: float) -> np.ndarray:
+    """``k(a, b)`` for all rows, by matrix products, and exactly 1 between identical rows.
+
+    libsvm's own RBF gives identical rows distance 0 exactly; the matrix-product distance can
+    leave ~1e-15 there, which would move a repeated training state off a level set's boundary
+    (where SHIV's holes put their own states)."""
+    squared = euclidean_distances(A, B, squared=True)
+    rows: dict[bytes, list[int]] = {}
+    for j, row in enumerate(B):
+        rows.setdefault(row.tobytes(), []).append(j)
+    for i, row in enumerate(A):
+        same = rows.get(row.tobytes())
+        if same:
+            squared[i, same] = 0.0
+    return np.exp(-gamma_of(sigma) * squared)
+
+
 class _LevelSet:
     """A One-Class SVM level set; an empty training set gives an empty set."""
 
     def __init__(self, nu: float, sigma: float) -> None:
         self.nu, self.sigma = nu, sigma
         self.model: OneClassSVM | None = None
+        self.X = np.empty((0, 0))
 
     def fit(self, X: np.ndarray, sigma: float | None = None) -> _LevelSet:
         self.model = None
         if sigma is not None:
             self.sigma = sigma
         if len(X):
-            self.model = OneClassSVM(nu=self.nu, gamma=gamma_of(self.sigma)).fit(X)
+            # the Gaussian kernel computed once, by matrix products: libsvm's own RBF evaluates it
+            # entry by entry, which on wide features (20,736 HOG dimensions) costs ~10x more
+            self.X = X
+            gram = _gaussian_kernel(X, X, self.sigma)
+            self.model = OneClassSVM(nu=self.nu, kernel="precomputed").fit(gram)
         return self
 
     def decision(self, X: np.ndarray) -> np.ndarray:
         """> 0 strictly inside, 0 on the boundary, < 0 outside (-inf everywhere if empty)."""
         if self.model is None:
             return np.full(len(X), -np.inf)
-        return self.model.decision_function(X)
+        # libsvm reads only the support vectors' columns of a precomputed kernel
+        support = self.model.support_
+        kernel = np.zeros((len(X), len(self.X)))
+        kernel[:, support] = _gaussian_kernel(X, self.X[support], self.sigma)
+        return self.model.decision_function(kernel)
 
 
 def check_bandwidths(where: str, sigma: float | None, sigma_r: float | None) -> None:
@@ -222,10 +250,7 @@ class NoveltySelector:
         return ~(self.level_set.decision(X) > 0.0)
 
 
-def _linear_svm(
-    action_space: spaces.Space[Any], X: np.ndarray, y: np.ndarray, random_state: int
-) -> Policy:
-    return fit_policy(PolicySpec("linear_svm"), action_space, X, y, random_state)
+LINEAR_SVM = PolicySpec("linear_svm")  # the baselines' classifier unless one is given
 
 
 def _margins(policy: Any, X: np.ndarray) -> np.ndarray:
@@ -240,15 +265,21 @@ def _margins(policy: Any, X: np.ndarray) -> np.ndarray:
 class ConfidenceSelector:
     """Risky iff the margin of a linear SVM is below that of the average misclassified state."""
 
-    def __init__(self, action_space: spaces.Space[Any], rng: np.random.Generator) -> None:
+    def __init__(
+        self,
+        action_space: spaces.Space[Any],
+        rng: np.random.Generator,
+        svm: PolicySpec = LINEAR_SVM,
+    ) -> None:
         _require_discrete(action_space, "confidence")
-        self.action_space, self.rng = action_space, rng
+        self.action_space, self.rng, self.spec = action_space, rng, svm
         self.svm: Any = None
         self.threshold = 0.0
 
     def fit(self, observations: np.ndarray, labels: np.ndarray, policy: Policy) -> None:
         X = features(observations)
-        self.svm = _linear_svm(self.action_space, X, labels, int(self.rng.integers(2**31 - 1)))
+        seed = int(self.rng.integers(2**31 - 1))
+        self.svm = fit_policy(self.spec, self.action_space, X, labels, seed)
         if self.svm.estimator is None:  # one class: no hyperplane, nothing is uncertain
             self.threshold = 0.0
             return
@@ -271,9 +302,10 @@ class CommitteeSelector:
         rng: np.random.Generator,
         members: int = 3,
         fraction: float = 0.8,
+        svm: PolicySpec = LINEAR_SVM,
     ) -> None:
         _require_discrete(action_space, "qbc")
-        self.action_space, self.rng = action_space, rng
+        self.action_space, self.rng, self.spec = action_space, rng, svm
         self.members, self.fraction = members, fraction
         self.committee: list[Policy] = []
 
@@ -284,7 +316,9 @@ class CommitteeSelector:
         for _ in range(self.members):
             subset = self.rng.choice(len(X), size=size, replace=False)
             seed = int(self.rng.integers(2**31 - 1))
-            self.committee.append(_linear_svm(self.action_space, X[subset], y[subset], seed))
+            self.committee.append(
+                fit_policy(self.spec, self.action_space, X[subset], y[subset], seed)
+            )
 
     def risky(self, observations: np.ndarray) -> np.ndarray:
         votes = np.stack([member.predict(observations) for member in self.committee])
