@@ -24,38 +24,15 @@ from __future__ import annotations
 import argparse
 import hashlib
 import json
-from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from fingerprint_episodes import _feed  # the same canonical hashing (scripts/ is on the path)
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.singulation.supervisor import plan_push
 
 ENV_ID = "Singulation-v0"
-
-
-def _feed(h, value: Any) -> None:
-    """Hash ``value`` canonically: types, dtypes, shapes and bytes; dict keys sorted."""
-    if isinstance(value, dict):
-        h.update(b"{")
-        for key in sorted(value, key=str):
-            _feed(h, str(key))
-            _feed(h, value[key])
-        h.update(b"}")
-    elif isinstance(value, list | tuple):
-        h.update(b"[%d" % len(value))
-        for item in value:
-            _feed(h, item)
-        h.update(b"]")
-    elif isinstance(value, np.ndarray | np.generic):
-        arr = np.asarray(value)
-        h.update(f"{arr.dtype.str}{arr.shape}".encode())
-        h.update(np.ascontiguousarray(arr).tobytes())
-    elif value is None:
-        h.update(b"None")
-    else:
-        h.update(f"{type(value).__name__}:{value!r}".encode())
 
 
 def _action(mode: str, space: gym.spaces.Box, label: np.ndarray, rng, k: int) -> np.ndarray:

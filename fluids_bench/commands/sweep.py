@@ -25,6 +25,8 @@ import sys
 import time
 from pathlib import Path
 
+from fluids_bench.commands.train import _key_value
+
 
 def _values(text: str):
     from fluids_bench.sweep.grid import parse_values
@@ -33,18 +35,6 @@ def _values(text: str):
         return parse_values(text)
     except ValueError as exc:
         raise argparse.ArgumentTypeError(str(exc)) from None
-
-
-def _key_value(text: str):
-    import json
-
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except json.JSONDecodeError:
-        return key, value
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
