@@ -4,20 +4,14 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from small_fluids import SMALL_FLUIDS
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import ALGORITHMS, run_algorithm
 
 FLUIDS = {
-    "env_id": "FLUIDS-v0",
-    "env_kwargs": {
-        "action_level": "velocity",
-        "obs_type": "qlidar",
-        "lidar_rays": 16,
-        "num_cars": 2,
-        "num_pedestrians": 1,
-    },
+    **SMALL_FLUIDS,
     "iterations": 2,
     "eval_episodes": 1,
     "max_steps": 40,

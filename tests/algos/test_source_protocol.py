@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from point_mass_env import ENV_ID as POINT_MASS
+from small_fluids import SMALL_FLUIDS
 from supervised_gym_envs import CARTPOLE_ID, PENDULUM_ID, cartpole_expert
 
 import fluids_bench  # noqa: F401
@@ -79,14 +80,7 @@ def test_shiv_with_its_defaults_queries_fewer_states_than_dagger_on_fluids() -> 
     # FLUIDS' raw quasi-LIDAR features are metres and m/s: with sigma = 1 on them every new
     # state looked novel; with the defaults SHIV skips states like those it was trained on
     settings = {
-        "env_id": "FLUIDS-v0",
-        "env_kwargs": {
-            "action_level": "velocity",
-            "obs_type": "qlidar",
-            "lidar_rays": 16,
-            "num_cars": 2,
-            "num_pedestrians": 1,
-        },
+        **SMALL_FLUIDS,
         "iterations": 6,
         "eval_episodes": 1,
         "eval_at": (),
