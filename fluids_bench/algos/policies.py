@@ -39,7 +39,7 @@ from sklearn.kernel_ridge import KernelRidge
 from sklearn.multioutput import MultiOutputRegressor
 from sklearn.neighbors import KNeighborsClassifier, KNeighborsRegressor
 from sklearn.neural_network import MLPClassifier, MLPRegressor
-from sklearn.pipeline import Pipeline, make_pipeline
+from sklearn.pipeline import make_pipeline
 from sklearn.preprocessing import StandardScaler
 from sklearn.svm import LinearSVC, LinearSVR
 from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
@@ -144,36 +144,38 @@ class SpanLinearSVC(ClassifierMixin, BaseEstimator):
         return self.classes_[best]
 
 
-def _scaled(estimator: BaseEstimator) -> Pipeline:
-    return make_pipeline(StandardScaler(), estimator)
+def _scaled(estimator: BaseEstimator, standardize: bool) -> BaseEstimator:
+    """``estimator`` on standardised features, or on the raw ones (``PolicySpec.standardize``)."""
+    return make_pipeline(StandardScaler(), estimator) if standardize else estimator
 
 
-# name -> (classifier factory, regressor factory); factories take (params, random_state)
-Factory = Callable[[dict[str, Any], int], BaseEstimator]
+# name -> (classifier factory, regressor factory); factories take (params, random_state,
+# standardize)
+Factory = Callable[[dict[str, Any], int, bool], BaseEstimator]
 MODELS: dict[str, tuple[Factory, Factory]] = {
     "linear_svm": (
-        lambda p, rs: _scaled(LinearSVC(random_state=rs, **p)),
-        lambda p, rs: _scaled(MultiOutputRegressor(LinearSVR(random_state=rs, **p))),
+        lambda p, rs, sc: _scaled(LinearSVC(random_state=rs, **p), sc),
+        lambda p, rs, sc: _scaled(MultiOutputRegressor(LinearSVR(random_state=rs, **p)), sc),
     ),
     "linear_svm_span": (
-        lambda p, rs: SpanLinearSVC(random_state=rs, **p),
-        lambda p, rs: _scaled(MultiOutputRegressor(LinearSVR(random_state=rs, **p))),
+        lambda p, rs, sc: SpanLinearSVC(random_state=rs, **p),
+        lambda p, rs, sc: _scaled(MultiOutputRegressor(LinearSVR(random_state=rs, **p)), sc),
     ),
     "tree": (
-        lambda p, rs: DecisionTreeClassifier(random_state=rs, **p),
-        lambda p, rs: DecisionTreeRegressor(random_state=rs, **p),
+        lambda p, rs, sc: DecisionTreeClassifier(random_state=rs, **p),
+        lambda p, rs, sc: DecisionTreeRegressor(random_state=rs, **p),
     ),
     "kernel_ridge": (
-        lambda p, rs: _scaled(KernelRidgeClassifier(**p)),
-        lambda p, rs: _scaled(KernelRidge(**{"kernel": "rbf", **p})),
+        lambda p, rs, sc: _scaled(KernelRidgeClassifier(**p), sc),
+        lambda p, rs, sc: _scaled(KernelRidge(**{"kernel": "rbf", **p}), sc),
     ),
     "knn": (
-        lambda p, rs: _scaled(KNeighborsClassifier(**p)),
-        lambda p, rs: _scaled(KNeighborsRegressor(**p)),
+        lambda p, rs, sc: _scaled(KNeighborsClassifier(**p), sc),
+        lambda p, rs, sc: _scaled(KNeighborsRegressor(**p), sc),
     ),
     "mlp": (
-        lambda p, rs: _scaled(MLPClassifier(random_state=rs, **{"max_iter": 500, **p})),
-        lambda p, rs: _scaled(MLPRegressor(random_state=rs, **{"max_iter": 500, **p})),
+        lambda p, rs, sc: _scaled(MLPClassifier(random_state=rs, **{"max_iter": 500, **p}), sc),
+        lambda p, rs, sc: _scaled(MLPRegressor(random_state=rs, **{"max_iter": 500, **p}), sc),
     ),
 }
 # the constant class needs no estimator: fit_policy computes the majority / mean label itself
@@ -187,7 +189,8 @@ class PolicySpec:
     name: str = "tree"
     params: Mapping[str, Any] = field(default_factory=dict)
     # False: the families that standardise their features (linear_svm, kernel_ridge, knn, mlp)
-    # fit on the raw ones instead (where state units carry meaning, e.g. grasping's metres)
+    # fit on the raw ones instead (where state units carry meaning, e.g. grasping's metres);
+    # linear_svm_span's classifier always standardises (the problem it solves is linear_svm's)
     standardize: bool = True
 
     def __post_init__(self) -> None:
@@ -204,7 +207,7 @@ class PolicySpec:
         # fail now, not after the first rollout, if the estimator rejects a parameter
         for factory in MODELS[self.name]:
             try:
-                factory(dict(self.params), 0)
+                factory(dict(self.params), 0, self.standardize)
             except TypeError as exc:
                 raise ValueError(
                     f"PolicySpec: params {dict(self.params)} for '{self.name}': {exc}"
@@ -325,9 +328,8 @@ def fit_policy(
     params = dict(spec.params)
     if spec.name == "knn":
         params["n_neighbors"] = min(int(params.get("n_neighbors", 5)), len(X))
-    estimator = MODELS[spec.name][0 if discrete else 1](params, random_state)  # not constant
-    if not spec.standardize and isinstance(estimator, Pipeline):
-        estimator = estimator[-1]  # the estimator without its StandardScaler
+    factory = MODELS[spec.name][0 if discrete else 1]  # not constant
+    estimator = factory(params, random_state, spec.standardize)
     with warnings.catch_warnings():
         # small imitation datasets rarely let iterative solvers converge; the benchmark reports
         # what the given budget achieves instead of printing a warning per fit
