@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from fluids_bench.tasks.fluids.sim.crosswalks import crosswalk_occupied
 from fluids_bench.tasks.fluids.sim.layout.compiled import PEDESTRIAN
 
 # lengths of the explicit observation's blocks: ego, goal, each of the k nearest agents, light
@@ -337,18 +338,7 @@ def qlidar_v1_extras(
             seg_label[n_seg] = labels[0] if code == stop_code else labels[1]
             n_seg += 1
     for c in range(len(cw_a)):
-        busy = False
-        for j in range(len(state)):
-            if is_car[j] or not active[j]:
-                continue
-            rx, ry = state[j, 0] - cw_centre[c, 0], state[j, 1] - cw_centre[c, 1]
-            along = abs(rx * cw_axis[c, 0] + ry * cw_axis[c, 1])
-            across = abs(rx * cw_axis[c, 1] - ry * cw_axis[c, 0])
-            r = width[j] / 2
-            if along <= cw_half[c, 0] + r and across <= cw_half[c, 1] + r:
-                busy = True
-                break
-        if busy:
+        if crosswalk_occupied(c, state, active, is_car, width, cw_centre, cw_axis, cw_half):
             for q in range(4):
                 seg_a[n_seg], seg_e[n_seg] = cw_a[c, q], cw_e[c, q]
                 seg_angle[n_seg], seg_label[n_seg] = cw_angle[c, q], labels[2]

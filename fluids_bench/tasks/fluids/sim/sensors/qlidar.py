@@ -46,6 +46,7 @@ from dataclasses import dataclass
 import numpy as np
 import shapely
 
+from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.layout.compiled import Layout
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
@@ -143,7 +144,7 @@ def respect_geometry(layout: Layout) -> RespectGeometry:
         lights.append(light_index[lane.light])
     line_a = np.array(a).reshape(-1, 2)
     line_e = np.array(e).reshape(-1, 2)
-    ca, ce, centre, axis, half = [], [], [], [], []
+    ca, ce = [], []
     for cw in spec.crosswalks:
         p, q = np.asarray(cw.start, float), np.asarray(cw.end, float)
         u = (q - p) / np.hypot(*(q - p))
@@ -151,10 +152,8 @@ def respect_geometry(layout: Layout) -> RespectGeometry:
         corners = np.array([p - n, q - n, q + n, p + n])
         ca.append(corners)
         ce.append(np.roll(corners, -1, axis=0) - corners)
-        centre.append((p + q) / 2)
-        axis.append(u)
-        half.append([np.hypot(*(q - p)) / 2, cw.width / 2])
     cw_e = np.array(ce).reshape(-1, 4, 2)
+    rects = crosswalks_of(layout)  # the occupancy test's rectangles (one definition)
     return RespectGeometry(
         line_a,
         line_e,
@@ -163,9 +162,9 @@ def respect_geometry(layout: Layout) -> RespectGeometry:
         np.array(ca).reshape(-1, 4, 2),
         cw_e,
         _fold(cw_e.reshape(-1, 2)).reshape(-1, 4),
-        np.array(centre).reshape(-1, 2),
-        np.array(axis).reshape(-1, 2),
-        np.array(half).reshape(-1, 2),
+        rects.centre,
+        rects.axis,
+        rects.half,
     )
 
 

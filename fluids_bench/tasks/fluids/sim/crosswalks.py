@@ -1,0 +1,166 @@
+"""Crosswalks as rectangles: which ones a pedestrian is on, and where each car route meets them.
+
+One definition of "a crosswalk with a pedestrian on it" serves everything that asks: the
+velocity planner's yield rule (``yield_to_pedestrians``), the check that the ego yielded
+(:class:`~fluids_bench.tasks.fluids.sim.fault.FaultTracker`) and the quasi-LIDAR v1, which
+sees an occupied crosswalk's edges. A crosswalk is occupied when an active pedestrian's disc
+(radius: half its width) overlaps its rectangle.
+"""
+
+from __future__ import annotations
+
+import functools
+from dataclasses import dataclass
+
+import numpy as np
+from numba import njit
+
+from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, Layout
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+
+
+@dataclass(frozen=True, eq=False)
+class Crosswalks:
+    """A layout's C crosswalk rectangles and where each of its R routes meets them.
+
+    ``car_enter[r, c]``: the route arc length (m) at which a car on route ``r`` (front bumper)
+    reaches crosswalk ``c`` (where its path enters the rectangle); ``inf`` where the route does
+    not cross it, and for walks. ``walk_crosswalk[r]``, ``walk_enter[r]``: the crosswalk a walk
+    ``r`` crosses (-1 for car routes and walks that cross none) and the arc length at which its
+    path enters it, so a walker's front reaches it as its disc starts to overlap the rectangle.
+    """
+
+    centre: np.ndarray  # (C, 2)
+    axis: np.ndarray  # (C, 2) unit vector along the crosswalk (across the road)
+    half: np.ndarray  # (C, 2) half length, half width
+    car_enter: np.ndarray  # (R, C)
+    walk_crosswalk: np.ndarray  # (R,)
+    walk_enter: np.ndarray  # (R,)
+
+    @property
+    def count(self) -> int:
+        return len(self.centre)
+
+
+@functools.lru_cache(maxsize=32)
+def crosswalks_of(layout: Layout) -> Crosswalks:
+    """The crosswalk rectangles of ``layout`` (cached per compiled layout)."""
+    centre, axis, half = [], [], []
+    for cw in layout.spec.crosswalks:
+        p, q = np.asarray(cw.start, float), np.asarray(cw.end, float)
+        centre.append((p + q) / 2)
+        axis.append((q - p) / np.hypot(*(q - p)))
+        half.append([np.hypot(*(q - p)) / 2, cw.width / 2])
+    centre = np.array(centre, dtype=float).reshape(-1, 2)
+    axis = np.array(axis, dtype=float).reshape(-1, 2)
+    half = np.array(half, dtype=float).reshape(-1, 2)
+    routes = layout.routes
+    car_enter = np.full((len(routes.kind), len(centre)), np.inf)
+    walk_crosswalk = np.full(len(routes.kind), -1, dtype=np.int64)
+    walk_enter = np.full(len(routes.kind), np.inf)
+    for r in range(len(routes.kind)):
+        last = int(round(routes.length[r] / PATH_SPACING))
+        rel = routes.path[r, : last + 1, None, :] - centre[None]  # (M, C, 2)
+        along = np.abs(rel[..., 0] * axis[:, 0] + rel[..., 1] * axis[:, 1])
+        across = np.abs(rel[..., 0] * axis[:, 1] - rel[..., 1] * axis[:, 0])
+        # how far outside the rectangle each path sample is (<= 0: inside)
+        outside = np.maximum(along - half[:, 0], across - half[:, 1])
+        for c in np.flatnonzero((outside <= 0).any(axis=0)):
+            s_in = _entry_arc_length(outside[:, c])
+            if routes.kind[r] == CAR:
+                car_enter[r, c] = s_in
+            elif walk_crosswalk[r] < 0:  # a walk crosses one crosswalk
+                walk_crosswalk[r], walk_enter[r] = c, s_in
+    for arr in (centre, axis, half, car_enter, walk_crosswalk, walk_enter):
+        arr.setflags(write=False)
+    return Crosswalks(centre, axis, half, car_enter, walk_crosswalk, walk_enter)
+
+
+def _entry_arc_length(outside: np.ndarray) -> float:
+    """Arc length at which a path sampled every PATH_SPACING first enters a rectangle, its
+    samples' distances ``outside`` it (<= 0 inside) interpolated linearly between samples."""
+    first = int(np.argmax(outside <= 0))
+    if first == 0:
+        return 0.0
+    before, after = outside[first - 1], outside[first]
+    return (first - 1 + before / (before - after)) * PATH_SPACING
+
+
+@njit(cache=True)
+def crosswalk_occupied(c, state, active, is_car, width, centre, axis, half):  # pragma: no cover
+    """True when an active pedestrian's disc overlaps crosswalk ``c``'s rectangle."""
+    for j in range(len(state)):
+        if is_car[j] or not active[j]:
+            continue
+        rx, ry = state[j, 0] - centre[c, 0], state[j, 1] - centre[c, 1]
+        along = abs(rx * axis[c, 0] + ry * axis[c, 1])
+        across = abs(rx * axis[c, 1] - ry * axis[c, 0])
+        r = width[j] / 2
+        if along <= half[c, 0] + r and across <= half[c, 1] + r:
+            return True
+    return False
+
+
+@njit(cache=True)
+def occupied_crosswalks(state, active, is_car, width, centre, axis, half, out):  # pragma: no cover
+    """``out[c]`` = :func:`crosswalk_occupied` for every crosswalk; returns whether any is."""
+    anyone = False
+    for c in range(len(centre)):
+        out[c] = crosswalk_occupied(c, state, active, is_car, width, centre, axis, half)
+        anyone = anyone or out[c]
+    return anyone
+
+
+def occupied(world, cw: Crosswalks | None = None) -> np.ndarray:
+    """Which of the world's crosswalks have a pedestrian on them now (bool (C,))."""
+    cw = crosswalks_of(world.layout) if cw is None else cw
+    out = np.zeros(cw.count, dtype=np.bool_)
+    if cw.count:
+        occupied_crosswalks(
+            world.state, world.active, world.is_car, world.width, cw.centre, cw.axis, cw.half, out
+        )
+    return out
+
+
+def next_occupied_enter(world, agents: np.ndarray, occ: np.ndarray, front: np.ndarray):
+    """For each of ``agents``: the route arc length at which its front reaches the nearest
+    occupied crosswalk (``occ``) still ahead of its front, ``inf`` if none."""
+    cw = crosswalks_of(world.layout)
+    r = np.maximum(world.route[agents], 0)
+    enter = cw.car_enter[r][:, occ]  # (A, occupied)
+    at = world.route_s[agents] + front
+    enter = np.where((enter > at[:, None]) & (world.route[agents] >= 0)[:, None], enter, np.inf)
+    return enter.min(axis=1) if enter.shape[1] else np.full(len(agents), np.inf)
+
+
+@njit(cache=True)
+def record_yield_step(
+    route_s, front, route, active, is_car, car_enter, prev_at, prev_occ, failed,
+    state, width, centre, axis, half,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """One step of the yield check, in place: an active car whose front reached a crosswalk
+    on its route (``car_enter``) since the last step (``prev_at`` < enter <= now), while that
+    crosswalk was occupied at the last step (``prev_occ``), failed to yield (``failed``). Then
+    ``prev_at`` and ``prev_occ`` become this step's."""
+    for i in range(len(route_s)):
+        at = route_s[i] + front[i]
+        if is_car[i] and active[i] and route[i] >= 0:
+            for c in range(len(centre)):
+                if prev_occ[c] and prev_at[i] < car_enter[route[i], c] <= at:
+                    failed[i] = True
+        prev_at[i] = at
+    occupied_crosswalks(state, active, is_car, width, centre, axis, half, prev_occ)
+
+
+def committed_crosswalks(world, front: np.ndarray, latency: float, decel: float) -> np.ndarray:
+    """Crosswalks (bool (C,)) that an active car is about to drive onto and could no longer
+    stop for, should a pedestrian step on: its front is short of the crosswalk by less than it
+    covers in ``latency`` seconds at its speed plus its braking distance at ``decel``."""
+    cw = crosswalks_of(world.layout)
+    cars = np.flatnonzero(world.is_car & world.active & (world.route >= 0))
+    if not len(cars) or not cw.count:
+        return np.zeros(cw.count, dtype=bool)
+    gap = cw.car_enter[world.route[cars]] - (world.route_s[cars] + front[cars])[:, None]
+    v = world.state[cars, 3]
+    need = v * latency + v * v / (2 * decel)
+    return ((gap > 0) & (gap < need[:, None])).any(axis=0)
