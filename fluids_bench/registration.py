@@ -32,11 +32,20 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     ),
     # v1: background drivers are defensive toward the ego (they keep the distance to stop for
     # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal;
-    # success requires the ego not to run a red light
+    # success requires the ego not to run a red light nor drive onto an occupied crosswalk, and
+    # background cars wait for pedestrians on crosswalks
+    # The default scene is busy enough to discriminate (README, "Does the default scene
+    # discriminate?"): 8 walkers, and 60 s, which the yielding supervisor needs with them.
     "FLUIDS-v1": (
         "fluids_bench.tasks.fluids.env:FluidsEnv",
-        400,
-        {"defensive": True, "lidar_version": 1, "obey_lights": True},
+        600,
+        {
+            "num_pedestrians": 8,
+            "defensive": True,
+            "lidar_version": 1,
+            "obey_lights": True,
+            "yield_to_pedestrians": True,
+        },
     ),
     "FLUIDS-Sensitivity-v1": (
         "fluids_bench.tasks.fluids.env:FluidsEnv",
@@ -50,6 +59,7 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
             "defensive": True,
             "lidar_version": 1,
             "obey_lights": True,
+            "yield_to_pedestrians": True,
         },
     ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
@@ -76,7 +86,7 @@ PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
     "FLUIDS-MultiAgent-v1": (
         "fluids_bench.tasks.fluids.multi_agent:parallel_env",
-        {"defensive": True, "lidar_version": 1},
+        {"defensive": True, "lidar_version": 1, "yield_to_pedestrians": True},
     ),
 }
 

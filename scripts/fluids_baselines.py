@@ -14,9 +14,10 @@ each method, trains where needed and evaluates over ``--episodes`` seeded episod
   and said so, when it is not installed).
 
 Per method: success rate, episodes with a collision, collisions by fault (the ego's, a
-supervised agent's, cut-ins), red-light runs, timeouts, and mean time to goal (s) of arrived
-episodes; also episodes in which the ego entered a crosswalk with a walker on it, and
-successes without such an entry (a candidate rule, measured, not part of success). ``--env-kwargs '{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
+supervised agent's, cut-ins), red-light runs, episodes in which the ego drove onto a
+crosswalk with a pedestrian on it (``info["ego_failed_to_yield"]``; in v1 it fails the
+episode), timeouts, and mean time to goal (s) of arrived episodes. ``--env-kwargs
+'{"num_cars": 15}'`` evaluates a scene variant (rows keep it).
 Rows append to ``--out``.jsonl as each (id, method) finishes; a rerun skips them (resumable);
 the table is written atomically to ``--out``. ``--workers`` runs (id, method) jobs in parallel.
 
@@ -33,7 +34,6 @@ from concurrent.futures import ProcessPoolExecutor, as_completed
 
 import gymnasium as gym
 import numpy as np
-import shapely
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
@@ -98,29 +98,6 @@ def _train(method: str, env_id: str, kwargs: dict, demos: int, ppo_steps: int, s
     return lambda obs, info, rng: policy.act(obs)
 
 
-class CrosswalkEntries:
-    """Counts the steps in which the ego's footprint starts to overlap a crosswalk with a
-    walker on it (a candidate success rule, "yield to pedestrians", measured, not enforced)."""
-
-    def __init__(self, world) -> None:
-        self.crosswalks = list(world.layout.crosswalks)
-        self.inside = [False] * len(self.crosswalks)
-        self.entered_occupied = 0
-
-    def update(self, world) -> None:
-        if not world.active[0]:
-            return
-        ego = shapely.Polygon(world.corners(np.array([0]))[0])
-        walkers = world.state[~world.is_car & world.active, :2]
-        for c, crosswalk in enumerate(self.crosswalks):
-            inside = bool(ego.intersects(crosswalk))
-            if inside and not self.inside[c] and len(walkers):
-                self.entered_occupied += bool(
-                    shapely.contains_xy(crosswalk, walkers[:, 0], walkers[:, 1]).any()
-                )
-            self.inside[c] = inside
-
-
 def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
     env = gym.make(env_id, **kwargs)
     dt = env.unwrapped.world.dt
@@ -132,8 +109,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         "supervised_fault": 0,
         "cut_in": 0,
         "red_light_runs": 0,
-        "occupied_crosswalk_entries": 0,
-        "success_and_yielded": 0,
+        "failed_to_yield": 0,
         "timeouts": 0,
         "time_to_goal_s": [],
     }
@@ -142,11 +118,9 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         rng = np.random.default_rng(seed)
         obs, info = env.reset(seed=seed)
         hit, steps = False, 0
-        crossing = CrosswalkEntries(env.unwrapped.world)
         while True:
             obs, _, term, trunc, info = env.step(act(obs, info, rng))
             steps += 1
-            crossing.update(env.unwrapped.world)
             for c in info["collisions"]:
                 hit = True
                 if c["cut_in"]:
@@ -161,9 +135,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         out["collision_episodes"] += hit
         out["red_light_runs"] += bool(info["ego_ran_red_light"])
         out["timeouts"] += bool(trunc and not term)
-        out["occupied_crosswalk_entries"] += crossing.entered_occupied > 0
-        yielded = crossing.entered_occupied == 0
-        out["success_and_yielded"] += bool(info.get("is_success", False)) and yielded
+        out["failed_to_yield"] += bool(info["ego_failed_to_yield"])
         if info["ego_arrived"]:
             out["time_to_goal_s"].append(steps * dt)
     times = out.pop("time_to_goal_s")
@@ -245,17 +217,19 @@ def main() -> None:
         os.replace(f"{args.out}.tmp", args.out)
     print(
         "| env | method | episodes | success | collision episodes | ego at fault | "
-        "supervised at fault | cut-ins | red-light runs | timeouts | mean time to goal (s) |"
+        "supervised at fault | cut-ins | red-light runs | failed to yield | timeouts | "
+        "mean time to goal (s) |"
     )
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|")
     for r in rows:
         if "skipped" in r:
-            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} ||||||||")
+            print(f"| {r['env_id']} | {r['method']} | – | skipped: {r['skipped']} |||||||||")
             continue
         print(
             f"| {r['env_id']} | {r['method']} | {r['episodes']} | {r['success_rate']:.2f} | "
             f"{r['collision_episodes']} | {r['ego_fault']} | {r['supervised_fault']} | "
-            f"{r['cut_in']} | {r['red_light_runs']} | {r.get('timeouts', '–')} | "
+            f"{r['cut_in']} | {r['red_light_runs']} | {r.get('failed_to_yield', '–')} | "
+            f"{r.get('timeouts', '–')} | "
             f"{r['mean_time_to_goal_s']} |"
         )
 

@@ -116,8 +116,12 @@ class FluidsEnv(gym.Env):
     * ``is_success`` (on the terminating step): the cars the episode is about reached their goals
       and none of them was ever in a collision: the ego with ``done_when="ego"`` (collisions
       between other agents do not count), every car with ``done_when="all"``; with
-      ``obey_lights``, the ego also never entered its junction against a red light.
+      ``obey_lights``, the ego also never entered its junction against a red light; with
+      ``yield_to_pedestrians``, it also never drove onto a crosswalk with a pedestrian on it.
     * ``ego_ran_red_light``: the ego entered its junction against a red light.
+    * ``ego_failed_to_yield``: the ego's front reached a crosswalk on its route while a
+      pedestrian was on that crosswalk (one step earlier); see
+      :mod:`fluids_bench.tasks.fluids.sim.crosswalks`.
     * ``ego_arrived``: the ego reached its goal. ``route``: the ego's route's name. ``lights``:
       every light's state.
 
@@ -162,13 +166,19 @@ class FluidsEnv(gym.Env):
     * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
     * ``obey_lights``: success also requires that the ego never entered its junction against
       a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
+    * ``yield_to_pedestrians``: a pedestrian on a crosswalk has the right of way: supervised
+      cars wait before a crosswalk with a pedestrian on it (unless they can no longer stop),
+      and success also requires that the ego never drove onto one
+      (``info["ego_failed_to_yield"]``; default False, True in the v1 ids).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
-    * v1: ``defensive=True``, ``lidar_version=1`` and ``obey_lights=True`` by default (``FLUIDS-v1``,
-      ``FLUIDS-Sensitivity-v1``); collisions carry fault labels (in every version).
+    * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
+      ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
+      collisions carry fault labels (in every version). ``yield_to_pedestrians`` joined v1
+      before its issue (#14) closed, so no v1 results were published without it.
     * v0: initial release.
     """
 
@@ -206,6 +216,7 @@ class FluidsEnv(gym.Env):
         defensive: bool = False,
         lidar_version: int = 0,
         obey_lights: bool = False,
+        yield_to_pedestrians: bool = False,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -219,6 +230,9 @@ class FluidsEnv(gym.Env):
         self.done_when = check_choice("FluidsEnv", "done_when", done_when, DONE_WHEN)
         self.defensive = check_bool("FluidsEnv", "defensive", defensive)
         self.obey_lights = check_bool("FluidsEnv", "obey_lights", obey_lights)
+        self.yield_to_pedestrians = check_bool(
+            "FluidsEnv", "yield_to_pedestrians", yield_to_pedestrians
+        )
         scenario = build_scenario(
             "FluidsEnv",
             controlled_cars=None,
@@ -249,6 +263,7 @@ class FluidsEnv(gym.Env):
             trajectory_planner=trajectory_planner,
             dt=dt,
             defensive=self.defensive,
+            yield_to_pedestrians=self.yield_to_pedestrians,
         )
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor
@@ -309,9 +324,11 @@ class FluidsEnv(gym.Env):
         info = self._info(events)
         if terminated:
             cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
-            # with obey_lights, running a red light fails the episode too
+            # with obey_lights, running a red light fails the episode too; with
+            # yield_to_pedestrians, driving onto an occupied crosswalk
             ran_red = self.obey_lights and bool(self.faults.ran_red[0])
-            info["is_success"] = is_success(w, cars) and not ran_red
+            no_yield = self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
+            info["is_success"] = is_success(w, cars) and not ran_red and not no_yield
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info
@@ -360,4 +377,5 @@ class FluidsEnv(gym.Env):
             "route": w.layout.routes.names[w.route[0]],
             "lights": w.lights.describe_states(w.light_state),
             "ego_ran_red_light": bool(self.faults.ran_red[0]),
+            "ego_failed_to_yield": bool(self.faults.failed_to_yield[0]),
         }

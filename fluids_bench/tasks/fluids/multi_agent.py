@@ -181,12 +181,16 @@ class FluidsParallelEnv(ParallelEnv):
     * ``defensive``: background agents treat every controlled car (the agents) as one that may
       brake at its limit at any time and keep the distance to stop for it (default False;
       True in ``FLUIDS-MultiAgent-v1``); see ``FLUIDS-v1``.
+    * ``yield_to_pedestrians``: background cars wait before a crosswalk with a pedestrian on it
+      (default False; True in ``FLUIDS-MultiAgent-v1``); the agents' success does not depend
+      on it.
     * ``black_death``: keep finished agents in the episode (see Episode End; default False).
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
     ## Version History
-    * v1: defensive background drivers by default; fault labels in ``collisions``.
+    * v1: defensive, pedestrian-yielding background drivers by default; fault labels in
+      ``collisions``.
     * v0: initial release.
     """
 
@@ -228,6 +232,7 @@ class FluidsParallelEnv(ParallelEnv):
         lidar_dropout: float = 0.0,
         lidar_version: int = 0,
         defensive: bool = False,
+        yield_to_pedestrians: bool = False,
         black_death: bool = False,
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
@@ -237,6 +242,7 @@ class FluidsParallelEnv(ParallelEnv):
             )
         max_cycles = check_int(WHERE, "max_cycles", max_cycles, 1, 10**9)
         self.defensive = check_bool(WHERE, "defensive", defensive)
+        self.yield_to_pedestrians = check_bool(WHERE, "yield_to_pedestrians", yield_to_pedestrians)
         self.black_death = check_bool(WHERE, "black_death", black_death)
         scenario = build_scenario(
             WHERE,
@@ -268,6 +274,7 @@ class FluidsParallelEnv(ParallelEnv):
             trajectory_planner=trajectory_planner,
             dt=dt,
             defensive=self.defensive,
+            yield_to_pedestrians=self.yield_to_pedestrians,
         )
         controlled_cars = int(controlled_cars)
         self.scene = scenario.scene

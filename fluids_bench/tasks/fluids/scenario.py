@@ -83,13 +83,16 @@ def build_scenario(
     trajectory_planner: Any,
     dt: Any,
     defensive: bool = False,
+    yield_to_pedestrians: bool = False,
 ) -> Scenario:
     """Check the env's arguments (``where`` names the env in errors) and build its scenario.
 
     ``controlled_cars=None`` is ``FLUIDS-v0``: one ego car, not a user argument. numpy scalars
     are accepted like the Python numbers they hold. ``defensive``: the supervised agents treat
     the controlled cars (agents ``0 .. controlled - 1``) as drivers that may brake at their limit
-    at any time (see :class:`~fluids_bench.tasks.fluids.supervisor.stack.SupervisorConfig`)."""
+    at any time (see :class:`~fluids_bench.tasks.fluids.supervisor.stack.SupervisorConfig`).
+    ``yield_to_pedestrians``: supervised cars wait before a crosswalk with a pedestrian on it
+    (:meth:`~fluids_bench.tasks.fluids.supervisor.velocity.VelocityPlanner.domains`)."""
     check_choice(where, "action_level", action_level, LEVELS)
     check_choice(where, "layout", layout, LAYOUTS)
     check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
@@ -133,7 +136,9 @@ def build_scenario(
         pedestrian=PedestrianConfig(),
     )
     supervisor = SupervisorConfig(
-        velocity=VelocityPlannerConfig(period=planner_period),
+        velocity=VelocityPlannerConfig(
+            period=planner_period, yield_to_pedestrians=yield_to_pedestrians
+        ),
         pid=PIDConfig(assumed_mass=ASSUMED_MASS),
         waypoints=waypoints,
         waypoint_spacing=waypoint_spacing,

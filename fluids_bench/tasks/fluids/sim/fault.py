@@ -21,12 +21,17 @@ seconds of states) and labels each collision. The rules, first match wins:
 7. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
    car not yet in the junction counts as entering now). Same step: both.
 8. ``shared``: otherwise both.
+
+It also records, per car, whether it ever drove onto a crosswalk with a pedestrian on it
+(``failed_to_yield``: its front reached a crosswalk on its route while that crosswalk was
+occupied one step earlier; occupancy as defined in :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
 """
 
 from __future__ import annotations
 
 import numpy as np
 
+from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of, record_yield_step
 from fluids_bench.tasks.fluids.sim.kernels import record_fault_step
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import STOP
@@ -50,6 +55,12 @@ class FaultTracker:
         n = world.n
         self.entry_step = np.full(n, -1, dtype=np.int64)  # step the agent entered its zone
         self.ran_red = np.zeros(n, dtype=bool)
+        # a car that drove onto a crosswalk with a pedestrian on it (see crosswalks.py)
+        self.failed_to_yield = np.zeros(n, dtype=bool)
+        self._crosswalks = crosswalks_of(world.layout)
+        self._yield_check = self._crosswalks.count > 0 and not world.is_car.all()
+        self._prev_at = np.full(n, np.inf)  # route_s + front at the last step (inf: none yet)
+        self._prev_occupied = np.zeros(self._crosswalks.count, dtype=bool)
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._route_key = b""  # world.route's bytes when _enter was computed
         self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
@@ -74,12 +85,20 @@ class FaultTracker:
             enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
             self._enter = enter
             self._light_of = np.where(w.route >= 0, w.layout.routes.light[r], -1).astype(np.int64)
+            self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
         record_fault_step(
             w.route_s, self._front, self._enter, self._light_of, self._prev_lights,
             np.asarray(w.light_state), STOP, self.entry_step, self.ran_red, w.steps,
             w.state, self._ring, self._recorded % HISTORY,
         )  # fmt: skip
         self._recorded += 1
+        if self._yield_check:
+            cw = self._crosswalks
+            record_yield_step(
+                w.route_s, self._front, w.route, w.active, w.is_car, cw.car_enter,
+                self._prev_at, self._prev_occupied, self.failed_to_yield,
+                w.state, w.width, cw.centre, cw.axis, cw.half,
+            )  # fmt: skip
 
     def _history(self) -> list[np.ndarray]:
         """The kept states, oldest first (at most :data:`HISTORY`)."""

@@ -35,7 +35,14 @@ from dataclasses import dataclass
 import numpy as np
 from constraint import FunctionConstraint, OptimizedBacktrackingSolver, Problem
 
+from fluids_bench.core.validation import check_bool
 from fluids_bench.tasks.fluids.sim.config import check_range
+from fluids_bench.tasks.fluids.sim.crosswalks import (
+    committed_crosswalks,
+    crosswalks_of,
+    next_occupied_enter,
+    occupied,
+)
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
@@ -58,6 +65,8 @@ class VelocityPlannerConfig:
     max_accel: float = 2.5  # m/s² the controller asks for at most
     max_decel: float = 5.0  # m/s² the controller brakes at most
     period: int = 5  # plan every this many steps (0.5 s at dt = 0.1); hold the plan in between
+    # cars wait before a crosswalk with a pedestrian on it (off: they creep past walkers)
+    yield_to_pedestrians: bool = False
 
     def __post_init__(self) -> None:
         check_range("VelocityPlannerConfig", "horizon", self.horizon, 0.5, 20.0)
@@ -70,6 +79,7 @@ class VelocityPlannerConfig:
         check_range("VelocityPlannerConfig", "max_accel", self.max_accel, 0.1, 50.0)
         check_range("VelocityPlannerConfig", "max_decel", self.max_decel, 0.1, 50.0)
         check_range("VelocityPlannerConfig", "period", self.period, 1, 50, integer=True)
+        check_bool("VelocityPlannerConfig", "yield_to_pedestrians", self.yield_to_pedestrians)
         fr = self.fractions
         if not fr or fr[0] != 0.0 or list(fr) != sorted(set(fr)) or fr[-1] > 1.0:
             raise ValueError(
@@ -102,6 +112,14 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     offs = np.where(world.is_car[:, None], offs, 0.0)
     radius = np.where(world.is_car, np.hypot(world.length / 6, world.width / 2), world.width / 2)
     return offs, radius
+
+
+def _hold_before(stop: np.ndarray, reach: np.ndarray) -> np.ndarray:
+    """allowed[a, k]: False where candidate k takes agent a past its stop arc length ``stop``
+    (``inf``: none) within the horizon (``reach``, (A, K)), unless even braking (k = 0) does."""
+    blocked = reach > stop[:, None]
+    can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
+    return ~(blocked & can_stop[:, None])
 
 
 class VelocityPlanner:
@@ -150,20 +168,52 @@ class VelocityPlanner:
 
     # ------------------------------------------------------------------ constraints
     def domains(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
-        """Unary constraints: allowed[a, k] is False where candidate k runs a stop light.
+        """Unary constraints: allowed[a, k] is False where candidate k runs a stop light (or,
+        with ``yield_to_pedestrians``, drives onto a crosswalk with a pedestrian on it).
 
         Stop (red, or "don't walk"): the agent's front may not pass its stop line within the
         horizon. Yellow: the same, unless it is too close to stop comfortably. An agent already
-        committed past the line (or unable to stop before it) is not held back.
+        committed past the line (or unable to stop before it) is not held back. An occupied
+        crosswalk ahead is a stop line at its near edge for the cars whose route crosses it,
+        with the same exceptions.
         """
-        routes = world.layout.routes
         allowed = np.ones(s_proj.shape[:2], dtype=bool)
+        front = self._front[agents]
+        reach = s_proj[:, :, -1] + (world.offset[agents] + front)[:, None]  # route arc length
+        stop = self._light_stops(world, agents, front)
+        if stop is not None:
+            allowed &= _hold_before(stop, reach)
+        if self.config.yield_to_pedestrians and self._crosswalks.count:
+            occ = occupied(world, self._crosswalks)
+            if occ.any():
+                allowed &= _hold_before(next_occupied_enter(world, agents, occ, front), reach)
+            allowed &= _hold_before(self._kerb_stops(world, agents), reach)
+        return allowed
+
+    def _kerb_stops(self, world: World, agents: np.ndarray) -> np.ndarray:
+        """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
+        while a car is too close to that crosswalk to stop for them, so a car that yields is
+        never cut off by a walker stepping out in front of it: the car may cover two planning
+        periods before it replans and then brakes comfortably (60% of ``max_decel``)."""
+        cfg, cw = self.config, self._crosswalks
+        walk_cw = cw.walk_crosswalk[world.route[agents]]
+        kerb = cw.walk_enter[world.route[agents]]
+        waiting = (walk_cw >= 0) & (world.route_s[agents] + self._front[agents] < kerb)
+        if not waiting.any():
+            return np.full(len(agents), np.inf)
+        latency = 2 * cfg.period * world.dt
+        busy = committed_crosswalks(world, self._front, latency, 0.6 * cfg.max_decel)
+        return np.where(waiting & busy[np.maximum(walk_cw, 0)], kerb, np.inf)
+
+    def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
+        """Each agent's stop line where its light holds it (red; yellow if it can still brake
+        comfortably), ``inf`` where none does; None when no light holds anyone."""
+        routes = world.layout.routes
         r = world.route[agents]
         light = routes.light[r]
         if not len(world.light_state) or (light < 0).all():
-            return allowed
+            return None
         stop_s = routes.stop_s[r]
-        front = self._front[agents]
         gap = stop_s - (world.route_s[agents] + front)
         state = world.light_state[np.maximum(light, 0)]
         v = world.state[agents, 3]
@@ -172,11 +222,8 @@ class VelocityPlanner:
             (light >= 0) & (gap > -0.5) & ((state == STOP) | ((state == CAUTION) & (brake < gap)))
         )
         if not holds.any():
-            return allowed
-        crosses = (s_proj[:, :, -1] + (world.offset[agents] + front)[:, None]) > stop_s[:, None]
-        blocked = holds[:, None] & crosses
-        can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
-        return allowed & ~(blocked & can_stop[:, None])
+            return None
+        return np.where(holds, stop_s, np.inf)
 
     def conflicts(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray
@@ -347,6 +394,7 @@ class VelocityPlanner:
         bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
         self._reach = bound + self.config.margin / 2  # bounding circle plus half the clearance
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._crosswalks = crosswalks_of(world.layout)
         self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
         steps = int(round(self.config.horizon / world.dt))
         self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
