@@ -11,7 +11,8 @@ collisions by who was at fault (``info["collisions"][i]["at_fault"]``, see
 * ``random``: a uniform target speed in [0, v_max] every step;
 * ``noisy``: the supervisor's label plus N(0, 2²) m/s noise, clipped.
 
-``--defensive`` compares both planners (v0's: off; v1's: on). An episode runs until the ego
+``--defensive`` compares both planners (v0's: off; v1's: on); ``--yield-to-pedestrians`` makes
+the defensive arm v1's whole planner (cars also wait for walkers on crosswalks). An episode runs until the ego
 arrives or collides, or 400 steps; scene (c cars, p pedestrians) uses seeds 1000c + 100p + i. Rows append to ``--out``.jsonl as they finish and a rerun
 skips them (resumable); the summary is written atomically to ``--out``.
 
@@ -51,7 +52,9 @@ def _ego_action(policy: str, info: dict, rng: np.random.Generator, step: int, st
     return np.clip(label + rng.normal(0.0, 2.0, 1), 0.0, vmax).astype(np.float32)
 
 
-def run_episode(layout: str, cars: int, peds: int, policy: str, defensive: bool, seed: int):
+def run_episode(
+    layout: str, cars: int, peds: int, policy: str, defensive: bool, yields: bool, seed: int
+):
     env = gym.make(
         "FLUIDS-v0",
         layout=layout,
@@ -59,6 +62,7 @@ def run_episode(layout: str, cars: int, peds: int, policy: str, defensive: bool,
         num_pedestrians=peds,
         action_level="velocity",
         defensive=defensive,
+        yield_to_pedestrians=yields,
     )
     rng = np.random.default_rng([seed, POLICIES.index(policy)])
     stop_at = int(rng.integers(0, 100))
@@ -84,12 +88,15 @@ def run_episode(layout: str, cars: int, peds: int, policy: str, defensive: bool,
 
 
 def scene_row(job: tuple) -> dict:
-    layout, cars, peds, policy, defensive, episodes = job
+    layout, cars, peds, policy, defensive, episodes, yields = job
     t0 = time.process_time()
     # distinct seeds per scene (a scene's first seed is 1000 · cars + 100 · pedestrians), so
     # scenes that differ only in walkers do not replay the same cars
     base = 1000 * cars + 100 * peds
-    rows = [run_episode(layout, cars, peds, policy, defensive, base + s) for s in range(episodes)]
+    rows = [
+        run_episode(layout, cars, peds, policy, defensive, yields, base + s)
+        for s in range(episodes)
+    ]
     return {
         "layout": layout,
         "cars": cars,
@@ -97,6 +104,7 @@ def scene_row(job: tuple) -> dict:
         "policy": policy,
         "defensive": defensive,
         "episodes": episodes,
+        "yield_to_pedestrians": yields,
         "supervised_fault": sum(r["supervised"] for r in rows),
         "cut_in": sum(r["cut_in"] for r in rows),
         "ego_fault": sum(r["ego"] for r in rows),
@@ -107,14 +115,14 @@ def scene_row(job: tuple) -> dict:
 
 
 def _key(job) -> tuple:
-    """A job's identity: (layout, cars, pedestrians, policy, defensive, episodes)."""
-    return tuple(job[:6])
+    """A job's identity: (layout, cars, pedestrians, policy, defensive, episodes, yields)."""
+    return tuple(job)
 
 
 def _row_key(row: dict) -> tuple:
     """The identity of a finished row of the log, as :func:`_key` of its job."""
     fields = ("layout", "cars", "pedestrians", "policy", "defensive", "episodes")
-    return tuple(row[f] for f in fields)
+    return (*(row[f] for f in fields), row.get("yield_to_pedestrians", False))
 
 
 def main() -> None:
@@ -125,12 +133,17 @@ def main() -> None:
     parser.add_argument("--policies", nargs="+", default=list(POLICIES), choices=POLICIES)
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--defensive", choices=["on", "off", "both"], default="both")
+    parser.add_argument(
+        "--yield-to-pedestrians",
+        action="store_true",
+        help="the defensive arm also yields to walkers on crosswalks (v1's planner)",
+    )
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--out", default=None, help="JSON summary (rows also in OUT.jsonl)")
     args = parser.parse_args()
     modes = {"on": [True], "off": [False], "both": [False, True]}[args.defensive]
     jobs = [
-        (layout, c, p, pol, d, args.episodes)
+        (layout, c, p, pol, d, args.episodes, d and args.yield_to_pedestrians)
         for layout in args.layouts
         for pol in args.policies
         for d in modes
@@ -151,7 +164,10 @@ def main() -> None:
     rows = [done[_key(j)] for j in jobs]
     summary = {}
     for r in rows:
-        k = f"{r['layout']}/{r['policy']}/{'defensive' if r['defensive'] else 'v0'}"
+        mode = "v0"
+        if r["defensive"]:
+            mode = "v1" if r.get("yield_to_pedestrians") else "defensive"
+        k = f"{r['layout']}/{r['policy']}/{mode}"
         s = summary.setdefault(
             k,
             {

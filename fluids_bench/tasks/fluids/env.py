@@ -97,8 +97,8 @@ class FluidsEnv(gym.Env):
     ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
     (with a car, a pedestrian, or leaving the road). ``done_when="all"`` (the sensitivity
     analysis' criterion): terminated when every car has arrived or on any collision (after the
-    ego arrives, actions are ignored and rewards are 0). Truncated by ``TimeLimit`` (400 steps =
-    40 s by default).
+    ego arrives, actions are ignored and rewards are 0). Truncated by ``TimeLimit`` (``FLUIDS-v0``: 400 steps =
+    40 s; ``FLUIDS-v1``: 600; the sensitivity ids: 600).
 
     ## Info
     Field meanings are shared with the multi-agent env (see
@@ -177,7 +177,9 @@ class FluidsEnv(gym.Env):
     ## Version History
     * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
       ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
-      collisions carry fault labels (in every version). ``yield_to_pedestrians`` joined v1
+      ``FLUIDS-v1`` also runs 8 pedestrians and 600 steps (60 s), the busier scene that
+      separates a random policy from the supervisor (README); collisions carry fault labels
+      (in every version). ``yield_to_pedestrians`` joined v1
       before its issue (#14) closed, so no v1 results were published without it.
     * v0: initial release.
     """
