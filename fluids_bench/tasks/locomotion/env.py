@@ -153,7 +153,7 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
     def _label(self, obs: np.ndarray | None) -> np.ndarray:
         # both kinds stay inside the bounds (tanh squashing; the planner clips its controls to
         # the actuator ranges, which are the action space's), so no clip is needed here
-        return self._supervisor.label(self._sim, obs).astype(self.action_space.dtype)
+        return self._supervisor.label(self._sim, obs).astype(self.action_space.dtype, copy=False)
 
     # -- Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):

@@ -7,6 +7,14 @@ File format (``numpy.savez``): ``obs_mean`` and ``obs_std`` (the observation nor
 policy was trained with), then ``W0, b0, W1, b1, ...`` (layer ``i`` maps its input ``x`` to
 ``W_i @ x + b_i``; hidden layers use tanh). The output layer is squashed by tanh and scaled to the
 action bounds, so the policy is never a linear function of the observation.
+
+Two evaluations of the same network: ``policy(obs)`` is the float64 numpy forward pass the
+training script rolls out (so a recorded training run reproduces the shipped file bit for bit),
+batched over leading axes; ``policy.act32(obs)`` is the supervisor's label, one observation at
+a time, a compiled loop (numba, no fused multiply-add) with the result rounded to float32, the
+envs' action dtype. The two differ only in float64 rounding (numpy's matrix product sums in
+BLAS's order): after rounding to float32 they agree on essentially every state (tested), and
+the label costs under a microsecond instead of the numpy pass's several numpy calls.
 """
 
 from __future__ import annotations
@@ -15,7 +23,10 @@ import hashlib
 import io
 from pathlib import Path
 
+import math
+
 import numpy as np
+from numba import njit
 
 
 def sha256_of(path: str | Path) -> str:
@@ -58,6 +69,12 @@ class MLPPolicy:
         self._hidden = list(zip(self.weights[:-1], self.biases[:-1], strict=True))
         self._w_out, self._b_out = self.weights[-1], self.biases[-1]
         self._range = self.action_high - self.action_low
+        # the compiled label's parameters, flat: mean, std, (W_i row-major, b_i)..., low, range
+        flat = [self.obs_mean, self.obs_std]
+        for w, b in zip(self.weights, self.biases, strict=True):
+            flat += [w.ravel(), b]
+        self._flat = np.ascontiguousarray(np.concatenate([*flat, self.action_low, self._range]))
+        self._sizes = np.array([self.obs_mean.shape[0], *(w.shape[0] for w in self.weights)])
         if dim != self.action_low.shape[0]:
             raise ValueError(
                 f"MLPPolicy: output width {dim}; allowed: the action dimension "
@@ -79,6 +96,10 @@ class MLPPolicy:
         """The deterministic action for ``obs`` (shape ``(obs_dim,)`` or ``(n, obs_dim)``)."""
         # the arithmetic (and so every bit of the result) is the training script's
         return self.action_low + (np.tanh(self.preactivation(obs)) + 1.0) * 0.5 * self._range
+
+    def act32(self, obs: np.ndarray) -> np.ndarray:
+        """The supervisor's label for one observation (obs_dim,): float32, compiled."""
+        return _forward32(obs, self._flat, self._sizes)
 
     def to_bytes(self) -> bytes:
         """The ``.npz`` bytes of this policy (the shipped file format)."""
@@ -116,3 +137,34 @@ class MLPPolicy:
                 f"allowed: the recorded {sha256}"
             )
         return cls.from_bytes(data)
+
+
+@njit(cache=True)
+def _forward32(obs, flat, sizes):  # pragma: no cover (compiled)
+    """:meth:`MLPPolicy.__call__`'s arithmetic for one observation, in plain loops; the result
+    rounded to float32. ``flat``/``sizes``: see ``MLPPolicy.__init__``."""
+    d0 = sizes[0]
+    x = np.empty(d0)
+    for i in range(d0):
+        x[i] = (obs[i] - flat[i]) / flat[d0 + i]
+    p = 2 * d0
+    layers = len(sizes) - 1
+    for k in range(layers):
+        n_in, n_out = sizes[k], sizes[k + 1]
+        bias = p + n_in * n_out
+        z = np.empty(n_out)
+        for j in range(n_out):
+            acc = 0.0
+            row = p + j * n_in
+            for i in range(n_in):
+                acc += flat[row + i] * x[i]
+            z[j] = acc + flat[bias + j]
+            if k < layers - 1:
+                z[j] = math.tanh(z[j])
+        p = bias + n_out
+        x = z
+    n = sizes[layers]
+    out = np.empty(n, np.float32)
+    for j in range(n):
+        out[j] = flat[p + j] + (math.tanh(x[j]) + 1.0) * 0.5 * flat[p + n + j]
+    return out

@@ -25,6 +25,7 @@ from fluids_bench.tasks.locomotion.dataset import export_supervisor_dataset
 from fluids_bench.tasks.locomotion.env import DEFAULT_SUPERVISOR
 from fluids_bench.tasks.locomotion.mpc import MPCConfig, SamplingMPC
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
+from fluids_bench.tasks.locomotion.supervisors import load_policy, manifest
 
 IDS = ["Hopper-IL-v0", "Walker2d-IL-v0", "HalfCheetah-IL-v0", "Humanoid-IL-v0"]
 SMALL = {"mpc": {"samples": 6, "horizon": 4}}  # a cheap planner: plumbing tests only
@@ -191,6 +192,40 @@ def test_policy_is_not_linear_in_the_observation(tmp_path):
     coef, *_ = np.linalg.lstsq(design, labels, rcond=None)
     assert np.mean((design @ coef - labels) ** 2) > 1e-3
     assert np.allclose(policy(obs)[7], policy(obs[7]))  # batched == one at a time
+
+
+@pytest.mark.parametrize("hidden", [0, 1, 2])
+def test_compiled_label_is_the_numpy_forward_pass_in_float32(hidden):
+    """``act32`` (the label) and ``__call__`` (training's forward pass) differ only in float64
+    rounding: in float32 they agree on (almost) every state, within one float32 step."""
+    rng = np.random.default_rng(hidden)
+    dims = [11, *[16] * hidden, 3]
+    policy = MLPPolicy(
+        rng.normal(0, 1, 11),
+        rng.uniform(0.5, 2, 11),
+        [rng.normal(0, 0.5, (o, i)) for i, o in zip(dims[:-1], dims[1:], strict=True)],
+        [rng.normal(0, 0.5, o) for o in dims[1:]],
+        -np.ones(3),
+        np.ones(3),
+    )
+    obs = rng.normal(0, 3, (2000, 11))
+    ref = policy(obs).astype(np.float32)
+    got = np.stack([policy.act32(o) for o in obs])
+    assert got.dtype == np.float32
+    assert np.mean(got == ref) > 0.999
+    assert np.max(np.abs(got - ref)) <= np.spacing(np.float32(1.0))
+    for task in manifest():  # the shipped policies, on states of their own rollouts
+        shipped, _ = load_policy(task)
+        env = gym.make(f"{task}-IL-v0", supervisor="policy")
+        o, info = env.reset(seed=0)
+        states = []
+        for _ in range(200):
+            states.append(o)
+            o, _, _, _, info = env.step(info["supervisor_action"])
+        states = np.array(states)
+        assert np.array_equal(
+            np.stack([shipped.act32(x) for x in states]), shipped(states).astype(np.float32)
+        ), task
 
 
 def test_guided_mpc_starts_from_the_policy_plan(tmp_path):
