@@ -21,9 +21,8 @@ from __future__ import annotations
 
 import hashlib
 import io
-from pathlib import Path
-
 import math
+from pathlib import Path
 
 import numpy as np
 from numba import njit
