@@ -105,23 +105,30 @@ def test_a_walker_waits_at_the_kerb_for_a_car_too_close_to_stop():
     assert not tracker.failed_to_yield[0] and not w.collided.any()
 
 
-def test_failed_to_yield_flags_a_car_driving_onto_an_occupied_crosswalk():
-    for walker_on in (True, False):
-        w = _world()
-        route = w.layout.routes.names.index(CAR_ROUTE)
-        c, enter, walk = _entry_crossing(w, route)
-        w.place(0, route, enter - 6.0, speed=6.0)
-        # the walker stands at the far end of the crosswalk, out of the car's lane
-        cw = crosswalks_of(w.layout)
-        far = float(cw.walk_enter[walk]) + 2 * cw.half[c, 0] - 0.6
-        w.place(1, walk, far if walker_on else 0.0)
-        tracker = FaultTracker(w)
-        for _ in range(15):  # coasting at 6 m/s: the front passes the crosswalk's edge
-            w.step(np.zeros((w.n, 2)))
-            tracker.update()
-        assert w.route_s[0] + w.length[0] / 2 > enter
-        assert bool(occupied(w)[c]) is walker_on
-        assert bool(tracker.failed_to_yield[0]) is walker_on
+@pytest.mark.parametrize(
+    "walker_on, gap, flagged",
+    [
+        (True, 20.0, True),  # on the crosswalk while the car could still stop: must yield
+        (False, 20.0, False),  # nobody on it
+        (True, 6.0, False),  # out in front of a car already committed (6 m at 6 m/s)
+    ],
+)
+def test_failed_to_yield_flags_a_car_that_could_have_stopped(walker_on, gap, flagged):
+    w = _world()
+    route = w.layout.routes.names.index(CAR_ROUTE)
+    c, enter, walk = _entry_crossing(w, route)
+    w.place(0, route, enter - w.length[0] / 2 - gap, speed=6.0)
+    # the walker stands at the far end of the crosswalk, out of the car's lane
+    cw = crosswalks_of(w.layout)
+    far = float(cw.walk_enter[walk]) + 2 * cw.half[c, 0] - 0.6
+    w.place(1, walk, far if walker_on else 0.0)
+    tracker = FaultTracker(w)
+    for _ in range(45):  # coasting at 6 m/s: the front passes the crosswalk's edge
+        w.step(np.zeros((w.n, 2)))
+        tracker.update()
+    assert w.route_s[0] + w.length[0] / 2 > enter
+    assert bool(occupied(w)[c]) is walker_on
+    assert bool(tracker.failed_to_yield[0]) is flagged
 
 
 @pytest.mark.parametrize("rule", [False, True])
@@ -144,7 +151,7 @@ def test_driving_onto_an_occupied_crosswalk_fails_the_episode_only_with_the_rule
     walks = np.flatnonzero(cw.walk_crosswalk == c)
     starts = [routes.path[r, int(cw.walk_enter[r] / 0.5) + 1] for r in walks]
     walk = int(walks[np.argmax([np.hypot(*(p - lane)) for p in starts])])
-    w.place(0, route, enter - 6.0, speed=6.0)
+    w.place(0, route, enter - 20.0, speed=6.0)  # room to stop
     w.place(1, walk, float(cw.walk_enter[walk]) + 0.5)
     env.unwrapped.faults = FaultTracker(w)  # the tracker follows the placed agents
     for _ in range(400):

@@ -18,6 +18,14 @@ from numba import njit
 from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, Layout
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 
+# A car is committed to a crosswalk (too close to stop for a walker who steps on now) when it
+# is nearer than it covers in COMMIT_LATENCY s (two planning periods of the supervisor: it sees
+# the walker at its next plan and the plan holds one period) plus braking at COMMIT_DECEL m/s²
+# (60% of the planner's 5 m/s²). Walkers do not step out in front of a committed car, and a car
+# is not blamed for driving onto a crosswalk that a walker stepped onto once it was committed.
+COMMIT_LATENCY = 1.0
+COMMIT_DECEL = 3.0
+
 
 @dataclass(frozen=True, eq=False)
 class Crosswalks:
@@ -135,32 +143,51 @@ def next_occupied_enter(world, agents: np.ndarray, occ: np.ndarray, front: np.nd
 
 @njit(cache=True)
 def record_yield_step(
-    route_s, front, route, active, is_car, car_enter, prev_at, prev_occ, failed,
+    route_s, front, route, active, is_car, car_enter, prev_at, prev_occ, warned, failed,
     state, width, centre, axis, half,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """One step of the yield check, in place: an active car whose front reached a crosswalk
-    on its route (``car_enter``) since the last step (``prev_at`` < enter <= now), while that
-    crosswalk was occupied at the last step (``prev_occ``), failed to yield (``failed``). Then
-    ``prev_at`` and ``prev_occ`` become this step's."""
+    """One step of the yield check, in place. An active car whose front reached a crosswalk on
+    its route (``car_enter``) since the last step (``prev_at`` < enter <= now) while that
+    crosswalk was occupied (``prev_occ``, the last step's) failed to yield (``failed``) if it
+    was ``warned``: the crosswalk has been occupied since a step at which the car was not yet
+    committed to it (:func:`committed`), so it could have stopped. A walker who steps out in
+    front of a car that can no longer stop is the walker's doing. Then ``prev_at``,
+    ``prev_occ`` and ``warned`` become this step's."""
+    n_cw = len(centre)
     for i in range(len(route_s)):
         at = route_s[i] + front[i]
         if is_car[i] and active[i] and route[i] >= 0:
-            for c in range(len(centre)):
-                if prev_occ[c] and prev_at[i] < car_enter[route[i], c] <= at:
+            for c in range(n_cw):
+                enter = car_enter[route[i], c]
+                if prev_occ[c] and warned[i, c] and prev_at[i] < enter <= at:
                     failed[i] = True
         prev_at[i] = at
     occupied_crosswalks(state, active, is_car, width, centre, axis, half, prev_occ)
+    for i in range(len(route_s)):
+        if not (is_car[i] and active[i] and route[i] >= 0):
+            continue
+        for c in range(n_cw):
+            if not prev_occ[c]:
+                warned[i, c] = False
+            elif car_enter[route[i], c] - prev_at[i] >= stopping_reach(state[i, 3]):
+                warned[i, c] = True
 
 
-def committed_crosswalks(world, front: np.ndarray, latency: float, decel: float) -> np.ndarray:
-    """Crosswalks (bool (C,)) that an active car is about to drive onto and could no longer
-    stop for, should a pedestrian step on: its front is short of the crosswalk by less than it
-    covers in ``latency`` seconds at its speed plus its braking distance at ``decel``."""
+@njit(cache=True)
+def stopping_reach(v):  # pragma: no cover (compiled)
+    """How far short of a crosswalk a car at ``v`` m/s must be to stop for a walker who steps
+    on now: what it covers in :data:`COMMIT_LATENCY` plus braking at :data:`COMMIT_DECEL`.
+    Closer than that (and not past it) the car is *committed* to the crosswalk."""
+    return v * COMMIT_LATENCY + v * v / (2.0 * COMMIT_DECEL)
+
+
+def committed_crosswalks(world, front: np.ndarray) -> np.ndarray:
+    """Crosswalks (bool (C,)) that an active car is committed to (:func:`stopping_reach`)."""
     cw = crosswalks_of(world.layout)
     cars = np.flatnonzero(world.is_car & world.active & (world.route >= 0))
     if not len(cars) or not cw.count:
         return np.zeros(cw.count, dtype=bool)
     gap = cw.car_enter[world.route[cars]] - (world.route_s[cars] + front[cars])[:, None]
     v = world.state[cars, 3]
-    need = v * latency + v * v / (2 * decel)
+    need = v * COMMIT_LATENCY + v * v / (2.0 * COMMIT_DECEL)
     return ((gap > 0) & (gap < need[:, None])).any(axis=0)

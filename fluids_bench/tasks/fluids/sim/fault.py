@@ -22,9 +22,10 @@ seconds of states) and labels each collision. The rules, first match wins:
    car not yet in the junction counts as entering now). Same step: both.
 8. ``shared``: otherwise both.
 
-It also records, per car, whether it ever drove onto a crosswalk with a pedestrian on it
-(``failed_to_yield``: its front reached a crosswalk on its route while that crosswalk was
-occupied one step earlier; occupancy as defined in :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
+It also records, per car, whether it ever drove onto a crosswalk with a pedestrian on it that
+it could have stopped for (``failed_to_yield``: its front reached a crosswalk on its route
+while that crosswalk was occupied, and had been since a step at which the car was not yet
+committed to it; see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
 """
 
 from __future__ import annotations
@@ -61,6 +62,7 @@ class FaultTracker:
         self._yield_check = self._crosswalks.count > 0 and not world.is_car.all()
         self._prev_at = np.full(n, np.inf)  # route_s + front at the last step (inf: none yet)
         self._prev_occupied = np.zeros(self._crosswalks.count, dtype=bool)
+        self._warned = np.zeros((n, self._crosswalks.count), dtype=bool)
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._route_key = b""  # world.route's bytes when _enter was computed
         self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
@@ -96,7 +98,7 @@ class FaultTracker:
             cw = self._crosswalks
             record_yield_step(
                 w.route_s, self._front, w.route, w.active, w.is_car, cw.car_enter,
-                self._prev_at, self._prev_occupied, self.failed_to_yield,
+                self._prev_at, self._prev_occupied, self._warned, self.failed_to_yield,
                 w.state, w.width, cw.centre, cw.axis, cw.half,
             )  # fmt: skip
 

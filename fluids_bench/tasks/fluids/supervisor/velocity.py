@@ -192,17 +192,16 @@ class VelocityPlanner:
 
     def _kerb_stops(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
-        while a car is too close to that crosswalk to stop for them, so a car that yields is
-        never cut off by a walker stepping out in front of it: the car may cover two planning
-        periods before it replans and then brakes comfortably (60% of ``max_decel``)."""
-        cfg, cw = self.config, self._crosswalks
+        while a car is committed to that crosswalk (too close to stop for them, see
+        :func:`~fluids_bench.tasks.fluids.sim.crosswalks.stopping_reach`), so a car that
+        yields is not cut off by a walker stepping out in front of it."""
+        cw = self._crosswalks
         walk_cw = cw.walk_crosswalk[world.route[agents]]
         kerb = cw.walk_enter[world.route[agents]]
         waiting = (walk_cw >= 0) & (world.route_s[agents] + self._front[agents] < kerb)
         if not waiting.any():
             return np.full(len(agents), np.inf)
-        latency = 2 * cfg.period * world.dt
-        busy = committed_crosswalks(world, self._front, latency, 0.6 * cfg.max_decel)
+        busy = committed_crosswalks(world, self._front)
         return np.where(waiting & busy[np.maximum(walk_cw, 0)], kerb, np.inf)
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
