@@ -27,6 +27,7 @@ import hashlib
 import json
 import multiprocessing as mp
 import os
+import signal
 import sys
 import time
 from pathlib import Path
@@ -182,7 +183,15 @@ def main(argv: list[str] | None = None) -> int:
         std[std < 1e-7] = np.inf  # a constant input carries no information
         return mean, std
 
-    pool = mp.get_context("fork").Pool(args.workers) if args.workers > 1 else None
+    # workers ignore Ctrl-C (a terminal sends it to them too): the main process stops them
+    # after its checkpoint, without a KeyboardInterrupt traceback from every worker
+    pool = (
+        mp.get_context("fork").Pool(
+            args.workers, initializer=signal.signal, initargs=(signal.SIGINT, signal.SIG_IGN)
+        )
+        if args.workers > 1
+        else None
+    )
     run = pool.map if pool else lambda f, jobs: list(map(f, jobs))
     N, b = hp["n_directions"], hp["top"]
     try:
