@@ -36,7 +36,7 @@ _GYM_ENVS = {
 # The supervisor each id uses unless told otherwise (chosen by measurement: README).
 DEFAULT_SUPERVISOR = {
     "Hopper": "policy",
-    "Walker2d": "mpc",
+    "Walker2d": "policy",
     "HalfCheetah": "policy",
     "Humanoid": "mpc",
 }
@@ -55,7 +55,7 @@ RANDOM_RETURN = {"Hopper": 17.0, "Walker2d": 4.3, "HalfCheetah": -278.4, "Humano
 # None: not measured over 10 episodes yet (then datasets carry no reference scores).
 SUPERVISOR_RETURN: dict[str, float | None] = {
     "Hopper": 3052.8,
-    "Walker2d": None,
+    "Walker2d": 4535.0,
     "HalfCheetah": 4842.7,
     "Humanoid": None,
 }
@@ -253,8 +253,8 @@ class HopperILEnv(LocomotionILEnv):
 class Walker2dILEnv(LocomotionILEnv):
     __doc__ = _card(
         "Walker2d",
-        "A planar biped must walk forward without falling. Default supervisor: cold-start "
-        "MPC (no trained policy is shipped yet; its return is not measured).",
+        "A planar biped must walk forward without falling. Default supervisor: the shipped "
+        "ARS policy (4,535 ± 50 over 10 seeded 1,000-step episodes, no falls).",
     )
     task = "Walker2d"
 

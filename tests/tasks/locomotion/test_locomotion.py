@@ -302,7 +302,7 @@ def test_rgb_array_render():
     [
         ({"supervisr": "mpc"}, "supervisr"),
         ({"supervisor": "trpo"}, "supervisor"),
-        ({"mpc": {"sample": 3}}, "mpc key"),
+        ({"supervisor": "mpc", "mpc": {"sample": 3}}, "mpc key"),
         ({"width": 3}, "width"),
         ({"render_mode": "rgb"}, "render_mode"),
         ({"supervisor": "policy", "mpc": {"samples": 3}}, "mpc"),
