@@ -189,5 +189,4 @@ def committed_crosswalks(world, front: np.ndarray) -> np.ndarray:
         return np.zeros(cw.count, dtype=bool)
     gap = cw.car_enter[world.route[cars]] - (world.route_s[cars] + front[cars])[:, None]
     v = world.state[cars, 3]
-    need = v * COMMIT_LATENCY + v * v / (2.0 * COMMIT_DECEL)
-    return ((gap > 0) & (gap < need[:, None])).any(axis=0)
+    return ((gap > 0) & (gap < stopping_reach(v)[:, None])).any(axis=0)

@@ -17,6 +17,9 @@ domains (unary constraints). python-constraint2 then assigns every agent a veloc
 * Pedestrians are agents like cars: they obey crosswalk lights (unary constraints) and, having
   no right of way over a car already in the crosswalk, wait for it (priority order). Pairs of
   pedestrians are not constrained: they step round each other.
+* Pedestrians' right of way (``yield_to_pedestrians``): a crosswalk with a walker on it is a
+  stop line for the cars whose route crosses it, and walkers wait at the kerb while a car is
+  too close to stop for them (:mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
 * Defensive toward agents it does not control (``plan(world, uncontrolled)``; the learner's ego,
   the multi-agent env's cars): such an agent may brake as hard as its limits allow at any time.
   A supervised agent's candidate is allowed only if, holding it until the next plan and then
