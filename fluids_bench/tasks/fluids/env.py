@@ -119,9 +119,9 @@ class FluidsEnv(gym.Env):
       ``obey_lights``, the ego also never entered its junction against a red light; with
       ``yield_to_pedestrians``, it also never drove onto a crosswalk with a pedestrian on it.
     * ``ego_ran_red_light``: the ego entered its junction against a red light.
-    * ``ego_failed_to_yield``: the ego's front reached a crosswalk on its route while a
-      pedestrian was on that crosswalk (one step earlier); see
-      :mod:`fluids_bench.tasks.fluids.sim.crosswalks`.
+    * ``ego_failed_to_yield``: the ego drove onto a crosswalk on its route with a pedestrian on
+      it that it could have stopped for (the pedestrian was on it since a moment at which the
+      ego was not yet committed to it); see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`.
     * ``ego_arrived``: the ego reached its goal. ``route``: the ego's route's name. ``lights``:
       every light's state.
 
@@ -168,8 +168,8 @@ class FluidsEnv(gym.Env):
       a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
     * ``yield_to_pedestrians``: a pedestrian on a crosswalk has the right of way: supervised
       cars wait before a crosswalk with a pedestrian on it (unless they can no longer stop),
-      and success also requires that the ego never drove onto one
-      (``info["ego_failed_to_yield"]``; default False, True in the v1 ids).
+      and success also requires that the ego never drove onto one that it could have stopped
+      for (``info["ego_failed_to_yield"]``; default False, True in the v1 ids).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
