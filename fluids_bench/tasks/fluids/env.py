@@ -117,7 +117,7 @@ class FluidsEnv(gym.Env):
       and none of them was ever in a collision: the ego with ``done_when="ego"`` (collisions
       between other agents do not count), every car with ``done_when="all"``; with
       ``obey_lights``, the ego also never entered its junction against a red light; with
-      ``yield_to_pedestrians``, it also never drove onto a crosswalk with a pedestrian on it.
+      ``yield_to_pedestrians``, it also never failed to yield (``ego_failed_to_yield``).
     * ``ego_ran_red_light``: the ego entered its junction against a red light.
     * ``ego_failed_to_yield``: the ego drove onto a crosswalk on its route with a pedestrian on
       it that it could have stopped for (the pedestrian was on it since a moment at which the
