@@ -118,9 +118,11 @@ def _ego_policy(kind: str, rng: np.random.Generator, info: dict, step: int, stop
 
 @pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize("kind", ["stop", "crawl", "random"])
-def test_supervised_cars_never_rear_end_the_ego(layout, kind):
+@pytest.mark.parametrize("yields", [False, True])
+def test_supervised_cars_never_rear_end_the_ego(layout, kind, yields):
     """A stopping, crawling or random-speed ego is never hit from behind by a supervised car
-    (nor hit by one in any other way that is the supervised car's fault and no cut-in)."""
+    (nor hit by one in any other way that is the supervised car's fault and no cut-in), with
+    the defensive planner alone and with v1's whole planner (also yielding to walkers)."""
     env = gym.make(
         "FLUIDS-v0",
         layout=layout,
@@ -128,6 +130,7 @@ def test_supervised_cars_never_rear_end_the_ego(layout, kind):
         num_pedestrians=2,
         action_level="velocity",
         defensive=True,
+        yield_to_pedestrians=yields,
     )
     for seed in range(3):
         rng = np.random.default_rng(seed)
