@@ -43,6 +43,9 @@ def _spawn(args: list[str], capture: bool = True) -> subprocess.Popen:
         stderr=out,
         text=True,
         start_new_session=True,  # its own process group, as a shell job has
+        # Ctrl-C's default action, as in a terminal: a runner started in the background (a
+        # non-interactive shell's `&` job) ignores SIGINT, and children inherit that
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),
     )
 
 
