@@ -56,7 +56,7 @@ class FaultTracker:
         n = world.n
         self.entry_step = np.full(n, -1, dtype=np.int64)  # step the agent entered its zone
         self.ran_red = np.zeros(n, dtype=bool)
-        # a car that drove onto a crosswalk with a pedestrian on it (see crosswalks.py)
+        # a car that drove onto an occupied crosswalk it could have stopped for (crosswalks.py)
         self.failed_to_yield = np.zeros(n, dtype=bool)
         self._crosswalks = crosswalks_of(world.layout)
         self._yield_check = self._crosswalks.count > 0 and not world.is_car.all()
@@ -88,8 +88,9 @@ class FaultTracker:
             self._enter = enter
             self._light_of = np.where(w.route >= 0, w.layout.routes.light[r], -1).astype(np.int64)
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
+        route_s = w.route_s  # a property that allocates: read once per step
         record_fault_step(
-            w.route_s, self._front, self._enter, self._light_of, self._prev_lights,
+            route_s, self._front, self._enter, self._light_of, self._prev_lights,
             np.asarray(w.light_state), STOP, self.entry_step, self.ran_red, w.steps,
             w.state, self._ring, self._recorded % HISTORY,
         )  # fmt: skip
@@ -97,7 +98,7 @@ class FaultTracker:
         if self._yield_check:
             cw = self._crosswalks
             record_yield_step(
-                w.route_s, self._front, w.route, w.active, w.is_car, cw.car_enter,
+                route_s, self._front, w.route, w.active, w.is_car, cw.car_enter,
                 self._prev_at, self._prev_occupied, self._warned, self.failed_to_yield,
                 w.state, w.width, cw.centre, cw.axis, cw.half,
             )  # fmt: skip
