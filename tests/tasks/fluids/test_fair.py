@@ -10,6 +10,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 LAYOUTS = ("four_way", "t_junction", "roundabout")
 
@@ -105,6 +106,47 @@ def test_leaving_the_road_is_the_drivers_fault():
     controls = np.array([[0.7, 0.0]])  # full steering lock
     (c,) = _run_until_collision(w, FaultTracker(w), controls)
     assert c["kind"] == "offroad" and c["at_fault"] == [0] and c["rule"] == "offroad"
+
+
+def test_rear_end_on_a_roundabout_ring_is_the_followers_fault():
+    """ "In front" is measured along the follower's path, so a rear-end on the curved ring
+    (where two cars 10 m apart differ in heading by more than 45°) is still a rear-end,
+    and not a cut-in: the leader was on the ring ahead all along."""
+    w = World(SceneConfig(layout="roundabout", num_cars=2, num_pedestrians=0))
+    r = _route(w, "south_in_0->west_out_0")  # three quarters round the ring
+    start = float(w.layout.routes.enter_s[r]) + 25.0  # on the ring
+    w.place(1, r, start + 12.0, speed=0.0)
+    w.place(0, r, start, speed=6.0)
+    heading = w.state[:, 2]
+    assert abs((heading[1] - heading[0] + np.pi) % (2 * np.pi) - np.pi) > np.pi / 4
+    pid = DrivingSupervisor(w).pid  # steers both along the ring
+    tracker = FaultTracker(w)
+    for _ in range(100):
+        controls, memory = pid.controls(w, np.array([6.0, 0.0]))
+        pid.commit(memory)
+        events = w.step(controls)
+        tracker.update()
+        if events:
+            break
+    (c,) = tracker.annotate(events)
+    assert c["at_fault"] == [0] and c["rule"] == "rear_end" and not c["cut_in"]
+
+
+def test_world_records_when_each_agent_entered_its_zone():
+    w = _world(2, lights=False)
+    north = _route(w, "north_in_0->south_out_0")
+    enter = float(w.layout.routes.enter_s[north])
+    w.place(0, north, enter - 10.0, speed=5.0)
+    w.place(1, north, enter + 1.0)  # front already past the zone's start
+    assert w.entered.tolist() == [-1, 0]
+    steps = 0
+    while w.entered[0] < 0:
+        w.step(np.array([[0.0, 0.0], [0.0, 0.0]]))
+        steps += 1
+    front = w.route_s[0] + w.length[0] / 2
+    assert w.entered[0] == steps and enter <= front < enter + 0.6
+    w.place(0, north, enter - 10.0)
+    assert w.entered[0] == -1  # a new placement starts outside again
 
 
 # ---------------------------------------------------------------- defensive drivers
@@ -347,3 +389,79 @@ def test_supervisor_succeeds_under_the_v1_rule(action_level):
             if term or trunc:
                 break
         assert info["is_success"] and not info["ego_ran_red_light"], seed
+
+
+# ---------------------------------------------------------------- right of way
+def _turn_across_oncoming(layout: str, d_ego: float, v_ego: float, back: float, v_turn: float):
+    """A supervised car (1) about to turn left across an oncoming ego (0) that goes straight
+    at a constant ``v_ego``: returns the collisions and whether the turner got through."""
+    env = gym.make(
+        "FLUIDS-v0",
+        layout=layout,
+        num_cars=1,
+        num_pedestrians=0,
+        action_level="velocity",
+        defensive=True,
+        lights=False,
+    )
+    env.reset(seed=0)
+    u = env.unwrapped
+    w = u.world
+    straight, left = _route(w, "west_in_0->east_out_0"), _route(w, "east_in_0->south_out_0")
+    conflict, _ = _conflict_s(w, straight, left)
+    w.place(0, straight, conflict - d_ego, speed=v_ego)
+    w.place(1, left, float(w.layout.routes.enter_s[left]) - back - w.length[1] / 2, speed=v_turn)
+    u.faults = FaultTracker(w)
+    u.supervisor.prepare(w)
+    collisions = []
+    for _ in range(120):
+        _, _, term, trunc, info = env.step(np.array([v_ego], np.float32))
+        collisions += info["collisions"]
+        if collisions or term or trunc:
+            break
+    passed = w.route_s[1] > _conflict_s(w, left, straight)[0] + 5.0 or bool(w.reached[1])
+    return collisions, passed
+
+
+# starting gaps and speeds at which v1's planner before gap acceptance turned into the ego
+@pytest.mark.parametrize("layout", ["four_way", "t_junction"])
+@pytest.mark.parametrize(
+    "d_ego, v_ego, back, v_turn",
+    [(20, 5, 0.5, 3), (25, 5, 6, 6), (25, 7, 0.5, 6), (30, 7, 3, 6), (40, 7, 0.5, 0)],
+)
+def test_a_supervised_car_turns_across_an_oncoming_ego_only_through_a_gap(
+    layout, d_ego, v_ego, back, v_turn
+):
+    """Gap acceptance: the turner stops short of the ego's path or clears it before the ego
+    (which keeps its speed: it has the right of way) gets there; never stops inside it."""
+    collisions, _ = _turn_across_oncoming(layout, d_ego, v_ego, back, v_turn)
+    assert collisions == [], collisions
+
+
+def test_a_supervised_car_turns_in_front_of_a_distant_or_slow_ego():
+    """Giving way is not freezing: with a clear gap the turner goes first."""
+    collisions, passed = _turn_across_oncoming("four_way", 40, 3, 0.5, 3)
+    assert collisions == [] and passed
+
+
+@pytest.mark.parametrize("seed", [3013, 3182])
+def test_circulating_cars_give_way_to_a_crawler_that_entered_the_roundabout_first(seed):
+    """A 1 m/s ego creeping into the ring from inside the junction has the right of way over
+    a car that entered after it; before giving way, these seeds ended in the circulating
+    car's fault at step 114."""
+    env = gym.make(
+        "FLUIDS-v0",
+        layout="roundabout",
+        num_cars=2,
+        num_pedestrians=0,
+        action_level="velocity",
+        defensive=True,
+        yield_to_pedestrians=True,
+    )
+    env.reset(seed=seed)
+    for _ in range(250):
+        _, _, term, trunc, info = env.step(np.ones(1, np.float32))
+        for c in info["collisions"]:
+            assert c["at_fault"] == [0], c
+        if term or trunc:
+            break

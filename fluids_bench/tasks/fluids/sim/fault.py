@@ -7,7 +7,8 @@ seconds of states) and labels each collision. The rules, first match wins:
 1. ``offroad``: the car that left the road.
 2. ``red_light``: exactly one of the two entered its zone against a red light (a red traffic
    light, a "don't walk" crosswalk light): that one.
-3. ``rear_end``: two cars within 45° of the same heading, one behind the other: the follower.
+3. ``rear_end``: two cars, one in the other's lane ahead of it (on its path, within 45° of
+   the path's heading there; measured along the path, so curves count too): the follower.
    ``cut_in`` is True when the leader came in front of the follower less than
    :data:`HISTORY` steps ago with a gap (bumper to bumper) shorter than the follower's stopping
    distance then (one planning period at its speed plus braking at
@@ -42,10 +43,29 @@ STATIONARY_SPEED = 0.2  # m/s
 COMFORT_DECEL = 5.0  # m/s², the supervisor's braking
 REACTION = 0.5  # s, one planning period of the supervisor
 SAME_HEADING = np.pi / 4
+AHEAD = 30.0  # m of the follower's path searched for a leader
 
 
-def _wrap(angle: float) -> float:
+def _wrap(angle):
     return (angle + np.pi) % (2 * np.pi) - np.pi
+
+
+def route_turns(routes) -> tuple[np.ndarray, np.ndarray]:
+    """Each route's entry heading (R,) and whether it turns (R,): its heading changes by more
+    than 45° from start to end."""
+    last = np.minimum(
+        np.rint(routes.length / PATH_SPACING).astype(np.int64), routes.heading.shape[1] - 1
+    )
+    start = routes.heading[:, 0]
+    end = routes.heading[np.arange(len(last)), last]
+    return start, np.abs(_wrap(end - start)) > np.pi / 4
+
+
+def turns_across(start: np.ndarray, turning: np.ndarray, ra, rb):
+    """Whether route ``ra`` turns across route ``rb`` coming the other way (rule 6: the two
+    entry headings more than 135° apart, ``ra`` turning and ``rb`` not); elementwise."""
+    opposite = np.abs(_wrap(start[ra] - start[rb])) > 3 * np.pi / 4
+    return opposite & turning[ra] & ~turning[rb]
 
 
 class FaultTracker:
@@ -70,6 +90,7 @@ class FaultTracker:
         self._ring = np.empty((HISTORY, n, world.state.shape[1]))  # the last states, a ring
         self._recorded = 0  # states recorded so far (the newest is in slot recorded - 1)
         self._prev_lights = np.array(world.light_state)
+        self._turns = route_turns(world.layout.routes)
         self._record()
 
     def update(self) -> None:
@@ -150,28 +171,28 @@ class FaultTracker:
 
     def _turning_across(self, a: int, b: int) -> int | None:
         """Of two cars from opposite approaches, the one that turns (None unless exactly one)."""
-        routes, w = self.world.layout.routes, self.world
-        ra, rb = w.route[a], w.route[b]
+        ra, rb = self.world.route[a], self.world.route[b]
         if ra < 0 or rb < 0:
             return None
-        if abs(_wrap(routes.heading[ra, 0] - routes.heading[rb, 0])) <= 3 * np.pi / 4:
-            return None
-        turns = []
-        for r in (ra, rb):
-            last = min(int(round(routes.length[r] / PATH_SPACING)), routes.heading.shape[1] - 1)
-            turns.append(abs(_wrap(routes.heading[r, last] - routes.heading[r, 0])) > np.pi / 4)
-        if turns[0] == turns[1]:
-            return None
-        return a if turns[0] else b
+        if turns_across(*self._turns, ra, rb):
+            return a
+        if turns_across(*self._turns, rb, ra):
+            return b
+        return None
 
     def _follower(self, a: int, b: int, state: np.ndarray) -> int | None:
-        """The car behind when ``a`` and ``b`` head within 45° of each other, else None."""
-        if abs(_wrap(state[a, 2] - state[b, 2])) >= SAME_HEADING:
+        """The car behind when one of ``a``, ``b`` is on the other's path ahead of it (see
+        :meth:`_ahead_gap`), else None. Where each is on the other's path (side by side),
+        the one whose centre is behind along their mean heading."""
+        a_behind = self._ahead_gap(state, a, b) is not None
+        b_behind = self._ahead_gap(state, b, a) is not None
+        if a_behind != b_behind:
+            return a if a_behind else b
+        if not a_behind:
             return None
         d = complex(state[b, 0] - state[a, 0], state[b, 1] - state[a, 1])
         mean = state[a, 2] + 0.5 * _wrap(state[b, 2] - state[a, 2])
-        along = (d * np.exp(-1j * mean)).real  # b's position ahead of a's, along the lane
-        return a if along > 0 else b
+        return a if (d * np.exp(-1j * mean)).real > 0 else b
 
     def _cut_in(self, follower: int, leader: int) -> bool:
         """The leader came in front of the follower within the kept history, closer than the
@@ -190,15 +211,22 @@ class FaultTracker:
         return bool(gap < stop)
 
     def _ahead_gap(self, state: np.ndarray, follower: int, leader: int) -> float | None:
-        """Bumper gap (m) when ``leader`` is in ``follower``'s lane ahead of it, else None."""
+        """Bumper gap (m), measured along the follower's path, when ``leader`` is in the
+        follower's lane ahead of it, else None. In the lane ahead: the leader's centre lies
+        within :data:`AHEAD` metres ahead along the follower's path, within half the two
+        widths of it, heading within 45° of the path there. Measured along the path, not the
+        follower's heading, so that it holds on curves (a roundabout's ring) too."""
         w = self.world
-        if abs(_wrap(state[leader, 2] - state[follower, 2])) >= SAME_HEADING:
+        path = w.path_z[follower, : int(w.path_len[follower] / PATH_SPACING) + 1]
+        here = int(np.argmin(np.abs(path - complex(state[follower, 0], state[follower, 1]))))
+        ahead = path[here : here + int(AHEAD / PATH_SPACING) + 1]
+        d = np.abs(ahead - complex(state[leader, 0], state[leader, 1]))
+        k = int(np.argmin(d))
+        if k == 0 or d[k] > (w.width[follower] + w.width[leader]) / 2:
             return None
-        d = complex(state[leader, 0] - state[follower, 0], state[leader, 1] - state[follower, 1])
-        local = d * np.exp(-1j * state[follower, 2])
-        if local.real <= 0 or abs(local.imag) > w.width[follower]:
+        if abs(_wrap(state[leader, 2] - w.path_heading[follower, here + k])) >= SAME_HEADING:
             return None
-        return float(local.real - (w.length[follower] + w.length[leader]) / 2)
+        return float(k * PATH_SPACING - (w.length[follower] + w.length[leader]) / 2)
 
     def annotate(self, events) -> list[dict]:
         """The collisions ``events`` as dicts with their fault labels."""

@@ -86,6 +86,11 @@ class World:
         self.reached = np.zeros(n, dtype=bool)
         self.collided = np.zeros(n, dtype=bool)
         self.recovering = np.zeros(n, dtype=bool)  # following a planned path back to the route
+        # the step at which each agent's front reached the start of its route's shared zone
+        # (the junction for a car, the crosswalk for a walker); -1 while it has not. The
+        # planner gives uncontrolled agents that entered first the right of way (velocity.py)
+        self.entered = np.full(n, -1, dtype=np.int64)
+        self._front = np.where(self.is_car, self.length / 2, self.width / 2)
         self.time = 0.0
         self.steps = 0
         self.log: list[Collision] = []
@@ -115,6 +120,8 @@ class World:
         self.offset[agent] = 0.0
         self.active[agent] = True
         self.reached[agent] = self.collided[agent] = self.recovering[agent] = False
+        self.entered[agent] = -1
+        self._update_entered()
 
     def follow_route(self, agent: int, route: int) -> None:
         """Make route ``route``'s path the one ``agent`` follows (progress is kept)."""
@@ -213,12 +220,22 @@ class World:
         self.steps += 1
         self.light_state = self.lights.states(self.time)
         self._update_progress()
+        self._update_entered()
         arrived = act & (self.s >= self.path_len - self.length / 2 - GOAL_TOLERANCE)
         self.reached |= arrived
         self.active &= ~arrived
         events = self._collisions()
         self.log.extend(events)
         return events
+
+    def _update_entered(self) -> None:
+        """Mark the agents whose front has just reached the start of their shared zone."""
+        waiting = self.active & (self.entered < 0) & (self.route >= 0)
+        if waiting.any():
+            idx = waiting.nonzero()[0]
+            enter = self.layout.routes.enter_s[self.route[idx]]
+            inside = self.s[idx] + self.offset[idx] + self._front[idx] >= enter
+            self.entered[idx[inside]] = self.steps
 
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an

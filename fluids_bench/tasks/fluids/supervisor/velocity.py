@@ -46,6 +46,7 @@ from fluids_bench.tasks.fluids.sim.crosswalks import (
     next_occupied_enter,
     occupied,
 )
+from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
@@ -54,6 +55,8 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
     hold_then_brake,
     projected_arc_lengths,
 )
+
+GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 
 
 @dataclass(frozen=True)
@@ -298,7 +301,11 @@ class VelocityPlanner:
         )
 
     def defensive_domains(
-        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray
+        self,
+        world: World,
+        agents: np.ndarray,
+        targets: np.ndarray,
+        wild: np.ndarray,
     ) -> np.ndarray:
         """Unary constraints toward uncontrolled agents: allowed[a, k] is False where supervised
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
@@ -308,6 +315,9 @@ class VelocityPlanner:
         Pairs in which the uncontrolled agent follows the supervised one (within 45° of its
         heading, behind it) are skipped: a rear-end is the follower's fault. Braking now
         (candidate 0) is never pruned, so the CSP stays feasible.
+
+        Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
+        supervised one also allows for it keeping its speed: see :meth:`_give_way`.
         """
         cfg, dt = self.config, world.dt
         allowed = np.ones(targets.shape, dtype=bool)
@@ -332,11 +342,9 @@ class VelocityPlanner:
         v = world.state[agents, 3]
         hold = np.full(targets.shape, cfg.period, dtype=np.int64)
         # uncontrolled: hold the current speed for 0 … period steps, then brake at the limit.
-        # (Also guarding against one that keeps its speed and does not yield was tried: 0
-        # collisions of a supervised agent's fault, but supervised cars then hesitate so much
-        # that a supervisor-driven ego timed out in 1-2% of episodes and a noisy one
-        # rear-ended them 1.5-10x as often; a car turning across an ego with right of way is
-        # the case it would cover, measured at 1 in 5,400 episodes.)
+        # (Guarding against every uncontrolled agent keeping its speed was tried: supervised
+        # cars then hesitated so much that a supervisor-driven ego timed out in 1-2% of
+        # episodes; _give_way does it only toward one with the right of way.)
         hold[wild] = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
         goal = np.where(wild[:, None], v[:, None], targets)
         car = world.scene.car
@@ -368,8 +376,78 @@ class VelocityPlanner:
         forbid = np.zeros(targets.shape, dtype=bool)
         np.logical_or.at(forbid, ii[tame[ii]], bad_i[tame[ii]])
         np.logical_or.at(forbid, jj[tame[jj]], bad_j[tame[jj]])
+        give_way = self._give_way(world, agents, targets, wild, ii, jj)
+        # braking now is unsafe both ways (it cannot stop short of where the uncontrolled
+        # agent may stop, and it would stop in the path of one that keeps going) while
+        # going on clears that path: it clears the crossing rather than stop in it
+        clear = forbid[:, 0] & give_way[:, 0]
+        forbid[clear] = False
+        forbid |= give_way
         forbid[:, 0] = False
         return allowed & ~forbid
+
+    def _right_of_way(self, world: World, agents: np.ndarray, t: np.ndarray, w: np.ndarray):
+        """Whether uncontrolled ``w`` has the right of way over supervised ``t`` (positions in
+        ``agents``, elementwise) by the rules that assign fault (:mod:`..sim.fault`): it
+        entered its shared zone first (rule 7), or it comes the other way and goes straight
+        while ``t`` turns across its path (rule 6)."""
+        entered = world.entered[agents]
+        first = (entered[w] >= 0) & ((entered[t] < 0) | (entered[w] < entered[t]))
+        routes = world.route[agents]
+        return first | turns_across(*self._turns, routes[t], routes[w])
+
+    def _give_way(
+        self,
+        world: World,
+        agents: np.ndarray,
+        targets: np.ndarray,
+        wild: np.ndarray,
+        ii: np.ndarray,
+        jj: np.ndarray,
+    ) -> np.ndarray:
+        """forbid[a, k]: True where supervised agent a's candidate k could run into an
+        uncontrolled agent with the right of way over it that keeps going (a crawler
+        creeping on into a roundabout, an oncoming car going straight through a left turn).
+
+        A candidate is safe if, holding it until the next plan and then braking, the agent
+        stops short of that agent's path, or if, holding it, it clears the path before that
+        agent gets there (gap acceptance), whether that agent keeps its speed or speeds up
+        (at the controller's acceleration, to the fastest speed allowed to it; one at rest
+        is taken to stay there, so that a waiting ego and a waiting car do not deadlock).
+        Everything is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning
+        from rest to clear a crossing, and the agent keeps a planning period to spare before
+        it brakes. An agent with no safe candidate at all (it is already in the way) is left
+        as it is: stopping there would not help.
+        """
+        forbid = np.zeros(targets.shape, dtype=bool)
+        t = np.where(wild[ii], jj, ii)
+        w = np.where(wild[ii], ii, jj)
+        row = self._right_of_way(world, agents, t, w)
+        if not row.any():
+            return forbid
+        t, w = t[row], w[row]
+        cfg, dt = self.config, world.dt
+        steps = int(round(GIVE_WAY_HORIZON / dt))
+        s0, v = world.s[agents], world.state[agents, 3]
+        decel = np.full(len(agents), cfg.max_decel)
+        gain = np.full(len(agents), cfg.speed_gain)
+        args = (steps, cfg.sample_every, dt, cfg.max_accel, decel, gain)
+        hold = np.full(targets.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
+        stop = hold_then_brake(s0, v, targets, hold, *args)
+        hold[:] = steps
+        go = hold_then_brake(s0, v, targets, hold, *args)
+        # the uncontrolled agent, if moving, keeps its speed or speeds up towards the fastest
+        # speed allowed to it (its candidates' scenarios span the two); at rest, it stays
+        moving = v > STATIONARY_SPEED
+        faster = np.maximum(targets[:, -1] - v, 0.0)[:, None] * self.fractions[None, :]
+        goal = np.where(moving[:, None], v[:, None] + faster, 0.0)
+        wild_go = hold_then_brake(s0, v, goal, hold, *args)
+        stop[w], go[w] = wild_go[w], wild_go[w]
+        stop_fails = self._conflict_tables(world, agents, stop, t, w, relax=False).any(axis=2)
+        clear_fails = self._conflict_tables(world, agents, go, t, w, relax=False).any(axis=2)
+        np.logical_or.at(forbid, t, stop_fails & clear_fails)
+        forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
+        return forbid
 
     def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         if n not in self._pair_cache:
@@ -397,6 +475,7 @@ class VelocityPlanner:
         self._reach = bound + self.config.margin / 2  # bounding circle plus half the clearance
         self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._crosswalks = crosswalks_of(world.layout)
+        self._turns = route_turns(world.layout.routes)
         self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
         steps = int(round(self.config.horizon / world.dt))
         self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
