@@ -162,7 +162,9 @@ class FluidsEnv(gym.Env):
       can at any time: they only take a target speed from which, holding it until their next
       plan and braking then, they stop short of wherever the ego can stop (default False;
       True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
-      in inside its stopping distance.
+      in inside its stopping distance. Where the ego has the right of way (it entered the
+      junction first, or goes straight while they turn across it), they also give way to it
+      driving on: they turn or enter only through a gap it cannot close.
     * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
     * ``obey_lights``: success also requires that the ego never entered its junction against
       a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).

@@ -301,11 +301,7 @@ class VelocityPlanner:
         )
 
     def defensive_domains(
-        self,
-        world: World,
-        agents: np.ndarray,
-        targets: np.ndarray,
-        wild: np.ndarray,
+        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray
     ) -> np.ndarray:
         """Unary constraints toward uncontrolled agents: allowed[a, k] is False where supervised
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
@@ -317,7 +313,7 @@ class VelocityPlanner:
         (candidate 0) is never pruned, so the CSP stays feasible.
 
         Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
-        supervised one also allows for it keeping its speed: see :meth:`_give_way`.
+        supervised one also allows for it driving on: see :meth:`_give_way`.
         """
         cfg, dt = self.config, world.dt
         allowed = np.ones(targets.shape, dtype=bool)
