@@ -44,6 +44,19 @@ def _run_until_collision(world: World, tracker: FaultTracker, controls=None, ste
     raise AssertionError("no collision happened")
 
 
+def _steer_until_collision(world: World, tracker: FaultTracker, speeds: np.ndarray, steps: int):
+    """Every agent steered along its route by the supervisor's PID at ``speeds`` (m/s)."""
+    pid = DrivingSupervisor(world).pid
+    for _ in range(steps):
+        controls, memory = pid.controls(world, speeds)
+        pid.commit(memory)
+        events = world.step(controls)
+        tracker.update()
+        if events:
+            return tracker.annotate(events)
+    raise AssertionError("no collision happened")
+
+
 def test_rear_end_is_the_followers_fault():
     w = _world(2)
     r = _route(w, "east_in_0->west_out_0")
@@ -119,16 +132,7 @@ def test_rear_end_on_a_roundabout_ring_is_the_followers_fault():
     w.place(0, r, start, speed=6.0)
     heading = w.state[:, 2]
     assert abs((heading[1] - heading[0] + np.pi) % (2 * np.pi) - np.pi) > np.pi / 4
-    pid = DrivingSupervisor(w).pid  # steers both along the ring
-    tracker = FaultTracker(w)
-    for _ in range(100):
-        controls, memory = pid.controls(w, np.array([6.0, 0.0]))
-        pid.commit(memory)
-        events = w.step(controls)
-        tracker.update()
-        if events:
-            break
-    (c,) = tracker.annotate(events)
+    (c,) = _steer_until_collision(w, FaultTracker(w), np.array([6.0, 0.0]), steps=100)
     assert c["at_fault"] == [0] and c["rule"] == "rear_end" and not c["cut_in"]
 
 
@@ -158,6 +162,19 @@ def _ego_policy(kind: str, rng: np.random.Generator, info: dict, step: int, stop
     return rng.uniform(0.0, 10.0, 1).astype(np.float32)
 
 
+def _defensive_env(layout: str, num_cars: int, num_pedestrians: int, **kwargs):
+    """FLUIDS-v0 at the velocity level with defensive background drivers."""
+    return gym.make(
+        "FLUIDS-v0",
+        layout=layout,
+        num_cars=num_cars,
+        num_pedestrians=num_pedestrians,
+        action_level="velocity",
+        defensive=True,
+        **kwargs,
+    )
+
+
 @pytest.mark.parametrize("layout", LAYOUTS)
 @pytest.mark.parametrize("kind", ["stop", "crawl", "random"])
 @pytest.mark.parametrize("yields", [False, True])
@@ -165,15 +182,7 @@ def test_supervised_cars_never_rear_end_the_ego(layout, kind, yields):
     """A stopping, crawling or random-speed ego is never hit from behind by a supervised car
     (nor hit by one in any other way that is the supervised car's fault and no cut-in), with
     the defensive planner alone and with v1's whole planner (also yielding to walkers)."""
-    env = gym.make(
-        "FLUIDS-v0",
-        layout=layout,
-        num_cars=5,
-        num_pedestrians=2,
-        action_level="velocity",
-        defensive=True,
-        yield_to_pedestrians=yields,
-    )
+    env = _defensive_env(layout, 5, 2, yield_to_pedestrians=yields)
     for seed in range(3):
         rng = np.random.default_rng(seed)
         stop_at = int(rng.integers(0, 60))
@@ -363,17 +372,7 @@ def test_turning_across_oncoming_traffic_is_the_turners_fault():
     c0, c1 = _conflict_s(w, left, straight)
     w.place(0, straight, c1 - 10.0, speed=5.0)
     w.place(1, left, c0 - 10.0, speed=5.0)
-    from fluids_bench.tasks.fluids.supervisor.control import PIDController
-
-    pid, tracker = PIDController(w), FaultTracker(w)
-    for _ in range(60):  # both steer along their routes at 5 m/s
-        controls, memory = pid.controls(w, np.full(2, 5.0))
-        pid.commit(memory)
-        events = w.step(controls)
-        tracker.update()
-        if events:
-            break
-    (c,) = tracker.annotate(events)
+    (c,) = _steer_until_collision(w, FaultTracker(w), np.full(2, 5.0), steps=60)
     assert c["at_fault"] == [1] and c["rule"] == "turn_yields"
 
 
@@ -395,15 +394,7 @@ def test_supervisor_succeeds_under_the_v1_rule(action_level):
 def _turn_across_oncoming(layout: str, d_ego: float, v_ego: float, back: float, v_turn: float):
     """A supervised car (1) about to turn left across an oncoming ego (0) that goes straight
     at a constant ``v_ego``: returns the collisions and whether the turner got through."""
-    env = gym.make(
-        "FLUIDS-v0",
-        layout=layout,
-        num_cars=1,
-        num_pedestrians=0,
-        action_level="velocity",
-        defensive=True,
-        lights=False,
-    )
+    env = _defensive_env(layout, 1, 0, lights=False)
     env.reset(seed=0)
     u = env.unwrapped
     w = u.world
@@ -449,15 +440,7 @@ def test_circulating_cars_give_way_to_a_crawler_that_entered_the_roundabout_firs
     """A 1 m/s ego creeping into the ring from inside the junction has the right of way over
     a car that entered after it; before giving way, these seeds ended in the circulating
     car's fault at step 114."""
-    env = gym.make(
-        "FLUIDS-v0",
-        layout="roundabout",
-        num_cars=2,
-        num_pedestrians=0,
-        action_level="velocity",
-        defensive=True,
-        yield_to_pedestrians=True,
-    )
+    env = _defensive_env("roundabout", 2, 0, yield_to_pedestrians=True)
     env.reset(seed=seed)
     for _ in range(250):
         _, _, term, trunc, info = env.step(np.ones(1, np.float32))
