@@ -114,6 +114,16 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
 
 
 @njit(cache=True, nogil=True)
+def mark_entered(s, offset, front, route, enter_s, active, entered, step):  # pragma: no cover
+    """In place: ``entered[i] = step`` for each active agent on a route whose front has reached
+    its route's ``enter_s`` and that had not entered before (:attr:`World.entered`)."""
+    for i in range(s.shape[0]):
+        r = route[i]
+        if entered[i] < 0 and active[i] and r >= 0 and s[i] + offset[i] + front[i] >= enter_s[r]:
+            entered[i] = step
+
+
+@njit(cache=True, nogil=True)
 def record_fault_step(
     route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
     state, ring, slot,

@@ -230,12 +230,10 @@ class World:
 
     def _update_entered(self) -> None:
         """Mark the agents whose front has just reached the start of their shared zone."""
-        waiting = self.active & (self.entered < 0) & (self.route >= 0)
-        if waiting.any():
-            idx = waiting.nonzero()[0]
-            enter = self.layout.routes.enter_s[self.route[idx]]
-            inside = self.s[idx] + self.offset[idx] + self._front[idx] >= enter
-            self.entered[idx[inside]] = self.steps
+        kernels.mark_entered(
+            self.s, self.offset, self._front, self.route, self.layout.routes.enter_s,
+            self.active, self.entered, self.steps,
+        )  # fmt: skip
 
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an

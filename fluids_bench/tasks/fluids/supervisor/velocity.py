@@ -421,27 +421,31 @@ class VelocityPlanner:
         row = self._right_of_way(world, agents, t, w)
         if not row.any():
             return forbid
-        t, w = t[row], w[row]
+        # only the agents of those pairs are projected (positions in ``sub``)
+        sub, pos = np.unique(np.concatenate([t[row], w[row]]), return_inverse=True)
+        n = int(row.sum())
+        ts, ws = pos[:n], pos[n:]
         cfg, dt = self.config, world.dt
         steps = int(round(GIVE_WAY_HORIZON / dt))
-        s0, v = world.s[agents], world.state[agents, 3]
-        decel = np.full(len(agents), cfg.max_decel)
-        gain = np.full(len(agents), cfg.speed_gain)
+        s0, v, cand = world.s[agents[sub]], world.state[agents[sub], 3], targets[sub]
+        decel = np.full(len(sub), cfg.max_decel)
+        gain = np.full(len(sub), cfg.speed_gain)
         args = (steps, cfg.sample_every, dt, cfg.max_accel, decel, gain)
-        hold = np.full(targets.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
-        stop = hold_then_brake(s0, v, targets, hold, *args)
+        hold = np.full(cand.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
+        stop = hold_then_brake(s0, v, cand, hold, *args)
         hold[:] = steps
-        go = hold_then_brake(s0, v, targets, hold, *args)
+        go = hold_then_brake(s0, v, cand, hold, *args)
         # the uncontrolled agent, if moving, keeps its speed or speeds up towards the fastest
         # speed allowed to it (its candidates' scenarios span the two); at rest, it stays
         moving = v > STATIONARY_SPEED
-        faster = np.maximum(targets[:, -1] - v, 0.0)[:, None] * self.fractions[None, :]
+        faster = np.maximum(cand[:, -1] - v, 0.0)[:, None] * self.fractions[None, :]
         goal = np.where(moving[:, None], v[:, None] + faster, 0.0)
         wild_go = hold_then_brake(s0, v, goal, hold, *args)
-        stop[w], go[w] = wild_go[w], wild_go[w]
-        stop_fails = self._conflict_tables(world, agents, stop, t, w, relax=False).any(axis=2)
-        clear_fails = self._conflict_tables(world, agents, go, t, w, relax=False).any(axis=2)
-        np.logical_or.at(forbid, t, stop_fails & clear_fails)
+        stop[ws], go[ws] = wild_go[ws], wild_go[ws]
+        on = agents[sub]
+        stop_fails = self._conflict_tables(world, on, stop, ts, ws, relax=False).any(axis=2)
+        clear_fails = self._conflict_tables(world, on, go, ts, ws, relax=False).any(axis=2)
+        np.logical_or.at(forbid, t[row], stop_fails & clear_fails)
         forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
         return forbid
 
