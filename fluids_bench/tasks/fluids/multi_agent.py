@@ -179,8 +179,9 @@ class FluidsParallelEnv(ParallelEnv):
       ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
       ``trajectory_planner``, ``dt``: as ``FLUIDS-v0`` (same ranges).
     * ``defensive``: background agents treat every controlled car (the agents) as one that may
-      brake at its limit at any time and keep the distance to stop for it (default False;
-      True in ``FLUIDS-MultiAgent-v1``); see ``FLUIDS-v1``.
+      brake at its limit at any time and keep the distance to stop for it, and give way to
+      one with the right of way driving on (default False; True in ``FLUIDS-MultiAgent-v1``);
+      see ``FLUIDS-v1``.
     * ``yield_to_pedestrians``: background cars wait before a crosswalk with a pedestrian on it
       (default False; True in ``FLUIDS-MultiAgent-v1``); the agents' success does not depend
       on it.
