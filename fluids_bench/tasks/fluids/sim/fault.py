@@ -83,7 +83,6 @@ class FaultTracker:
         self._prev_at = np.full(n, np.inf)  # route_s + front at the last step (inf: none yet)
         self._prev_occupied = np.zeros(self._crosswalks.count, dtype=bool)
         self._warned = np.zeros((n, self._crosswalks.count), dtype=bool)
-        self._front = np.where(world.is_car, world.length / 2, world.width / 2)
         self._route_key = b""  # world.route's bytes when _enter was computed
         self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
         self._light_of = np.full(n, -1, dtype=np.int64)  # the light at each agent's zone
@@ -111,7 +110,7 @@ class FaultTracker:
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
         route_s = w.route_s  # a property that allocates: read once per step
         record_fault_step(
-            route_s, self._front, self._enter, self._light_of, self._prev_lights,
+            route_s, w.front, self._enter, self._light_of, self._prev_lights,
             np.asarray(w.light_state), STOP, self.entry_step, self.ran_red, w.steps,
             w.state, self._ring, self._recorded % HISTORY,
         )  # fmt: skip
@@ -119,7 +118,7 @@ class FaultTracker:
         if self._yield_check:
             cw = self._crosswalks
             record_yield_step(
-                route_s, self._front, w.route, w.active, w.is_car, cw.car_enter,
+                route_s, w.front, w.route, w.active, w.is_car, cw.car_enter,
                 self._prev_at, self._prev_occupied, self._warned, self.failed_to_yield,
                 w.state, w.width, cw.centre, cw.axis, cw.half,
             )  # fmt: skip

@@ -90,7 +90,8 @@ class World:
         # (the junction for a car, the crosswalk for a walker); -1 while it has not. The
         # planner gives uncontrolled agents that entered first the right of way (velocity.py)
         self.entered = np.full(n, -1, dtype=np.int64)
-        self._front = np.where(self.is_car, self.length / 2, self.width / 2)
+        # m from each agent's centre to its front along its path (zone entry, stop lines)
+        self.front = np.where(self.is_car, self.length / 2, self.width / 2)
         self.time = 0.0
         self.steps = 0
         self.log: list[Collision] = []
@@ -231,7 +232,7 @@ class World:
     def _update_entered(self) -> None:
         """Mark the agents whose front has just reached the start of their shared zone."""
         kernels.mark_entered(
-            self.s, self.offset, self._front, self.route, self.layout.routes.enter_s,
+            self.s, self.offset, self.front, self.route, self.layout.routes.enter_s,
             self.active, self.entered, self.steps,
         )  # fmt: skip
 

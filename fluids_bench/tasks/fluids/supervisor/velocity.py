@@ -473,7 +473,7 @@ class VelocityPlanner:
         self._offs32 = self._offs.astype(np.float32)
         bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
         self._reach = bound + self.config.margin / 2  # bounding circle plus half the clearance
-        self._front = np.where(world.is_car, world.length / 2, world.width / 2)
+        self._front = world.front
         self._crosswalks = crosswalks_of(world.layout)
         self._turns = route_turns(world.layout.routes)
         self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
