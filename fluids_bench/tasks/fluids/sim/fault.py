@@ -58,12 +58,13 @@ def route_turns(routes) -> tuple[np.ndarray, np.ndarray]:
     )
     start = routes.heading[:, 0]
     end = routes.heading[np.arange(len(last)), last]
-    return start, np.abs(_wrap(end - start)) > np.pi / 4
+    return start, _wrap(end - start) > np.pi / 4  # a left turn (right-hand traffic)
 
 
 def turns_across(start: np.ndarray, turning: np.ndarray, ra, rb):
-    """Whether route ``ra`` turns across route ``rb`` coming the other way (rule 6: the two
-    entry headings more than 135° apart, ``ra`` turning and ``rb`` not); elementwise."""
+    """Whether route ``ra`` turns left across route ``rb`` coming the other way (rule 6: the
+    two entry headings more than 135° apart, ``ra`` turning left and ``rb`` going straight or
+    turning right); elementwise."""
     opposite = np.abs(_wrap(start[ra] - start[rb])) > 3 * np.pi / 4
     return opposite & turning[ra] & ~turning[rb]
 
