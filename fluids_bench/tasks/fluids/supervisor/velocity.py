@@ -372,6 +372,7 @@ class VelocityPlanner:
         forbid = np.zeros(targets.shape, dtype=bool)
         np.logical_or.at(forbid, ii[tame[ii]], bad_i[tame[ii]])
         np.logical_or.at(forbid, jj[tame[jj]], bad_j[tame[jj]])
+        forbid |= self._follow_supervised(world, agents, targets, wild, s_def)
         give_way = self._give_way(world, agents, targets, wild, ii, jj)
         # braking now is unsafe both ways (it cannot stop short of where the uncontrolled
         # agent may stop, and it would stop in the path of one that keeps going) while
@@ -381,6 +382,46 @@ class VelocityPlanner:
         forbid |= give_way
         forbid[:, 0] = False
         return allowed & ~forbid
+
+    def _follow_supervised(
+        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray, s_def
+    ) -> np.ndarray:
+        """forbid[a, k]: supervised follower a's candidate k (hold until the next plan, then
+        brake) would run into the supervised car ahead of it in its lane if that one braked
+        now: with uncontrolled agents about, a supervised leader may have to brake at once
+        (its defensive constraints), which its followers' plans did not foresee."""
+        forbid = np.zeros(targets.shape, dtype=bool)
+        cars = world.is_car[agents] & ~wild
+        idx = cars.nonzero()[0]
+        if len(idx) < 2:
+            return forbid
+        a, b = np.meshgrid(idx, idx, indexing="ij")
+        a, b = a.ravel(), b.ravel()
+        keep = a != b
+        f, ld = a[keep], b[keep]
+        th = world.state[agents[f], 2]
+        dth = (world.state[agents[ld], 2] - th + np.pi) % (2 * np.pi) - np.pi
+        ahead = (world.position[agents[ld]] - world.position[agents[f]]) * np.exp(-1j * th)
+        behind = (np.abs(dth) < np.pi / 4) & (ahead.real > 0) & (np.abs(ahead.imag) < 2.0)
+        f, ld = f[behind], ld[behind]
+        if not len(f):
+            return forbid
+        cfg, dt = self.config, world.dt
+        lead = np.unique(ld)
+        brake = s_def.copy()
+        v = world.state[agents, 3]
+        hold = np.zeros(targets.shape, dtype=np.int64)
+        now = hold_then_brake(
+            world.s[agents], v, targets, hold, s_def.shape[2] * cfg.sample_every,
+            cfg.sample_every, dt, cfg.max_accel, np.full(len(agents), cfg.max_decel),
+            np.full(len(agents), cfg.speed_gain),
+        )  # fmt: skip
+        brake[lead] = now[lead]
+        conflict = self._conflict_tables(world, agents, brake, f, ld, relax=False)
+        bad = conflict[:, :, 0]  # the leader braking now (its candidate 0 scenario)
+        np.logical_or.at(forbid, f, bad)
+        forbid[forbid.all(axis=1)] = False  # cannot help any more
+        return forbid
 
     def _right_of_way(self, world: World, agents: np.ndarray, t: np.ndarray, w: np.ndarray):
         """Whether uncontrolled ``w`` has the right of way over supervised ``t`` (positions in
