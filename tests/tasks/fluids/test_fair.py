@@ -448,3 +448,32 @@ def test_circulating_cars_give_way_to_a_crawler_that_entered_the_roundabout_firs
             assert c["at_fault"] == [0], c
         if term or trunc:
             break
+
+
+def test_a_left_turn_yields_to_an_oncoming_right_turn_into_the_same_exit():
+    w = _world(2, lights=False)
+    right, left = _route(w, "east_in_0->north_out_0"), _route(w, "west_in_0->north_out_0")
+    c0, c1 = _conflict_s(w, left, right)
+    w.place(0, right, c1 - 10.0, speed=5.0)
+    w.place(1, left, c0 - 10.0, speed=5.0)
+    (c,) = _steer_until_collision(w, FaultTracker(w), np.full(2, 5.0), steps=60)
+    assert c["at_fault"] == [1] and c["rule"] == "turn_yields"
+
+
+def test_supervised_followers_keep_the_distance_to_stop_behind_a_supervised_leader():
+    """With an uncontrolled agent about, a supervised leader may have to brake at once, so its
+    supervised follower only keeps speeds from which it could still stop behind it."""
+    from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner
+
+    w = _world(3, lights=False)
+    lane = _route(w, "east_in_0->west_out_0")
+    w.place(0, _route(w, "north_in_0->south_out_0"), 2.0)  # the ego, far from both
+    w.place(1, lane, 16.0, speed=6.0)  # leader
+    w.place(2, lane, 9.0, speed=6.0)  # follower, 7 m behind at the same speed
+    planner = VelocityPlanner()
+    planner._bind(w)
+    agents = np.arange(3)
+    targets = planner.allowed_speed(w, agents)[:, None] * planner.fractions[None, :]
+    allowed = planner.defensive_domains(w, agents, targets, np.array([True, False, False]))
+    assert allowed[2, 0] and not allowed[2, -1]  # the follower may not hold its speed
+    assert allowed[1].all()  # nothing ahead of the leader
