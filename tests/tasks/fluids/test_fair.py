@@ -477,3 +477,21 @@ def test_supervised_followers_keep_the_distance_to_stop_behind_a_supervised_lead
     allowed = planner.defensive_domains(w, agents, targets, np.array([True, False, False]))
     assert allowed[2, 0] and not allowed[2, -1]  # the follower may not hold its speed
     assert allowed[1].all()  # nothing ahead of the leader
+
+
+def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswalk():
+    """A car inside the junction commits its exit crosswalk, however slow it is, so a walker
+    stepping out does not strand it across the oncoming lane."""
+    from fluids_bench.tasks.fluids.sim.crosswalks import committed_crosswalks, crosswalks_of
+
+    w = _world(1, lights=False)
+    left = _route(w, "east_in_0->south_out_0")
+    enter = float(w.layout.routes.enter_s[left])
+    exit_cw = np.isfinite(crosswalks_of(w.layout).car_enter[left]) & (
+        crosswalks_of(w.layout).car_enter[left] > enter
+    )
+    w.place(0, left, enter + 1.0 - w.front[0], speed=0.5)  # inside, crawling
+    assert (committed_crosswalks(w, w.front) & exit_cw).any()
+    w.place(0, left, enter - 20.0, speed=0.5)  # still on its approach
+    assert not (committed_crosswalks(w, w.front) & exit_cw).any()
+

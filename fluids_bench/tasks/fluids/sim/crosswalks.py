@@ -182,11 +182,17 @@ def stopping_reach(v):  # pragma: no cover (compiled)
 
 
 def committed_crosswalks(world, front: np.ndarray) -> np.ndarray:
-    """Crosswalks (bool (C,)) that an active car is committed to (:func:`stopping_reach`)."""
+    """Crosswalks (bool (C,)) that an active car is committed to: too close to stop for a
+    walker stepping on now (:func:`stopping_reach`), or already inside the junction on its way
+    out across it, so that a walker stepping out does not strand a turning car in the box."""
     cw = crosswalks_of(world.layout)
     cars = np.flatnonzero(world.is_car & world.active & (world.route >= 0))
     if not len(cars) or not cw.count:
         return np.zeros(cw.count, dtype=bool)
-    gap = cw.car_enter[world.route[cars]] - (world.route_s[cars] + front[cars])[:, None]
+    r = world.route[cars]
+    at = world.route_s[cars] + front[cars]
+    gap = cw.car_enter[r] - at[:, None]
     v = world.state[cars, 3]
-    return ((gap > 0) & (gap < stopping_reach(v)[:, None])).any(axis=0)
+    inside = at >= world.layout.routes.enter_s[r]
+    near = (gap < stopping_reach(v)[:, None]) | inside[:, None]
+    return ((gap > 0) & near).any(axis=0)
