@@ -479,6 +479,27 @@ def test_supervised_followers_keep_the_distance_to_stop_behind_a_supervised_lead
     assert allowed[1].all()  # nothing ahead of the leader
 
 
+def test_a_turner_does_not_enter_a_crossing_it_would_have_to_stop_in():
+    """Don't block the box: with a hold line (an occupied crosswalk) just past the oncoming
+    ego's path, turning in front of the ego no longer counts as clearing it."""
+    from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner
+
+    w = _world(2, lights=False)
+    straight, left = _route(w, "west_in_0->east_out_0"), _route(w, "east_in_0->south_out_0")
+    conflict, turn_at = _conflict_s(w, straight, left)
+    w.place(0, straight, conflict - 40.0, speed=3.0)  # the ego, far and slow
+    w.place(1, left, float(w.layout.routes.enter_s[left]) + 2.0 - w.front[1], speed=5.0)
+    planner = VelocityPlanner()
+    planner._bind(w)
+    agents, wild = np.arange(2), np.array([True, False])
+    targets = planner.allowed_speed(w, agents)[:, None] * planner.fractions[None, :]
+    free = planner.defensive_domains(w, agents, targets, wild)
+    hold = np.array([np.inf, turn_at + 2.0])  # its front 2 m past the ego's path: across it
+    boxed = planner.defensive_domains(w, agents, targets, wild, hold)
+    assert free[1].all()  # through a clear gap it may go first
+    assert boxed[1, 0] and not boxed[1, -1]
+
+
 def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswalk():
     """A car inside the junction commits its exit crosswalk, however slow it is, so a walker
     stepping out does not strand it across the oncoming lane."""
@@ -495,3 +516,44 @@ def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswa
     w.place(0, left, enter - 20.0, speed=0.5)  # still on its approach
     assert not (committed_crosswalks(w, w.front) & exit_cw).any()
 
+
+# seeds of the 200-episodes-per-scene measurement (scripts/defensive_driving.py) in which a
+# supervised car was at fault, each fixed by a rule of the planner that has its own test
+FAULT_SEEDS = [
+    ("four_way", 6, 1, "random", 6263),  # left turn against an oncoming right turn
+    ("four_way", 3, 2, "noisy", 3284),
+    ("t_junction", 5, 0, "random", 5151),
+    ("t_junction", 6, 0, "random", 6049),
+    ("t_junction", 4, 3, "random", 4478),  # follower behind a leader braking for the ego
+    ("t_junction", 6, 2, "random", 6346),
+    ("four_way", 7, 0, "crawl", 7115),
+    ("t_junction", 7, 1, "noisy", 7259),  # walkers wait for a car turning out of the box
+    ("four_way", 4, 4, "random", 4435),
+    ("four_way", 6, 4, "random", 6593),
+    ("four_way", 7, 2, "random", 7252),
+    ("t_junction", 7, 3, "random", 7420),
+    ("roundabout", 6, 3, "random", 6423),
+    ("roundabout", 7, 0, "random", 7168),  # a merging car slows for the ring (gap acceptance)
+]
+
+
+@pytest.mark.parametrize("layout, cars, peds, policy, seed", FAULT_SEEDS)
+def test_seeds_that_once_ended_in_a_supervised_fault(layout, cars, peds, policy, seed):
+    """The measurement's ego (same generator as the script) against v1's planner."""
+    env = _defensive_env(layout, cars - 1, peds, yield_to_pedestrians=True)
+    rng = np.random.default_rng(
+        [seed, ("supervisor", "stop", "crawl", "random", "noisy").index(policy)]
+    )
+    rng.integers(0, 100)  # the script's stop time, unused by these policies
+    _, info = env.reset(seed=seed)
+    for step in range(400):
+        if policy == "noisy":
+            label = info["supervisor_action"]
+            action = np.clip(label + rng.normal(0.0, 2.0, 1), 0.0, 10.0).astype(np.float32)
+        else:
+            action = _ego_policy(policy, rng, info, step, 0)
+        _, _, term, trunc, info = env.step(action)
+        for c in info["collisions"]:
+            assert c["at_fault"] == [0] or c["cut_in"], (step, c)
+        if term or trunc:
+            break

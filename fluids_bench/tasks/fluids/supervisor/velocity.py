@@ -57,6 +57,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
 )
 
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
+GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
 
 
 @dataclass(frozen=True)
@@ -149,6 +150,20 @@ class VelocityPlanner:
         out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
         return np.where(world.is_car[agents], out, world.max_speed[agents])
 
+    def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.ndarray:
+        """The lowest speed each of ``agents`` will be allowed over the next ``metres`` of its
+        route (curves and speed limits), so that a projection held at it is not optimistic."""
+        routes = world.layout.routes
+        r = world.route[agents]
+        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
+        look = np.arange(0, int(round(metres / PATH_SPACING)) + 1)
+        k = np.minimum(np.maximum(k0[:, None] + look, 0), routes.path.shape[1] - 1)
+        curve = np.sqrt(
+            self.config.lateral_accel / np.maximum(routes.curvature[r[:, None], k], 1e-6)
+        )
+        slowest = np.minimum(routes.speed_limit[r[:, None], k], curve).min(axis=1)
+        return np.where(world.is_car[agents], np.minimum(world.max_speed[agents], slowest), np.inf)
+
     # ------------------------------------------------------------------ projection
     def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
         """Path arc lengths (A, K, T) of ``agents`` under each candidate target speed (A, K).
@@ -184,17 +199,39 @@ class VelocityPlanner:
         with the same exceptions.
         """
         allowed = np.ones(s_proj.shape[:2], dtype=bool)
-        front = self._front[agents]
-        reach = s_proj[:, :, -1] + (world.offset[agents] + front)[:, None]  # route arc length
-        stop = self._light_stops(world, agents, front)
-        if stop is not None:
+        reach = self._reach_on_route(world, agents, s_proj)
+        for stop in self._stop_lines(world, agents):
             allowed &= _hold_before(stop, reach)
+        return allowed
+
+    def _reach_on_route(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
+        """Route arc length (A, K) each candidate takes the agent's front to by the horizon."""
+        return s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
+
+    def _stop_lines(self, world: World, agents: np.ndarray) -> list[np.ndarray]:
+        """Route arc lengths at which each agent's front must hold, one array per kind of
+        stop (red and yellow lights; with ``yield_to_pedestrians``, occupied crosswalks and,
+        for walkers, the kerb); ``inf`` where none holds it."""
+        front = self._front[agents]
+        stops = []
+        light = self._light_stops(world, agents, front)
+        if light is not None:
+            stops.append(light)
         if self.config.yield_to_pedestrians and self._crosswalks.count:
             occ = occupied(world, self._crosswalks)
             if occ.any():
-                allowed &= _hold_before(next_occupied_enter(world, agents, occ, front), reach)
-            allowed &= _hold_before(self._kerb_stops(world, agents), reach)
-        return allowed
+                stops.append(next_occupied_enter(world, agents, occ, front))
+            stops.append(self._kerb_stops(world, agents))
+        return stops
+
+    def hold_lines(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
+        """Route arc length (A,) of the first stop line each agent will hold before (the ones
+        :meth:`domains` enforces and it can still stop for); ``inf`` where none."""
+        line = np.full(len(agents), np.inf)
+        braking = self._reach_on_route(world, agents, s_proj)[:, 0]
+        for stop in self._stop_lines(world, agents):
+            line = np.minimum(line, np.where(braking <= stop, stop, np.inf))
+        return line
 
     def _kerb_stops(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
@@ -301,7 +338,12 @@ class VelocityPlanner:
         )
 
     def defensive_domains(
-        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray
+        self,
+        world: World,
+        agents: np.ndarray,
+        targets: np.ndarray,
+        wild: np.ndarray,
+        hold_lines: np.ndarray | None = None,
     ) -> np.ndarray:
         """Unary constraints toward uncontrolled agents: allowed[a, k] is False where supervised
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
@@ -313,7 +355,8 @@ class VelocityPlanner:
         (candidate 0) is never pruned, so the CSP stays feasible.
 
         Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
-        supervised one also allows for it driving on: see :meth:`_give_way`.
+        supervised one also allows for it driving on: see :meth:`_give_way`, which needs the
+        supervised agents' ``hold_lines`` (:meth:`hold_lines`; default: none).
         """
         cfg, dt = self.config, world.dt
         allowed = np.ones(targets.shape, dtype=bool)
@@ -373,7 +416,9 @@ class VelocityPlanner:
         np.logical_or.at(forbid, ii[tame[ii]], bad_i[tame[ii]])
         np.logical_or.at(forbid, jj[tame[jj]], bad_j[tame[jj]])
         forbid |= self._follow_supervised(world, agents, targets, wild, s_def)
-        give_way = self._give_way(world, agents, targets, wild, ii, jj)
+        if hold_lines is None:
+            hold_lines = np.full(len(agents), np.inf)
+        give_way = self._give_way(world, agents, targets, wild, ii, jj, hold_lines)
         # braking now is unsafe both ways (it cannot stop short of where the uncontrolled
         # agent may stop, and it would stop in the path of one that keeps going) while
         # going on clears that path: it clears the crossing rather than stop in it
@@ -441,6 +486,7 @@ class VelocityPlanner:
         wild: np.ndarray,
         ii: np.ndarray,
         jj: np.ndarray,
+        hold_lines: np.ndarray,
     ) -> np.ndarray:
         """forbid[a, k]: True where supervised agent a's candidate k could run into an
         uncontrolled agent with the right of way over it that keeps going (a crawler
@@ -448,9 +494,11 @@ class VelocityPlanner:
 
         A candidate is safe if, holding it until the next plan and then braking, the agent
         stops short of that agent's path, or if, holding it, it clears the path before that
-        agent gets there (gap acceptance), whether that agent keeps its speed or speeds up
-        (at the controller's acceleration, to the fastest speed allowed to it; one at rest
-        is taken to stay there, so that a waiting ego and a waiting car do not deadlock).
+        agent gets there (gap acceptance), whether that agent keeps its speed or speeds up (at
+        the controller's acceleration, to the fastest speed allowed to it; one at rest is taken
+        to stay there, so that a waiting ego and a waiting car do not deadlock). Both scenarios
+        end at the agent's hold line (a red light, an occupied crosswalk): it does not enter
+        a crossing that it would have to stop in (don't block the box).
         Everything is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning
         from rest to clear a crossing, and the agent keeps a planning period to spare before
         it brakes. An agent with no safe candidate at all (it is already in the way) is left
@@ -475,7 +523,13 @@ class VelocityPlanner:
         hold = np.full(cand.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
         stop = hold_then_brake(s0, v, cand, hold, *args)
         hold[:] = steps
-        go = hold_then_brake(s0, v, cand, hold, *args)
+        # going on, it slows for the curves ahead (turning into a roundabout's ring)
+        slowest = self._slowest_ahead(world, agents[sub], GIVE_WAY_LOOK_AHEAD)
+        go = hold_then_brake(s0, v, np.minimum(cand, slowest[:, None]), hold, *args)
+        line = (hold_lines[sub] - world.offset[agents[sub]] - self._front[agents[sub]])[
+            :, None, None
+        ]
+        stop, go = np.minimum(stop, line), np.minimum(go, line)  # it stops at its hold line
         # the uncontrolled agent, if moving, keeps its speed or speeds up towards the fastest
         # speed allowed to it (its candidates' scenarios span the two); at rest, it stays
         moving = v > STATIONARY_SPEED
@@ -537,7 +591,8 @@ class VelocityPlanner:
         s_proj = self.project(world, agents, targets)
         allowed = self.domains(world, agents, s_proj)
         if uncontrolled is not None and uncontrolled[agents].any():
-            allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents])
+            hold = self.hold_lines(world, agents, s_proj)
+            allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
         k = len(self.fractions)
         choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
