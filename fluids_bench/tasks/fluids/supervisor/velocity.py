@@ -140,10 +140,8 @@ class VelocityPlanner:
     def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
         curvature of the next 12 m of its route."""
+        r, k = self._path_ahead(world, agents, self._look)
         routes = world.layout.routes
-        r = world.route[agents]
-        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
-        k = np.minimum(np.maximum(k0[:, None] + self._look, 0), routes.path.shape[1] - 1)
         kappa = routes.curvature[r[:, None], k].max(axis=1)
         limit = routes.speed_limit[r, k[:, 0]]
         curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
@@ -153,16 +151,20 @@ class VelocityPlanner:
     def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.ndarray:
         """The lowest speed each of ``agents`` will be allowed over the next ``metres`` of its
         route (curves and speed limits), so that a projection held at it is not optimistic."""
-        routes = world.layout.routes
-        r = world.route[agents]
-        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
         look = np.arange(0, int(round(metres / PATH_SPACING)) + 1)
-        k = np.minimum(np.maximum(k0[:, None] + look, 0), routes.path.shape[1] - 1)
-        curve = np.sqrt(
-            self.config.lateral_accel / np.maximum(routes.curvature[r[:, None], k], 1e-6)
-        )
+        r, k = self._path_ahead(world, agents, look)
+        routes = world.layout.routes
+        kappa = routes.curvature[r[:, None], k]
+        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
         slowest = np.minimum(routes.speed_limit[r[:, None], k], curve).min(axis=1)
         return np.where(world.is_car[agents], np.minimum(world.max_speed[agents], slowest), np.inf)
+
+    @staticmethod
+    def _path_ahead(world: World, agents: np.ndarray, look: np.ndarray):
+        """Each agent's route (A,) and the indices (A, L) of its path samples ``look`` ahead."""
+        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
+        last = world.layout.routes.path.shape[1] - 1
+        return world.route[agents], np.minimum(np.maximum(k0[:, None] + look, 0), last)
 
     # ------------------------------------------------------------------ projection
     def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -198,15 +200,20 @@ class VelocityPlanner:
         crosswalk ahead is a stop line at its near edge for the cars whose route crosses it,
         with the same exceptions.
         """
+        return self._domains_and_hold_lines(world, agents, s_proj)[0]
+
+    def _domains_and_hold_lines(
+        self, world: World, agents: np.ndarray, s_proj: np.ndarray
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`domains`, and the route arc length (A,) of the first stop line each agent
+        will hold before (one it can still stop for; ``inf`` where none)."""
         allowed = np.ones(s_proj.shape[:2], dtype=bool)
-        reach = self._reach_on_route(world, agents, s_proj)
+        line = np.full(len(agents), np.inf)
+        reach = s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
         for stop in self._stop_lines(world, agents):
             allowed &= _hold_before(stop, reach)
-        return allowed
-
-    def _reach_on_route(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
-        """Route arc length (A, K) each candidate takes the agent's front to by the horizon."""
-        return s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
+            line = np.minimum(line, np.where(reach[:, 0] <= stop, stop, np.inf))
+        return allowed, line
 
     def _stop_lines(self, world: World, agents: np.ndarray) -> list[np.ndarray]:
         """Route arc lengths at which each agent's front must hold, one array per kind of
@@ -223,15 +230,6 @@ class VelocityPlanner:
                 stops.append(next_occupied_enter(world, agents, occ, front))
             stops.append(self._kerb_stops(world, agents))
         return stops
-
-    def hold_lines(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
-        """Route arc length (A,) of the first stop line each agent will hold before (the ones
-        :meth:`domains` enforces and it can still stop for); ``inf`` where none."""
-        line = np.full(len(agents), np.inf)
-        braking = self._reach_on_route(world, agents, s_proj)[:, 0]
-        for stop in self._stop_lines(world, agents):
-            line = np.minimum(line, np.where(braking <= stop, stop, np.inf))
-        return line
 
     def _kerb_stops(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
@@ -356,7 +354,8 @@ class VelocityPlanner:
 
         Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
         supervised one also allows for it driving on: see :meth:`_give_way`, which needs the
-        supervised agents' ``hold_lines`` (:meth:`hold_lines`; default: none).
+        supervised agents' ``hold_lines`` (route arc lengths of the stop lines they will hold
+        before, as :meth:`plan` finds them with the domains; default: none).
         """
         cfg, dt = self.config, world.dt
         allowed = np.ones(targets.shape, dtype=bool)
@@ -589,9 +588,8 @@ class VelocityPlanner:
         vmax = self.allowed_speed(world, agents)
         targets = vmax[:, None] * self.fractions[None, :]
         s_proj = self.project(world, agents, targets)
-        allowed = self.domains(world, agents, s_proj)
+        allowed, hold = self._domains_and_hold_lines(world, agents, s_proj)
         if uncontrolled is not None and uncontrolled[agents].any():
-            hold = self.hold_lines(world, agents, s_proj)
             allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
         k = len(self.fractions)
