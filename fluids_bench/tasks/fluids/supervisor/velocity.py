@@ -121,6 +121,14 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     return offs, radius
 
 
+def _relative(world: World, f: np.ndarray, ld: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Agent ``ld``'s position in agent ``f``'s frame (complex: along + 1j * across) and
+    whether the two head within 45° of each other (agent indices, elementwise)."""
+    th = world.state[f, 2]
+    dth = (world.state[ld, 2] - th + np.pi) % (2 * np.pi) - np.pi
+    return (world.position[ld] - world.position[f]) * np.exp(-1j * th), np.abs(dth) < np.pi / 4
+
+
 def _hold_before(stop: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """allowed[a, k]: False where candidate k takes agent a past its stop arc length ``stop``
     (``inf``: none) within the horizon (``reach``, (A, K)), unless even braking (k = 0) does."""
@@ -367,11 +375,10 @@ class VelocityPlanner:
         if not len(ii):
             return allowed
         # skip pairs where the uncontrolled agent is behind the supervised one, same way
-        w_idx, t_idx = np.where(wild[ii], ii, jj), np.where(wild[ii], jj, ii)
-        th_w = world.state[agents[w_idx], 2]
-        dth = (world.state[agents[t_idx], 2] - th_w + np.pi) % (2 * np.pi) - np.pi
-        ahead = (world.position[agents[t_idx]] - world.position[agents[w_idx]]) * np.exp(-1j * th_w)
-        follows = (np.abs(dth) < np.pi / 4) & (ahead.real > 0)
+        ahead, aligned = _relative(
+            world, agents[np.where(wild[ii], ii, jj)], agents[np.where(wild[ii], jj, ii)]
+        )
+        follows = aligned & (ahead.real > 0)
         ii, jj = ii[~follows], jj[~follows]
         if not len(ii):
             return allowed
@@ -443,10 +450,8 @@ class VelocityPlanner:
         a, b = a.ravel(), b.ravel()
         keep = a != b
         f, ld = a[keep], b[keep]
-        th = world.state[agents[f], 2]
-        dth = (world.state[agents[ld], 2] - th + np.pi) % (2 * np.pi) - np.pi
-        ahead = (world.position[agents[ld]] - world.position[agents[f]]) * np.exp(-1j * th)
-        behind = (np.abs(dth) < np.pi / 4) & (ahead.real > 0) & (np.abs(ahead.imag) < 2.0)
+        ahead, aligned = _relative(world, agents[f], agents[ld])
+        behind = aligned & (ahead.real > 0) & (np.abs(ahead.imag) < 2.0)
         f, ld = f[behind], ld[behind]
         if not len(f):
             return forbid
