@@ -534,6 +534,7 @@ FAULT_SEEDS = [
     ("t_junction", 7, 3, "random", 7420),
     ("roundabout", 6, 3, "random", 6423),
     ("roundabout", 7, 0, "random", 7168),  # a merging car slows for the ring (gap acceptance)
+    ("four_way", 3, 4, "random", 3597),  # a walker does not step out as the light turns red
 ]
 
 
@@ -557,3 +558,26 @@ def test_seeds_that_once_ended_in_a_supervised_fault(layout, cars, peds, policy,
             assert c["at_fault"] == [0] or c["cut_in"], (step, c)
         if term or trunc:
             break
+
+
+@pytest.mark.parametrize("yields", [False, True])
+def test_walkers_do_not_step_out_on_a_white_light_about_to_turn_red(yields):
+    """Crosswalk lights go from white straight to red; with ``yield_to_pedestrians`` (v1) a
+    walker who would not reach the crosswalk before red holds at the kerb, as at a flashing
+    "don't walk", instead of arriving at it just as it turns red (seed 3597 below)."""
+    from fluids_bench.tasks.fluids.sim.lights import GO
+    from fluids_bench.tasks.fluids.supervisor.velocity import (
+        VelocityPlanner,
+        VelocityPlannerConfig,
+    )
+
+    w = _world(1, peds=1)  # agent 1 is the walker
+    walk = _route(w, "walk_north_l")
+    light = int(w.layout.routes.light[walk])
+    while not (w.light_state[light] == GO and w.lights.time_to_change(w.time)[light] < 1.0):
+        w.step(np.zeros((w.n, 2)))
+    w.place(1, walk, float(w.layout.routes.stop_s[walk]) - 1.5 - w.front[1], speed=1.0)
+    planner = VelocityPlanner(VelocityPlannerConfig(yield_to_pedestrians=yields))
+    planner._bind(w)
+    stops = planner._light_stops(w, np.array([1]), w.front[1:])
+    assert (stops is not None and np.isfinite(stops[0])) == yields

@@ -255,7 +255,9 @@ class VelocityPlanner:
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
         """Each agent's stop line where its light holds it (red; yellow if it can still brake
-        comfortably), ``inf`` where none does; None when no light holds anyone."""
+        comfortably, and so, with ``yield_to_pedestrians``, a walker's white light about to
+        turn red: :meth:`_dont_walk`), ``inf`` where none does; None when no light holds
+        anyone."""
         routes = world.layout.routes
         r = world.route[agents]
         light = routes.light[r]
@@ -266,12 +268,25 @@ class VelocityPlanner:
         state = world.light_state[np.maximum(light, 0)]
         v = world.state[agents, 3]
         brake = v**2 / (2 * 0.6 * self.config.max_decel)  # comfortable braking distance
-        holds = (
-            (light >= 0) & (gap > -0.5) & ((state == STOP) | ((state == CAUTION) & (brake < gap)))
-        )
+        caution = state == CAUTION
+        if self.config.yield_to_pedestrians:
+            caution |= self._dont_walk(world, agents, light, state, gap)
+        holds = (light >= 0) & (gap > -0.5) & ((state == STOP) | (caution & (brake < gap)))
         if not holds.any():
             return None
         return np.where(holds, stop_s, np.inf)
+
+    def _dont_walk(self, world: World, agents: np.ndarray, light, state, gap) -> np.ndarray:
+        """Walkers whose white light turns red before they would reach their crosswalk (at
+        their speed, or half a walking pace from rest, plus a planning period): a flashing
+        "don't walk" that crosswalk lights lack; without it, a walker just short of the
+        kerb when the light turns red cannot stop and enters on red."""
+        walker = ~world.is_car[agents] & (light >= 0) & (state != STOP) & (gap > 0)
+        if not walker.any():
+            return walker
+        left = world.lights.time_to_change(world.time)[np.maximum(light, 0)]
+        pace = np.maximum(world.state[agents, 3], 0.5 * world.max_speed[agents])
+        return walker & (left < gap / pace + self.config.period * world.dt)
 
     def conflicts(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray
