@@ -163,15 +163,20 @@ class FluidsEnv(gym.Env):
       plan and braking then, they stop short of wherever the ego can stop (default False;
       True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
       in inside its stopping distance. Where the ego has the right of way (it entered the
-      junction first, or goes straight while they turn across it), they also give way to it
-      driving on: they turn or enter only through a gap it cannot close.
+      junction first, or goes straight or turns right while they turn left across it), they
+      also give way to it driving on: they turn or enter only through a gap it cannot close,
+      counting on slowing for the curves ahead, and do not enter a crossing they would have to
+      stop in (a red light or an occupied crosswalk beyond it).
     * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
     * ``obey_lights``: success also requires that the ego never entered its junction against
       a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
     * ``yield_to_pedestrians``: a pedestrian on a crosswalk has the right of way: supervised
       cars wait before a crosswalk with a pedestrian on it (unless they can no longer stop),
       and success also requires that the ego never drove onto one that it could have stopped
-      for (``info["ego_failed_to_yield"]``; default False, True in the v1 ids).
+      for (``info["ego_failed_to_yield"]``; default False, True in the v1 ids). Supervised
+      walkers wait at the kerb while a car is committed to their crosswalk (too close to stop,
+      or inside the junction on its way out across it) and do not step out on a white light
+      that turns red before they would reach the crosswalk.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.

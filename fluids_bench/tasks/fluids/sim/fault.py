@@ -17,8 +17,9 @@ seconds of states) and labels each collision. The rules, first match wins:
    :data:`STATIONARY_SPEED`): the mover.
 5. ``car_yields_to_pedestrian``: a car and a pedestrian, both moving: the car.
 6. ``turn_yields``: two moving cars that came from opposite approaches (their routes' entry
-   headings more than 135° apart), exactly one of them turning (its route's heading changes
-   by more than 45°): the turning one, which crosses the oncoming lane and must yield.
+   headings more than 135° apart), exactly one of them turning left (its route's heading turns
+   left by more than 45°; right-hand traffic): the left-turner, which crosses the oncoming lane
+   and must yield to the other going straight or turning right.
 7. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
    car not yet in the junction counts as entering now). Same step: both.
 8. ``shared``: otherwise both.
