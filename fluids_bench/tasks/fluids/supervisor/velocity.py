@@ -471,17 +471,25 @@ class VelocityPlanner:
         if not len(f):
             return forbid
         cfg, dt = self.config, world.dt
-        lead = np.unique(ld)
-        brake = s_def.copy()
-        v = world.state[agents, 3]
-        hold = np.zeros(targets.shape, dtype=np.int64)
-        now = hold_then_brake(
-            world.s[agents], v, targets, hold, s_def.shape[2] * cfg.sample_every,
-            cfg.sample_every, dt, cfg.max_accel, np.full(len(agents), cfg.max_decel),
-            np.full(len(agents), cfg.speed_gain),
-        )  # fmt: skip
-        brake[lead] = now[lead]
-        conflict = self._conflict_tables(world, agents, brake, f, ld, relax=False)
+        # only the agents of those pairs are projected (positions in ``sub``)
+        sub, pos = np.unique(np.concatenate([f, ld]), return_inverse=True)
+        fs, ls = pos[: len(f)], pos[len(f) :]
+        brake = s_def[sub]  # followers: hold their candidate until the next plan, then brake
+        lead = np.unique(ls)
+        on = agents[sub[lead]]
+        brake[lead] = hold_then_brake(  # leaders: brake now
+            world.s[on],
+            world.state[on, 3],
+            targets[sub[lead]],
+            np.zeros((len(lead), targets.shape[1]), dtype=np.int64),
+            s_def.shape[2] * cfg.sample_every,
+            cfg.sample_every,
+            dt,
+            cfg.max_accel,
+            np.full(len(lead), cfg.max_decel),
+            np.full(len(lead), cfg.speed_gain),
+        )
+        conflict = self._conflict_tables(world, agents[sub], brake, fs, ls, relax=False)
         bad = conflict[:, :, 0]  # the leader braking now (its candidate 0 scenario)
         np.logical_or.at(forbid, f, bad)
         forbid[forbid.all(axis=1)] = False  # cannot help any more
