@@ -501,8 +501,9 @@ def test_a_turner_does_not_enter_a_crossing_it_would_have_to_stop_in():
 
 
 def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswalk():
-    """A car inside the junction commits its exit crosswalk, however slow it is, so a walker
-    stepping out does not strand it across the oncoming lane."""
+    """A supervised left-turner inside the junction commits its exit crosswalk, however slow
+    it is, so a walker stepping out does not strand it across the oncoming lane; an
+    uncontrolled car (``turning_out`` unset for it) does not."""
     from fluids_bench.tasks.fluids.sim.crosswalks import committed_crosswalks, crosswalks_of
 
     w = _world(1, lights=False)
@@ -512,9 +513,10 @@ def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswa
         crosswalks_of(w.layout).car_enter[left] > enter
     )
     w.place(0, left, enter + 1.0 - w.front[0], speed=0.5)  # inside, crawling
-    assert (committed_crosswalks(w, w.front) & exit_cw).any()
+    assert (committed_crosswalks(w, w.front, np.ones(w.n, bool)) & exit_cw).any()
+    assert not (committed_crosswalks(w, w.front, np.zeros(w.n, bool)) & exit_cw).any()
     w.place(0, left, enter - 20.0, speed=0.5)  # still on its approach
-    assert not (committed_crosswalks(w, w.front) & exit_cw).any()
+    assert not (committed_crosswalks(w, w.front, np.ones(w.n, bool)) & exit_cw).any()
 
 
 # seeds of the 200-episodes-per-scene measurement (scripts/defensive_driving.py) in which a

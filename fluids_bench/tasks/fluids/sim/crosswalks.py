@@ -181,10 +181,11 @@ def stopping_reach(v):  # pragma: no cover (compiled)
     return v * COMMIT_LATENCY + v * v / (2.0 * COMMIT_DECEL)
 
 
-def committed_crosswalks(world, front: np.ndarray) -> np.ndarray:
+def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | None = None):
     """Crosswalks (bool (C,)) that an active car is committed to: too close to stop for a
-    walker stepping on now (:func:`stopping_reach`), or already inside the junction on its way
-    out across it, so that a walker stepping out does not strand a turning car in the box."""
+    walker stepping on now (:func:`stopping_reach`), or, for the cars marked in
+    ``turning_out`` (bool (N,); default none), already inside the junction on its way out
+    across it, so that a walker stepping out does not strand such a car in the box."""
     cw = crosswalks_of(world.layout)
     cars = np.flatnonzero(world.is_car & world.active & (world.route >= 0))
     if not len(cars) or not cw.count:
@@ -194,5 +195,9 @@ def committed_crosswalks(world, front: np.ndarray) -> np.ndarray:
     gap = cw.car_enter[r] - at[:, None]
     v = world.state[cars, 3]
     inside = at >= world.layout.routes.enter_s[r]
+    if turning_out is None:
+        inside[:] = False
+    else:
+        inside &= turning_out[cars]
     near = (gap < stopping_reach(v)[:, None]) | inside[:, None]
     return ((gap > 0) & near).any(axis=0)

@@ -211,19 +211,19 @@ class VelocityPlanner:
         return self._domains_and_hold_lines(world, agents, s_proj)[0]
 
     def _domains_and_hold_lines(
-        self, world: World, agents: np.ndarray, s_proj: np.ndarray
+        self, world: World, agents: np.ndarray, s_proj: np.ndarray, uncontrolled=None
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`domains`, and the route arc length (A,) of the first stop line each agent
         will hold before (one it can still stop for; ``inf`` where none)."""
         allowed = np.ones(s_proj.shape[:2], dtype=bool)
         line = np.full(len(agents), np.inf)
         reach = s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
-        for stop in self._stop_lines(world, agents):
+        for stop in self._stop_lines(world, agents, uncontrolled):
             allowed &= _hold_before(stop, reach)
             line = np.minimum(line, np.where(reach[:, 0] <= stop, stop, np.inf))
         return allowed, line
 
-    def _stop_lines(self, world: World, agents: np.ndarray) -> list[np.ndarray]:
+    def _stop_lines(self, world: World, agents: np.ndarray, uncontrolled=None) -> list:
         """Route arc lengths at which each agent's front must hold, one array per kind of
         stop (red and yellow lights; with ``yield_to_pedestrians``, occupied crosswalks and,
         for walkers, the kerb); ``inf`` where none holds it."""
@@ -236,21 +236,28 @@ class VelocityPlanner:
             occ = occupied(world, self._crosswalks)
             if occ.any():
                 stops.append(next_occupied_enter(world, agents, occ, front))
-            stops.append(self._kerb_stops(world, agents))
+            stops.append(self._kerb_stops(world, agents, uncontrolled))
         return stops
 
-    def _kerb_stops(self, world: World, agents: np.ndarray) -> np.ndarray:
+    def _kerb_stops(self, world: World, agents: np.ndarray, uncontrolled=None) -> np.ndarray:
         """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
         while a car is committed to that crosswalk (too close to stop for them, see
         :func:`~fluids_bench.tasks.fluids.sim.crosswalks.stopping_reach`), so a car that
-        yields is not cut off by a walker stepping out in front of it."""
+        yields is not cut off by a walker stepping out in front of it; and while a supervised
+        car turning left is inside the junction on its way out across it, so that a walker
+        does not strand it across the oncoming lane (``uncontrolled``, (N,) bool: the cars
+        that do not count; a learner's ego still has to stop for a walker who steps out)."""
         cw = self._crosswalks
         walk_cw = cw.walk_crosswalk[world.route[agents]]
         kerb = cw.walk_enter[world.route[agents]]
         waiting = (walk_cw >= 0) & (world.route_s[agents] + self._front[agents] < kerb)
         if not waiting.any():
             return np.full(len(agents), np.inf)
-        busy = committed_crosswalks(world, self._front)
+        route = np.maximum(world.route, 0)
+        turning_out = self._turns[1][route] & (world.route >= 0) & world.is_car
+        if uncontrolled is not None:
+            turning_out &= ~uncontrolled
+        busy = committed_crosswalks(world, self._front, turning_out)
         return np.where(waiting & busy[np.maximum(walk_cw, 0)], kerb, np.inf)
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
@@ -616,7 +623,7 @@ class VelocityPlanner:
         vmax = self.allowed_speed(world, agents)
         targets = vmax[:, None] * self.fractions[None, :]
         s_proj = self.project(world, agents, targets)
-        allowed, hold = self._domains_and_hold_lines(world, agents, s_proj)
+        allowed, hold = self._domains_and_hold_lines(world, agents, s_proj, uncontrolled)
         if uncontrolled is not None and uncontrolled[agents].any():
             allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
