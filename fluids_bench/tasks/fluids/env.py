@@ -175,8 +175,8 @@ class FluidsEnv(gym.Env):
       and success also requires that the ego never drove onto one that it could have stopped
       for (``info["ego_failed_to_yield"]``; default False, True in the v1 ids). Supervised
       walkers wait at the kerb while a car is committed to their crosswalk (too close to stop,
-      or inside the junction on its way out across it) and do not step out on a white light
-      that turns red before they would reach the crosswalk.
+      or a background car turning left, inside the junction on its way out across it) and do
+      not step out on a white light that turns red before they would reach the crosswalk.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
