@@ -106,6 +106,34 @@ def test_a_walker_waits_at_the_kerb_for_a_car_too_close_to_stop():
 
 
 @pytest.mark.parametrize(
+    "route_name, uncontrolled, waits",
+    [
+        ("east_in_0->south_out_0", False, True),  # a supervised left-turner: the walker waits
+        ("east_in_0->south_out_0", True, False),  # the learner's ego: it must stop for walkers
+        ("west_in_0->south_out_0", False, False),  # a right-turner strands nobody
+    ],
+)
+def test_a_walker_waits_for_a_supervised_left_turner_inside_the_junction(
+    route_name, uncontrolled, waits
+):
+    """A slow car inside the junction is not *too close to stop* for the exit crosswalk, but a
+    walker stepping out would strand a left-turner across the oncoming lane."""
+    w = _world()
+    route = w.layout.routes.names.index(route_name)
+    cw = crosswalks_of(w.layout)
+    enter = float(w.layout.routes.enter_s[route])
+    c = int(np.argmax(np.where(np.isfinite(cw.car_enter[route]), cw.car_enter[route], -1)))
+    assert cw.car_enter[route, c] > enter + 5.0  # the exit crosswalk, across the junction
+    walk = int(np.flatnonzero(cw.walk_crosswalk == c)[0])
+    kerb = float(cw.walk_enter[walk])
+    w.place(0, route, enter + 1.0 - float(w.front[0]), speed=0.5)  # inside, crawling
+    w.place(1, walk, kerb - float(w.width[1]) / 2 - 0.3)  # standing at the kerb
+    mask = np.array([uncontrolled, False])
+    targets = _supervisor(w, True).planner.plan(w, mask if uncontrolled else None)
+    assert bool(targets[1] == 0.0) is waits
+
+
+@pytest.mark.parametrize(
     "walker_on, gap, flagged",
     [
         (True, 20.0, True),  # on the crosswalk while the car could still stop: must yield
