@@ -562,6 +562,29 @@ def test_seeds_that_once_ended_in_a_supervised_fault(layout, cars, peds, policy,
             break
 
 
+# a DAgger ego's target speeds on FLUIDS-v1 seed 100189 (scripts/fluids_baselines.py), run
+# length encoded: it stands at the junction's entry, then drives off without stopping
+DAGGER_EGO_100189 = [
+    (2.5, 35), (0.0, 8), (2.5, 1), (0.0, 126), (10.0, 7), (2.5, 1), (10.0, 3), (7.5, 3),
+    (4.4, 16), (3.3, 5), (2.2, 10), (1.1, 2), (0.0, 29), (2.2, 3), (4.4, 19),
+]  # fmt: skip
+
+
+def test_a_left_turner_that_set_off_in_front_of_a_waiting_ego_does_not_stop_in_its_way():
+    """A left-turner that went on while the oncoming ego (turning right into the same exit)
+    stood still met it side by side at the merge when the ego drove off: no candidate kept
+    the full clearance both ways, so none was pruned, and it sped up in front of the ego and
+    then had to brake in its path (``turn_yields``, its fault). It now keeps to the
+    candidates that at least do not touch the ego either way: it stops short of the merge."""
+    env = gym.make("FLUIDS-v1", action_level="velocity")
+    env.reset(seed=100189)
+    for speed, repeat in DAGGER_EGO_100189:
+        for _ in range(repeat):
+            _, _, term, trunc, info = env.step(np.array([speed], np.float32))
+            assert all(c["at_fault"] == [0] or c["cut_in"] for c in info["collisions"]), info
+            assert not (term or trunc)
+
+
 @pytest.mark.parametrize("yields", [False, True])
 def test_walkers_do_not_step_out_on_a_white_light_about_to_turn_red(yields):
     """Crosswalk lights go from white straight to red; with ``yield_to_pedestrians`` (v1) a

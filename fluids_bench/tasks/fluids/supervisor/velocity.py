@@ -324,11 +324,13 @@ class VelocityPlanner:
         ii: np.ndarray,
         jj: np.ndarray,
         relax: bool = True,
+        contact: bool = False,
     ) -> np.ndarray:
         """conflict[p, a, b] (P, K, K) for the pairs (``ii[p]``, ``jj[p]``) of positions in
         ``agents`` projected to ``s_proj`` (A, K, T). ``relax``: a pair already closer than its
         clearance conflicts only where it gets closer still (so that braking stays feasible
-        for the CSP); without it, wherever it stays inside the clearance."""
+        for the CSP); without it, wherever it stays inside the clearance. ``contact``: the
+        clearance is the footprints' own (no margin): where they would touch."""
         cars = world.is_car[agents]
         pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
         bound = self._reach[agents]
@@ -347,7 +349,7 @@ class VelocityPlanner:
         margin = np.where(
             crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
         )
-        clearance = radius[ii] + radius[jj] + margin
+        clearance = radius[ii] + radius[jj] + (0.0 if contact else margin)
         thresh = np.maximum(np.minimum(clearance, d_now - 0.05), 0.0) if relax else clearance
         reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
         return conflict_tables(
@@ -575,6 +577,16 @@ class VelocityPlanner:
         stop_fails = self._conflict_tables(world, on, stop, ts, ws, relax=False).any(axis=2)
         clear_fails = self._conflict_tables(world, on, go, ts, ws, relax=False).any(axis=2)
         np.logical_or.at(forbid, t[row], stop_fails & clear_fails)
+        stuck = forbid.all(axis=1)
+        if stuck.any():
+            # no candidate keeps the full clearance both ways (a close pass counts, and a merge
+            # is close): keep the candidates that at least do not touch that agent either way
+            # (a car that set off while it was at rest, met side by side at a merge)
+            touch = np.zeros(targets.shape, dtype=bool)
+            stop_t = self._conflict_tables(world, on, stop, ts, ws, relax=False, contact=True)
+            go_t = self._conflict_tables(world, on, go, ts, ws, relax=False, contact=True)
+            np.logical_or.at(touch, t[row], stop_t.any(axis=2) & go_t.any(axis=2))
+            forbid[stuck] = touch[stuck]
         forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
         return forbid
 
