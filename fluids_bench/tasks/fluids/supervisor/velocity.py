@@ -537,8 +537,9 @@ class VelocityPlanner:
         a crossing that it would have to stop in (don't block the box).
         Everything is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning
         from rest to clear a crossing, and the agent keeps a planning period to spare before
-        it brakes. An agent with no safe candidate at all (it is already in the way) is left
-        as it is: stopping there would not help.
+        it brakes. Where no candidate keeps the full clearance both ways, the candidates that
+        at least do not touch that agent either way are kept; an agent with none at all (it is
+        already in the way) is left as it is: stopping there would not help.
         """
         forbid = np.zeros(targets.shape, dtype=bool)
         t = np.where(wild[ii], jj, ii)
