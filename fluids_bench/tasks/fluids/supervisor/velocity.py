@@ -582,7 +582,7 @@ class VelocityPlanner:
         if stuck.any():
             # no candidate keeps the full clearance both ways (a close pass counts, and a merge
             # is close): keep the candidates that at least do not touch that agent either way
-            # (a car that set off while it was at rest, met side by side at a merge)
+            # (an agent taken to stay at rest that set off, met side by side at a merge)
             touch = np.zeros(targets.shape, dtype=bool)
             stop_t = self._conflict_tables(world, on, stop, ts, ws, relax=False, contact=True)
             go_t = self._conflict_tables(world, on, go, ts, ws, relax=False, contact=True)
