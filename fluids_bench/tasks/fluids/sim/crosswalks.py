@@ -194,10 +194,7 @@ def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | Non
     at = world.route_s[cars] + front[cars]
     gap = cw.car_enter[r] - at[:, None]
     v = world.state[cars, 3]
-    inside = at >= world.layout.routes.enter_s[r]
-    if turning_out is None:
-        inside[:] = False
-    else:
-        inside &= turning_out[cars]
-    near = (gap < stopping_reach(v)[:, None]) | inside[:, None]
+    near = gap < stopping_reach(v)[:, None]
+    if turning_out is not None:  # inside the junction: its front has reached its zone
+        near |= ((world.entered[cars] >= 0) & turning_out[cars])[:, None]
     return ((gap > 0) & near).any(axis=0)

@@ -583,10 +583,12 @@ class VelocityPlanner:
             # no candidate keeps the full clearance both ways (a close pass counts, and a merge
             # is close): keep the candidates that at least do not touch that agent either way
             # (an agent taken to stay at rest that set off, met side by side at a merge)
+            mine = stuck[t[row]]  # only the stuck agents' pairs
+            ts_, ws_ = ts[mine], ws[mine]
+            stop_t = self._conflict_tables(world, on, stop, ts_, ws_, relax=False, contact=True)
+            go_t = self._conflict_tables(world, on, go, ts_, ws_, relax=False, contact=True)
             touch = np.zeros(targets.shape, dtype=bool)
-            stop_t = self._conflict_tables(world, on, stop, ts, ws, relax=False, contact=True)
-            go_t = self._conflict_tables(world, on, go, ts, ws, relax=False, contact=True)
-            np.logical_or.at(touch, t[row], stop_t.any(axis=2) & go_t.any(axis=2))
+            np.logical_or.at(touch, t[row][mine], stop_t.any(axis=2) & go_t.any(axis=2))
             forbid[stuck] = touch[stuck]
         forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
         return forbid
