@@ -15,7 +15,10 @@ The source's schedule (ch. 3), every parameter set here explicitly:
 - learner: ``mlp`` (two hidden layers of 64, Fig. 3.3) and ``linear`` (no hidden layer, i.e.
   least-squares linear regression, Fig. 3.4).
 
-Humanoid (200 iterations, 60 initial demonstrations, updates every 15) is not run by default.
+The source's Humanoid schedule (200 iterations; DAgger-B and DART start from 60 supervisor
+demonstrations, then update every 15 iterations; evaluated at 50, 100, 150, 200) is
+``--env Humanoid-IL-v0 --iterations 200 --eval-at 50 100 150 200 --initial-demos 60
+--update-every 15``.
 
 One JSON per (env, learner, method, seed) run in ``--out/runs/``, written atomically when the
 run finishes, so a killed sweep resumes by skipping finished runs; ``--workers`` runs them in
@@ -78,10 +81,15 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
     if method == "bc":
         result = bc.run(bc.BCConfig(**common))
     elif method in ("dagger", "dagger_b"):
-        retrain = tuple(s["update_at"]) if method == "dagger_b" else None
+        batched = method == "dagger_b"
         result = dagger.run(
             dagger.DAggerConfig(
-                **common, beta=0.5, beta_schedule="exponential", initial_demos=1, retrain_at=retrain
+                **common,
+                beta=0.5,
+                beta_schedule="exponential",
+                initial_demos=(s["initial_demos"] or 1) if batched else 1,
+                retrain_at=tuple(s["update_at"]) if batched else None,
+                retrain_every=s["update_every"] if batched else None,
             )
         )
     elif method == "isotropic":
@@ -92,6 +100,8 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
                 **common,
                 alpha=s["dart_fixed_trace"] if method == "dart_fixed" else None,
                 update_at=tuple(s["update_at"]),
+                update_every=s["update_every"],
+                initial_demos=s["initial_demos"] or 0,
                 heldout_fraction=0.0,
                 initial_noise_std=0.0,
                 initial_epsilon=0.0,
@@ -211,6 +221,20 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--iterations", type=int, default=20)
     p.add_argument("--eval-at", type=int, nargs="+", default=[5, 10, 15, 20])
     p.add_argument("--update-at", type=int, nargs="+", default=[2, 8])
+    p.add_argument(
+        "--update-every",
+        type=int,
+        default=None,
+        help="DAgger-B and DART update every N iterations (replaces --update-at)",
+    )
+    p.add_argument(
+        "--initial-demos",
+        type=int,
+        default=None,
+        help="supervisor demonstrations DAgger-B and DART start from, at iteration 0 (the "
+        "source's Humanoid: 60; default: DAgger-B one, DART none, its first iterations being "
+        "noise-free supervisor demonstrations)",
+    )
     p.add_argument("--eval-episodes", type=int, default=5)
     p.add_argument("--eval-steps", type=int, default=500)
     p.add_argument("--workers", type=int, default=1)
@@ -225,6 +249,8 @@ def main(argv: list[str] | None = None) -> int:
         "iterations": args.iterations,
         "eval_at": args.eval_at,
         "update_at": args.update_at,
+        "update_every": args.update_every,
+        "initial_demos": args.initial_demos,
         "eval_episodes": args.eval_episodes,
         "eval_steps": args.eval_steps,
         "dart_fixed_trace": args.dart_fixed_trace,

@@ -14,6 +14,9 @@ bonus is subtracted from the training reward (``--shift``); evaluations use the 
 
 Resumable: the state after every iteration is written atomically to ``<out>.ckpt.npz``; run the
 same command again to continue. Ctrl-C stops cleanly after the current iteration's checkpoint.
+``--init <other>.ckpt.npz`` starts a new stage from another run's checkpoint (its parameters,
+state statistics, random generator and iteration count) with this command's settings, e.g.
+another ``--shift``; the stage's recipe records the one it started from.
 Writes ``<out>`` (the best evaluated policy, .npz) and ``<out>.json`` (recipe, history, sha256).
 
 Example: ``nice -n 10 python scripts/train_locomotion_expert.py --env Hopper --iterations 400
@@ -108,6 +111,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--eval-episodes", type=int, default=5)
     p.add_argument("--workers", type=int, default=1)
     p.add_argument(
+        "--init",
+        type=Path,
+        default=None,
+        help="start from this checkpoint (<out>.ckpt.npz of an earlier stage), not from zero",
+    )
+    p.add_argument(
         "--ship",
         type=Path,
         default=None,
@@ -150,8 +159,20 @@ def main(argv: list[str] | None = None) -> int:
     ckpt = args.out.with_name(args.out.name + ".ckpt.npz")
     meta_path = args.out.with_name(args.out.name + ".json")
     rng = np.random.default_rng(args.seed)
-    if ckpt.exists():
-        with np.load(ckpt, allow_pickle=False) as z:
+    if args.init is not None and not ckpt.exists():
+        if not args.init.name.endswith(".ckpt.npz") or not args.init.exists():
+            p.error(f"--init is {args.init}; allowed: an existing <out>.ckpt.npz of another run")
+        with np.load(args.init, allow_pickle=False) as z:
+            init_state = json.loads(str(z["state"]))
+        recipe["init"] = {
+            "checkpoint": args.init.name,
+            "iteration": init_state["iteration"],
+            "sha256": sha256_of(args.init),
+            "recipe": init_state["recipe"],
+        }
+    resume_from = ckpt if ckpt.exists() else args.init
+    if resume_from is not None:
+        with np.load(resume_from, allow_pickle=False) as z:
             theta = z["theta"]
             best_theta, best_mean, best_std = z["best_theta"], z["best_mean"], z["best_std"]
             n, s1, s2 = float(z["n"]), z["s1"], z["s2"]
@@ -160,8 +181,14 @@ def main(argv: list[str] | None = None) -> int:
         start, history, best = state["iteration"], state["history"], state["best"]
         elapsed, env_steps = state["elapsed"], state["env_steps"]
         if state["recipe"]["seed"] != args.seed or state["recipe"]["hidden"] != args.hidden:
-            p.error(f"checkpoint {ckpt} was made with other settings: {state['recipe']}")
-        print(f"resuming at iteration {start} (best eval {best['mean_return']:.1f})")
+            p.error(f"checkpoint {resume_from} was made with other settings: {state['recipe']}")
+        if resume_from == ckpt:
+            if "init" in state["recipe"]:
+                recipe["init"] = state["recipe"]["init"]
+            print(f"resuming at iteration {start} (best eval {best['mean_return']:.1f})")
+        else:  # a new stage: its own history and best, the cost so far carried on
+            history, best = [], {"mean_return": -np.inf, "iteration": start}
+            print(f"new stage from {args.init} at iteration {start}")
     else:
         theta = np.zeros(n_params)
         # hidden layers start random (output layer zero, so the first policy outputs mid-range)

@@ -7,6 +7,7 @@ import json
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from fluids_bench.tasks.locomotion.policy import MLPPolicy
 
@@ -61,3 +62,34 @@ def test_ship_records_the_hash_the_loader_checks(tmp_path):
     policy = MLPPolicy.load(folder / record["file"], record["sha256"])
     assert policy.obs_dim == 11 and record["recipe"]["hidden"] == [4]
     assert policy(np.zeros(11)).shape == (3,)
+
+
+def test_a_stage_from_another_runs_checkpoint_continues_it_with_new_settings(tmp_path):
+    """``--init``: the second stage carries the first's parameters, statistics, generator and
+    iteration count, so it equals resuming the first run with the new settings; its recipe
+    records the stage it started from."""
+    first, second, resumed = (tmp_path / d / "w.npz" for d in ("first", "second", "resumed"))
+    for path in (first, second, resumed):
+        path.parent.mkdir()
+    assert train.main([*TINY, "--out", str(first), "--iterations", "2"]) == 0
+    ckpt = first.with_name("w.npz.ckpt.npz")
+    init = [*TINY, "--out", str(second), "--iterations", "4", "--shift", "0", "--init", str(ckpt)]
+    assert train.main(init) == 0
+    resumed.with_name("w.npz.ckpt.npz").write_bytes(ckpt.read_bytes())
+    assert train.main([*TINY, "--out", str(resumed), "--iterations", "4", "--shift", "0"]) == 0
+    a = np.load(second.with_name("w.npz.ckpt.npz"))
+    b = np.load(resumed.with_name("w.npz.ckpt.npz"))
+    assert np.array_equal(a["theta"], b["theta"]) and np.array_equal(a["s2"], b["s2"])
+    meta = json.loads(second.with_name("w.npz.json").read_text())
+    assert meta["recipe"]["shift"] == 0.0 and meta["recipe"]["init"]["iteration"] == 2
+    assert meta["recipe"]["init"]["recipe"]["shift"] == 1.0
+    assert [row["iteration"] for row in meta["history"]] == [3, 4]
+    assert train.main(init) == 0  # finished: the stage's own checkpoint wins over --init
+    assert json.loads(second.with_name("w.npz.json").read_text())["recipe"]["init"]["iteration"] == 2
+
+
+def test_init_must_be_a_checkpoint(tmp_path, capsys):
+    out = tmp_path / "w.npz"
+    with pytest.raises(SystemExit):
+        train.main([*TINY, "--out", str(out), "--init", str(tmp_path / "missing.npz")])
+    assert "--init is" in capsys.readouterr().err
