@@ -107,6 +107,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--hidden", type=int, nargs="*", default=[], help="tanh hidden widths")
     p.add_argument("--horizon", type=int, default=1000)
+    p.add_argument(
+        "--obs-dims",
+        type=int,
+        default=None,
+        help="the policy reads only the observation's first K entries (Humanoid: 45, its joint "
+        "positions and velocities); the rest get zero weight (default: all)",
+    )
     p.add_argument("--eval-every", type=int, default=10)
     p.add_argument("--eval-episodes", type=int, default=5)
     p.add_argument("--workers", type=int, default=1)
@@ -143,11 +150,19 @@ def main(argv: list[str] | None = None) -> int:
     low, high = env.action_space.low.astype(np.float64), env.action_space.high.astype(np.float64)
     shapes = layer_shapes(obs_dim, act_dim, args.hidden)
     n_params = sum(o * i + o for o, i in shapes)
+    obs_dims = obs_dim if args.obs_dims is None else args.obs_dims
+    if not 1 <= obs_dims <= obs_dim:
+        p.error(f"--obs-dims is {obs_dims}; allowed: 1..{obs_dim} for {args.env}")
+    # the parameters searched: all but the first layer's weights on unread observation entries
+    free = np.ones(n_params, dtype=bool)
+    free[: shapes[0][0] * obs_dim] = np.tile(np.arange(obs_dim) < obs_dims, shapes[0][0])
+    n_free = int(free.sum())
     recipe = {
         "algorithm": "ARS V2-t (Mania et al. 2018), numpy",
         "env": f"{args.env}-v5",
         "seed": args.seed,
         "hidden": args.hidden,
+        "obs_dims": obs_dims,
         "horizon": args.horizon,
         "eval_every": args.eval_every,
         "eval_episodes": args.eval_episodes,
@@ -180,7 +195,11 @@ def main(argv: list[str] | None = None) -> int:
         rng.bit_generator.state = state["rng"]
         start, history, best = state["iteration"], state["history"], state["best"]
         elapsed, env_steps = state["elapsed"], state["env_steps"]
-        if state["recipe"]["seed"] != args.seed or state["recipe"]["hidden"] != args.hidden:
+        if (
+            state["recipe"]["seed"],
+            state["recipe"]["hidden"],
+            state["recipe"].get("obs_dims", obs_dim),
+        ) != (args.seed, args.hidden, obs_dims):
             p.error(f"checkpoint {resume_from} was made with other settings: {state['recipe']}")
         if resume_from == ckpt:
             if "init" in state["recipe"]:
@@ -196,6 +215,7 @@ def main(argv: list[str] | None = None) -> int:
         for o, inp in shapes[:-1]:
             theta[i : i + o * inp] = rng.standard_normal(o * inp) / np.sqrt(inp)
             i += o * inp + o
+        theta[~free] = 0.0
         n, s1, s2 = 0.0, np.zeros(obs_dim), np.zeros(obs_dim)
         start, history, best = 0, [], {"mean_return": -np.inf, "iteration": 0}
         best_theta, best_mean, best_std = theta.copy(), np.zeros(obs_dim), np.ones(obs_dim)
@@ -225,7 +245,8 @@ def main(argv: list[str] | None = None) -> int:
         for it in range(start, args.iterations):
             t0 = time.perf_counter()
             mean, std = normaliser()
-            deltas = rng.standard_normal((N, n_params))
+            deltas = np.zeros((N, n_params))
+            deltas[:, free] = rng.standard_normal((N, n_free))
             seeds = rng.integers(0, 2**31 - 1, size=(N, 2))
             jobs = []
             for k in range(N):

@@ -121,7 +121,7 @@ class SamplingMPC:
         model: mujoco.MjModel,
         frame_skip: int,
         xml_path: str = "",
-        prior: Callable[[np.ndarray, np.ndarray], np.ndarray] | None = None,
+        prior: Callable[[mujoco.MjData], np.ndarray] | None = None,
     ) -> None:
         self.config = config
         self.model = planning_model(config.task, model, xml_path)
@@ -224,7 +224,7 @@ class SamplingMPC:
         if self.prior is None:
             nominal = np.broadcast_to(mid, (cfg.horizon, nu)).copy()
         else:
-            nominal = self._prior_plan(x0, warm)
+            nominal = self._prior_plan(data, x0, warm)
         for i in range(cfg.iterations):
             scale = cfg.sigma * cfg.sigma_decay**i * half  # later rounds search closer
             if cfg.knots:  # smooth perturbations: Gaussian at knots, linear in between
@@ -241,8 +241,10 @@ class SamplingMPC:
             nominal = controls[best]
         return nominal[0].copy()
 
-    def _prior_plan(self, x0: np.ndarray, warm: np.ndarray) -> np.ndarray:
-        """The prior policy's closed-loop actions over the horizon, simulated from ``x0``."""
+    def _prior_plan(self, data: mujoco.MjData, x0: np.ndarray, warm: np.ndarray) -> np.ndarray:
+        """The prior policy's closed-loop actions over the horizon, simulated from ``data``'s
+        state ``x0`` (the first read from ``data`` itself: Humanoid's observation holds
+        quantities the state alone does not set until the next step)."""
         m = self.model
         if self._scratch is None:
             self._scratch = mujoco.MjData(m)
@@ -250,8 +252,12 @@ class SamplingMPC:
         mujoco.mj_setState(m, d, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
         d.qacc_warmstart[:] = warm
         plan = np.empty((self.config.horizon, m.nu))
+        source = data
         for k in range(self.config.horizon):
-            plan[k] = np.clip(self.prior(d.qpos, d.qvel), self.ctrl_low, self.ctrl_high)
+            plan[k] = np.clip(self.prior(source), self.ctrl_low, self.ctrl_high)
             d.ctrl[:] = plan[k]
             mujoco.mj_step(m, d, nstep=self.frame_skip)
+            if self.config.task == "Humanoid":
+                mujoco.mj_rnePostConstraint(m, d)  # contact forces, as the env computes them
+            source = d
         return plan

@@ -86,11 +86,21 @@ def load_policy(
     return MLPPolicy.load(path, record["sha256"]), record
 
 
-def observation(task: str, qpos: np.ndarray, qvel: np.ndarray) -> np.ndarray:
-    """Gymnasium v5's default observation for the planar tasks (not Humanoid)."""
+def observation(task: str, data) -> np.ndarray:
+    """Gymnasium v5's default observation of ``data`` (an ``MjData`` after ``mj_step`` and,
+    for Humanoid, ``mj_rnePostConstraint``, as the env leaves it)."""
     if task == "Humanoid":
-        raise ValueError("observation: Humanoid's observation needs the full MjData")
-    return np.concatenate([qpos[1:], np.clip(qvel, -10.0, 10.0)])
+        return np.concatenate(
+            (
+                data.qpos[2:],
+                data.qvel,
+                data.cinert[1:].ravel(),
+                data.cvel[1:].ravel(),
+                data.qfrc_actuator[6:],
+                data.cfrc_ext[1:].ravel(),
+            )
+        )
+    return np.concatenate([data.qpos[1:], np.clip(data.qvel, -10.0, 10.0)])
 
 
 class PolicySupervisor:
@@ -124,7 +134,7 @@ class MPCSupervisor:
         prior = None
         if guide is not None:
             policy = guide.policy
-            prior = lambda qpos, qvel: policy(observation(task, qpos, qvel))  # noqa: E731
+            prior = lambda data: policy(observation(task, data))  # noqa: E731
         self.mpc = SamplingMPC(self.config, env.model, env.frame_skip, env.fullpath, prior)
 
     def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:

@@ -244,6 +244,31 @@ def test_guided_mpc_starts_from_the_policy_plan(tmp_path):
     assert env.unwrapped.metadata["supervisor"]["weights_sha256"] == sha
 
 
+@pytest.mark.parametrize("env_id", ["Walker2d-IL-v0", "Humanoid-IL-v0"])
+def test_guided_plan_is_the_policys_own_closed_loop_run_in_the_env(env_id, tmp_path):
+    """The planner's nominal plan is what the policy would do in the env over the horizon, bit
+    for bit: its simulated observations (Humanoid's include inertias, velocities and contact
+    forces) are the env's."""
+    path, sha, policy = tiny_weights(tmp_path, env_id)
+    env = gym.make(
+        env_id, supervisor="guided_mpc", weights=path, weights_sha256=sha, mpc={"horizon": 6}
+    ).unwrapped
+    env.reset(seed=3)
+    for _ in range(5):  # a state with contacts
+        env.step(env.action_space.sample() * 0)
+    mpc = env._supervisor.mpc
+    x0 = np.empty(mpc.nstate)
+    mujoco.mj_getState(mpc.model, env._sim.data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
+    plan = mpc._prior_plan(env._sim.data, x0, np.array(env._sim.data.qacc_warmstart))
+    gym_env = env._sim
+    for k in range(6):
+        expected = np.clip(
+            policy(gym_env._get_obs()), gym_env.action_space.low, gym_env.action_space.high
+        )
+        assert np.array_equal(plan[k], expected), k
+        gym_env.step(plan[k])
+
+
 def test_dart_noise_executes_noisy_actions_but_stores_labels():
     env = make("HalfCheetah-IL-v0")
     actor = isotropic_actor(env.action_space, noise_std=0.3, epsilon=0.0)

@@ -85,7 +85,9 @@ def test_a_stage_from_another_runs_checkpoint_continues_it_with_new_settings(tmp
     assert meta["recipe"]["init"]["recipe"]["shift"] == 1.0
     assert [row["iteration"] for row in meta["history"]] == [3, 4]
     assert train.main(init) == 0  # finished: the stage's own checkpoint wins over --init
-    assert json.loads(second.with_name("w.npz.json").read_text())["recipe"]["init"]["iteration"] == 2
+    assert (
+        json.loads(second.with_name("w.npz.json").read_text())["recipe"]["init"]["iteration"] == 2
+    )
 
 
 def test_init_must_be_a_checkpoint(tmp_path, capsys):
