@@ -95,3 +95,14 @@ def test_init_must_be_a_checkpoint(tmp_path, capsys):
     with pytest.raises(SystemExit):
         train.main([*TINY, "--out", str(out), "--init", str(tmp_path / "missing.npz")])
     assert "--init is" in capsys.readouterr().err
+
+
+def test_obs_dims_searches_only_the_weights_on_the_first_entries(tmp_path):
+    out = tmp_path / "w.npz"
+    assert train.main([*TINY, "--out", str(out), "--iterations", "2", "--obs-dims", "5"]) == 0
+    with np.load(out) as z:
+        first = z["W0"]
+    assert first.shape == (4, 11)
+    assert np.all(first[:, 5:] == 0) and np.all(first[:, :5] != 0)
+    with pytest.raises(SystemExit):
+        train.main([*TINY, "--out", str(tmp_path / "x.npz"), "--obs-dims", "12"])
