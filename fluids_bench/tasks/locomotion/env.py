@@ -38,7 +38,7 @@ DEFAULT_SUPERVISOR = {
     "Hopper": "policy",
     "Walker2d": "policy",
     "HalfCheetah": "policy",
-    "Humanoid": "mpc",
+    "Humanoid": "policy",
 }
 
 # Mean 1,000-step return of the source's TRPO experts (Ho & Ermon 2016), for comparison.
@@ -57,7 +57,7 @@ SUPERVISOR_RETURN: dict[str, float | None] = {
     "Hopper": 3052.8,
     "Walker2d": 4535.0,
     "HalfCheetah": 4842.7,
-    "Humanoid": None,
+    "Humanoid": 7382.5,
 }
 
 _MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
@@ -271,8 +271,10 @@ class HalfCheetahILEnv(LocomotionILEnv):
 class HumanoidILEnv(LocomotionILEnv):
     __doc__ = _card(
         "Humanoid",
-        "A 3D humanoid must walk forward without falling. Default supervisor: cold-start MPC "
-        "(16 samples x 20 steps, planned from scratch; it falls within 100 steps: no working "
-        "Humanoid supervisor is shipped yet).",
+        "A 3D humanoid must walk forward without falling. Default supervisor: the shipped "
+        "ARS policy (7,383 ± 474 over 10 seeded 1,000-step episodes, one of which falls at "
+        "step 826). It is brittle under action noise: N(0, 0.05^2) makes it fall in every "
+        "episode (the actions range over [-0.4, 0.4]). Development builds before this policy "
+        "shipped defaulted to cold-start MPC, which fell within 100 steps.",
     )
     task = "Humanoid"

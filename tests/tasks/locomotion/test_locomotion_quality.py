@@ -69,6 +69,16 @@ def test_halfcheetah_policy_runs_upright_above_the_floor():
     assert np.mean(returns) >= 4400
 
 
+def test_humanoid_policy_walks_above_the_floor():
+    """Shipped Humanoid policy: seeds 0-2, 1,000 steps, mean >= 5,000 (the issue's floor; the
+    README's 10 episodes, seeds 0-9, include falls). Its first labels are its own forward pass
+    on Gymnasium's 348-entry observation."""
+    env = gym.make("Humanoid-IL-v0")
+    assert env.unwrapped.metadata["supervisor"]["kind"] == "policy"
+    results = [supervised_return(env, seed, 1000) for seed in range(3)]
+    assert np.mean([r for r, _ in results]) >= 5000
+
+
 @pytest.mark.slow
 def test_halfcheetah_mpc_runs_forward():
     """The cold-start planner, 100 steps of one seed: it runs forward, upright (random actions
