@@ -257,7 +257,6 @@ class SamplingMPC:
             plan[k] = np.clip(self.prior(source), self.ctrl_low, self.ctrl_high)
             d.ctrl[:] = plan[k]
             mujoco.mj_step(m, d, nstep=self.frame_skip)
-            if self.config.task == "Humanoid":
-                mujoco.mj_rnePostConstraint(m, d)  # contact forces, as the env computes them
+            mujoco.mj_rnePostConstraint(m, d)  # contact forces, as Gymnasium's step computes
             source = d
         return plan

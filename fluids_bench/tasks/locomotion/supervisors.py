@@ -86,21 +86,15 @@ def load_policy(
     return MLPPolicy.load(path, record["sha256"]), record
 
 
-def observation(task: str, data) -> np.ndarray:
-    """Gymnasium v5's default observation of ``data`` (an ``MjData`` after ``mj_step`` and,
-    for Humanoid, ``mj_rnePostConstraint``, as the env leaves it)."""
-    if task == "Humanoid":
-        return np.concatenate(
-            (
-                data.qpos[2:],
-                data.qvel,
-                data.cinert[1:].ravel(),
-                data.cvel[1:].ravel(),
-                data.qfrc_actuator[6:],
-                data.cfrc_ext[1:].ravel(),
-            )
-        )
-    return np.concatenate([data.qpos[1:], np.clip(data.qvel, -10.0, 10.0)])
+def observation(env, data) -> np.ndarray:
+    """Gymnasium's own observation of ``env`` (its ``_get_obs``), read from ``data`` (an
+    ``MjData`` of the same layout, stepped as the env steps) instead of the env's."""
+    own = env.data
+    env.data = data
+    try:
+        return env._get_obs()
+    finally:
+        env.data = own
 
 
 class PolicySupervisor:
@@ -134,7 +128,7 @@ class MPCSupervisor:
         prior = None
         if guide is not None:
             policy = guide.policy
-            prior = lambda data: policy(observation(task, data))  # noqa: E731
+            prior = lambda data: policy(observation(env, data))  # noqa: E731
         self.mpc = SamplingMPC(self.config, env.model, env.frame_skip, env.fullpath, prior)
 
     def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:

@@ -244,11 +244,12 @@ def test_guided_mpc_starts_from_the_policy_plan(tmp_path):
     assert env.unwrapped.metadata["supervisor"]["weights_sha256"] == sha
 
 
-@pytest.mark.parametrize("env_id", ["Walker2d-IL-v0", "Humanoid-IL-v0"])
+@pytest.mark.parametrize("env_id", ["Walker2d-IL-v0", "HalfCheetah-IL-v0", "Humanoid-IL-v0"])
 def test_guided_plan_is_the_policys_own_closed_loop_run_in_the_env(env_id, tmp_path):
     """The planner's nominal plan is what the policy would do in the env over the horizon, bit
-    for bit: its simulated observations (Humanoid's include inertias, velocities and contact
-    forces) are the env's."""
+    for bit: its simulated observations are the env's (Humanoid's include inertias,
+    velocities and contact forces; Walker2d clips joint velocities to +-10, HalfCheetah does
+    not, so the state is given fast joints)."""
     path, sha, policy = tiny_weights(tmp_path, env_id)
     env = gym.make(
         env_id, supervisor="guided_mpc", weights=path, weights_sha256=sha, mpc={"horizon": 6}
@@ -256,6 +257,7 @@ def test_guided_plan_is_the_policys_own_closed_loop_run_in_the_env(env_id, tmp_p
     env.reset(seed=3)
     for _ in range(5):  # a state with contacts
         env.step(env.action_space.sample() * 0)
+    env._sim.data.qvel[-3:] += 12.0
     mpc = env._supervisor.mpc
     x0 = np.empty(mpc.nstate)
     mujoco.mj_getState(mpc.model, env._sim.data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
