@@ -177,14 +177,6 @@ def main(argv: list[str] | None = None) -> int:
     if args.init is not None and not ckpt.exists():
         if not args.init.name.endswith(".ckpt.npz") or not args.init.exists():
             p.error(f"--init is {args.init}; allowed: an existing <out>.ckpt.npz of another run")
-        with np.load(args.init, allow_pickle=False) as z:
-            init_state = json.loads(str(z["state"]))
-        recipe["init"] = {
-            "checkpoint": args.init.name,
-            "iteration": init_state["iteration"],
-            "sha256": sha256_of(args.init),
-            "recipe": init_state["recipe"],
-        }
     resume_from = ckpt if ckpt.exists() else args.init
     if resume_from is not None:
         with np.load(resume_from, allow_pickle=False) as z:
@@ -206,6 +198,12 @@ def main(argv: list[str] | None = None) -> int:
                 recipe["init"] = state["recipe"]["init"]
             print(f"resuming at iteration {start} (best eval {best['mean_return']:.1f})")
         else:  # a new stage: its own history and best, the cost so far carried on
+            recipe["init"] = {
+                "checkpoint": args.init.name,
+                "iteration": start,
+                "sha256": sha256_of(args.init),
+                "recipe": state["recipe"],
+            }
             history, best = [], {"mean_return": -np.inf, "iteration": start}
             print(f"new stage from {args.init} at iteration {start}")
     else:
