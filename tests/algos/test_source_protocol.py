@@ -305,7 +305,7 @@ def test_dagger_b_initial_demonstrations_then_a_refit_every_k(fits: list[int]) -
 
 
 def test_gridworld_reproduction_states_and_prints_the_sources_settings(tmp_path: Path) -> None:
-    script = ROOT / "scripts" / "reproduce_gridworld.py"
+    script = ROOT / "scripts" / "reproductions" / "reproduce_gridworld.py"
     args = ["--worlds", "1", "--iterations", "2", "--eval-episodes", "1", "--workers", "1"]
     env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}
     run = subprocess.run(

@@ -50,7 +50,7 @@ SOURCE_EXPERT_RETURN = {
 }
 
 # Mean 1,000-step return of uniformly random actions over seeds 0-9 (measured: README), and of
-# the default supervisor (measured by scripts/locomotion_supervisor_quality.py: README).
+# the default supervisor (measured by scripts/quality/locomotion_supervisor_quality.py: README).
 RANDOM_RETURN = {"Hopper": 17.0, "Walker2d": 4.3, "HalfCheetah": -278.4, "Humanoid": 117.8}
 # None: not measured over 10 episodes yet (then datasets carry no reference scores).
 SUPERVISOR_RETURN: dict[str, float | None] = {

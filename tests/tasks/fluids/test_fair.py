@@ -519,7 +519,7 @@ def test_walkers_wait_for_a_car_turning_out_of_the_junction_across_their_crosswa
     assert not (committed_crosswalks(w, w.front, np.ones(w.n, bool)) & exit_cw).any()
 
 
-# seeds of the 200-episodes-per-scene measurement (scripts/defensive_driving.py) in which a
+# seeds of the 200-episodes-per-scene measurement (scripts/quality/defensive_driving.py) in which a
 # supervised car was at fault, each fixed by a rule of the planner that has its own test
 FAULT_SEEDS = [
     ("four_way", 6, 1, "random", 6263),  # left turn against an oncoming right turn
@@ -562,7 +562,7 @@ def test_seeds_that_once_ended_in_a_supervised_fault(layout, cars, peds, policy,
             break
 
 
-# a DAgger ego's target speeds on FLUIDS-v1 seed 100189 (scripts/fluids_baselines.py), run
+# a DAgger ego's target speeds on FLUIDS-v1 seed 100189 (scripts/baselines/fluids_baselines.py), run
 # length encoded: it stands at the junction's entry, then drives off without stopping
 DAGGER_EGO_100189 = [
     (2.5, 35), (0.0, 8), (2.5, 1), (0.0, 126), (10.0, 7), (2.5, 1), (10.0, 3), (7.5, 3),

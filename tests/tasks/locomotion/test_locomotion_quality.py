@@ -1,7 +1,7 @@
 """The shipped supervisors do their job: a small seeded sample of the README's quality table.
 
 The full table (10 seeded 1,000-step episodes per id) is made by
-scripts/locomotion_supervisor_quality.py; here a few episodes check that the shipped weights
+scripts/quality/locomotion_supervisor_quality.py; here a few episodes check that the shipped weights
 still walk (a broken file, a changed observation or a wrong hash would fail these).
 """
 

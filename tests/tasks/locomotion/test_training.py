@@ -11,7 +11,7 @@ import pytest
 
 from fluids_bench.tasks.locomotion.policy import MLPPolicy
 
-SCRIPT = Path(__file__).parents[3] / "scripts" / "train_locomotion_expert.py"
+SCRIPT = Path(__file__).parents[3] / "scripts" / "training" / "train_locomotion_expert.py"
 spec = importlib.util.spec_from_file_location("train_locomotion_expert", SCRIPT)
 train = importlib.util.module_from_spec(spec)
 spec.loader.exec_module(train)

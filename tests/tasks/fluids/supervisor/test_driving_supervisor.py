@@ -210,7 +210,7 @@ def test_recovery_is_deterministic():
     [("four_way", 7, 4), ("four_way", 4, 2), ("t_junction", 5, 3), ("roundabout", 5, 3)],
 )
 def test_everyone_supervised_reaches_their_goal(layout, cars, peds):
-    """A CI-sized slice of the quality table (scripts/supervisor_quality.py runs all of it)."""
+    """A CI-sized slice of the quality table (scripts/quality/supervisor_quality.py runs all of it)."""
     results = [
         run_supervised(SceneConfig(layout=layout, num_cars=cars, num_pedestrians=peds), seed)
         for seed in range(6)

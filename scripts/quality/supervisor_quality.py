@@ -3,7 +3,7 @@
 For every scene of ``--cars`` × ``--peds`` on ``--layout``, runs ``--episodes`` seeded episodes in
 which the supervisor drives every agent until all have arrived. An episode succeeds when every
 agent reaches its goal with no collision; one that runs out of steps without a collision is a
-deadlock. Usage: ``python scripts/supervisor_quality.py --layout four_way --episodes 200``.
+deadlock. Usage: ``python scripts/quality/supervisor_quality.py --layout four_way --episodes 200``.
 
 With ``--out FILE``, each scene's row is appended to ``FILE.jsonl`` as soon as it finishes, and a
 rerun skips the scenes already there: a killed run resumes where it stopped.

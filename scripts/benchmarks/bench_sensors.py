@@ -12,7 +12,7 @@ states, each call timed on its own (median, mean and 10th-percentile microsecond
 median of CPU time too). The renderer
 (``render_mode="rgb_array"``, 640×640) is listed too, for reference.
 
-Run on one core for steadier numbers: ``taskset -c 0 python scripts/bench_sensors.py``.
+Run on one core for steadier numbers: ``taskset -c 0 python scripts/benchmarks/bench_sensors.py``.
 """
 
 from __future__ import annotations

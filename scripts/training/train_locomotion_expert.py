@@ -19,7 +19,7 @@ state statistics, random generator and iteration count) with this command's sett
 another ``--shift``; the stage's recipe records the one it started from.
 Writes ``<out>`` (the best evaluated policy, .npz) and ``<out>.json`` (recipe, history, sha256).
 
-Example: ``nice -n 10 python scripts/train_locomotion_expert.py --env Hopper --iterations 400
+Example: ``nice -n 10 python scripts/training/train_locomotion_expert.py --env Hopper --iterations 400
 --out runs/hopper.npz --workers 2``
 """
 
@@ -168,7 +168,7 @@ def main(argv: list[str] | None = None) -> int:
         "eval_episodes": args.eval_episodes,
         "eval_seeds": f"10_000_000 + range({args.eval_episodes})",
         **hp,
-        "command": "python scripts/train_locomotion_expert.py " + " ".join(sys.argv[1:]),
+        "command": "python scripts/training/train_locomotion_expert.py " + " ".join(sys.argv[1:]),
     }
 
     ckpt = args.out.with_name(args.out.name + ".ckpt.npz")

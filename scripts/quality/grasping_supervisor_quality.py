@@ -8,7 +8,7 @@ action box; the DART setting). Horizon: the registration's 100 steps of 0.1 s. R
 objects, steps, replans and CPU time per step, as JSON and a Markdown table.
 
 Resumable: every finished episode is appended to ``<out>/grasping_quality.jsonl``; a rerun
-skips those. Usage: ``python scripts/grasping_supervisor_quality.py --episodes 200 --workers 2``.
+skips those. Usage: ``python scripts/quality/grasping_supervisor_quality.py --episodes 200 --workers 2``.
 Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 

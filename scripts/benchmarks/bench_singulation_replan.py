@@ -5,9 +5,9 @@ random actions, where the fingertip is elsewhere and some objects moved), then t
 behaviour level (``plan_push``) on all of them, ``--repeats`` times, and the initial-state
 sampler (``sample_cluster``) on as many seeds. CPU time is read once per batch (reading a CPU
 clock costs up to milliseconds on some sandboxed kernels, so it is never read per call).
-Compare two versions with ``scripts/bench_ab.py``:
+Compare two versions with ``scripts/benchmarks/bench_ab.py``:
 
-    python scripts/bench_ab.py --base main --runs 5 -- bench_singulation_replan.py
+    python scripts/benchmarks/bench_ab.py --base main --runs 5 -- bench_singulation_replan.py
 """
 
 from __future__ import annotations

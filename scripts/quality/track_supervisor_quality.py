@@ -9,7 +9,7 @@ Reported: crashes per lap (total crashes / total laps), the share of laps comple
 crash, the share of episodes that crashed at all, and the mean label time.
 
 Resumable: each finished (depth, noise) row is appended to ``--out`` (JSON lines) and skipped
-on a rerun. Usage: ``python scripts/track_supervisor_quality.py --tracks 200 --workers 2``.
+on a rerun. Usage: ``python scripts/quality/track_supervisor_quality.py --tracks 200 --workers 2``.
 """
 
 from __future__ import annotations

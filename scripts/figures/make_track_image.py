@@ -4,7 +4,7 @@ Each panel is one track (``track_seed``) at drawing resolution with the path of 
 supervisor (depth 8, blue) and of the source-like one (depth 1, orange); crosses mark where a
 car left the road (it is put back on the centre line ahead of that point), and the title
 gives each one's crashes. Below each panel, the 125×125 image the learner sees.
-Usage: ``python scripts/make_track_image.py`` (writes docs/images/track_laps.png).
+Usage: ``python scripts/figures/make_track_image.py`` (writes docs/images/track_laps.png).
 """
 
 from __future__ import annotations

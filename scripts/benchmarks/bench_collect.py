@@ -10,7 +10,7 @@ ceiling for one worker; its ``pairs_per_cpu_min`` (CPU time)
 is what one core gives when nothing else runs on it, and ``idle_estimate`` scales it by the
 worker count (an estimate for cores of one's own; wall-clock rates fall when others share them).
 
-    python scripts/bench_collect.py --episodes 200 --workers 1 2
+    python scripts/benchmarks/bench_collect.py --episodes 200 --workers 1 2
 """
 
 from __future__ import annotations

@@ -21,7 +21,7 @@ episode), timeouts, and mean time to goal (s) of arrived episodes. ``--env-kwarg
 Rows append to ``--out``.jsonl as each (id, method) finishes; a rerun skips them (resumable);
 the table is written atomically to ``--out``. ``--workers`` runs (id, method) jobs in parallel.
 
-    python scripts/fluids_baselines.py --episodes 200 --demos 60 --ppo-steps 100000 --out b.json
+    python scripts/baselines/fluids_baselines.py --episodes 200 --demos 60 --ppo-steps 100000 --out b.json
 """
 
 from __future__ import annotations

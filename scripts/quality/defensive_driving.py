@@ -16,7 +16,7 @@ the defensive arm v1's whole planner (cars also wait for walkers on crosswalks).
 arrives or collides, or 400 steps; scene (c cars, p pedestrians) uses seeds 1000c + 100p + i. Rows append to ``--out``.jsonl as they finish and a rerun
 skips them (resumable); the summary is written atomically to ``--out``.
 
-    python scripts/defensive_driving.py --episodes 200 --workers 2 --out defensive.json
+    python scripts/quality/defensive_driving.py --episodes 200 --workers 2 --out defensive.json
 """
 
 from __future__ import annotations

@@ -20,7 +20,7 @@ supervisor on the same seeds; normalised performance is ``(10 - cost) / (10 - co
 
 Writes ``<out>/runs/<algo>_<round>.json`` per run (a rerun skips finished runs), then
 ``<out>/grasping_shiv.json`` (curves, means, standard errors, queries to reach the supervisor)
-and ``<out>/grasping_shiv.png``. Usage: ``python scripts/reproduce_grasping_shiv.py --workers 2``.
+and ``<out>/grasping_shiv.png``. Usage: ``python scripts/reproductions/reproduce_grasping_shiv.py --workers 2``.
 Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 

@@ -15,7 +15,7 @@ The source's settings are written out in :data:`ON_POLICY` and :data:`OFF_POLICY
 the library's defaults) and printed at the start. Each world's curves are saved to
 ``--out/worlds/world_NNN.json`` as soon as they are done, so an interrupted run resumes where it
 stopped. Writes ``gridworld.json`` (settings, per-world curves, means and standard errors) and
-``gridworld.png`` to ``--out``. Quick run: ``python scripts/reproduce_gridworld.py --worlds 5``.
+``gridworld.png`` to ``--out``. Quick run: ``python scripts/reproductions/reproduce_gridworld.py --worlds 5``.
 Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 

@@ -2,7 +2,7 @@
 
 Each frame is ``env.render()`` (``render_mode="rgb_array"``) with the corridor the supervisor's
 label follows drawn over it (the line from the lead-in point to the target; none on the line
-phases, which need no corridor) and the waypoint phase as a caption. Usage: ``python scripts/make_grasping_images.py`` (writes
+phases, which need no corridor) and the waypoint phase as a caption. Usage: ``python scripts/figures/make_grasping_images.py`` (writes
 ``docs/images/grasping_supervisor.png``). Needs the package importable.
 """
 

@@ -7,8 +7,8 @@ the env returns: observations, rewards, terminated/truncated, infos (labels incl
 the public API (``gym.make`` ids and kwargs, ``make_parallel_env``), so the same script runs on
 an older checkout: compare two revisions with
 
-    PYTHONPATH=/path/to/old python scripts/fingerprint_episodes.py > old.json
-    PYTHONPATH=. python scripts/fingerprint_episodes.py > new.json
+    PYTHONPATH=/path/to/old python scripts/checks/fingerprint_episodes.py > old.json
+    PYTHONPATH=. python scripts/checks/fingerprint_episodes.py > new.json
     diff old.json new.json
 
 Same machine and install required (see the README's Reproducibility section).

@@ -12,8 +12,8 @@ end, resets included in the measured time:
 An env that offers ``env.unwrapped.supervisor_stats()`` (``replans``, ``replan_seconds`` since the
 last reset) also gets the mean cost of one replan and replans per 100 steps, on the clock the env
 reads (Singulation-v0: wall clock; a CPU clock read costs up to milliseconds on some sandboxed
-kernels; ``scripts/bench_singulation_replan.py`` measures its CPU cost per replan in batches).
-Run on one core: ``taskset -c 0 python scripts/bench_tasks.py --env Singulation-v0``.
+kernels; ``scripts/benchmarks/bench_singulation_replan.py`` measures its CPU cost per replan in batches).
+Run on one core: ``taskset -c 0 python scripts/benchmarks/bench_tasks.py --env Singulation-v0``.
 """
 
 from __future__ import annotations

@@ -39,7 +39,7 @@ Each (experiment, track, method) is one unit whose result is written atomically 
 ``--workers`` processes with a progress bar. The summaries (``track_shiv.json``) and plots
 (``--images``) are rebuilt from whatever units exist.
 
-Usage: ``python scripts/reproduce_track_shiv.py --workers 2`` (the source's size: 40, 50 and
+Usage: ``python scripts/reproductions/reproduce_track_shiv.py --workers 2`` (the source's size: 40, 50 and
 40 tracks); ``--tracks N`` caps every experiment at N tracks.
 """
 

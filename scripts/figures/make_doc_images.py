@@ -1,6 +1,6 @@
 """Regenerate the pictures under docs/images/ (layouts, observation families, a demo frame).
 
-Run from the repository root: ``python scripts/make_doc_images.py [--out docs/images]``.
+Run from the repository root: ``python scripts/figures/make_doc_images.py [--out docs/images]``.
 Everything is seeded, so the pictures only change when the simulator or the drawing does.
 """
 

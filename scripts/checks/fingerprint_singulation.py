@@ -14,8 +14,8 @@ level's pick on seeded states:
 
 Uses the env's public API plus ``plan_push``, so the same script runs on an older checkout:
 
-    PYTHONPATH=/path/to/old python scripts/fingerprint_singulation.py > old.json
-    PYTHONPATH=. python scripts/fingerprint_singulation.py > new.json
+    PYTHONPATH=/path/to/old python scripts/checks/fingerprint_singulation.py > old.json
+    PYTHONPATH=. python scripts/checks/fingerprint_singulation.py > new.json
     diff old.json new.json
 """
 

@@ -19,7 +19,7 @@ The source reports ~60% (off-policy) vs ~40% (on-policy) after 60 demonstrations
 teachers. Every algorithm parameter is set here explicitly. Each (run, arm) result is written
 to ``--out/runs/`` atomically as it finishes, so an interrupted run resumes where it stopped;
 ``summary.json`` and ``singulation_fig5_3.png`` are rebuilt from all results at the end.
-Quick run: ``python scripts/reproduce_singulation.py --runs 2 --eval-episodes 10``.
+Quick run: ``python scripts/reproductions/reproduce_singulation.py --runs 2 --eval-episodes 10``.
 """
 
 from __future__ import annotations

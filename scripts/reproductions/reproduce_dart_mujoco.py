@@ -28,7 +28,7 @@ iteration, collection return, training seconds) and ``<env>.png`` are written.
 Reductions (state them when reporting): ``--iterations``, ``--eval-at``, ``--eval-episodes``,
 ``--seeds``, ``--env-kwargs`` (e.g. a cheaper planner).
 
-Example: ``nice -n 10 python scripts/reproduce_dart_mujoco.py --env Hopper-IL-v0 --seeds 3
+Example: ``nice -n 10 python scripts/reproductions/reproduce_dart_mujoco.py --env Hopper-IL-v0 --seeds 3
 --workers 2 --out runs/dart_mujoco``
 """
 

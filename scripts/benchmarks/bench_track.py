@@ -7,7 +7,7 @@ Cases (each drives with the label it is given, so every step costs a label):
 - ``pixels`` and ``state``: the other observation types at the default depth.
 Episodes restart with a new seed (a new track) when they end; resets are in the measured time.
 Also the cost of the pieces, per call: the label (a fresh search, no cache), the frame, HOG.
-Run on one core: ``taskset -c 0 python scripts/bench_track.py``.
+Run on one core: ``taskset -c 0 python scripts/benchmarks/bench_track.py``.
 """
 
 from __future__ import annotations

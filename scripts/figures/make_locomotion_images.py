@@ -1,6 +1,6 @@
 """A filmstrip of each locomotion IL env with its supervisor driving, for the README.
 
-``python scripts/make_locomotion_images.py --env Hopper-IL-v0 --steps 120 --every 30`` writes
+``python scripts/figures/make_locomotion_images.py --env Hopper-IL-v0 --steps 120 --every 30`` writes
 ``docs/images/locomotion_hopper.png``: frames at steps 0, 30, 60, ... side by side, rendered by
 Gymnasium's MuJoCo renderer in ``rgb_array`` mode. Seeded, so reruns give the same picture.
 """

@@ -8,7 +8,7 @@ S3: 20 supervised cars + 10 pedestrians on the two-lane four-way, no observation
 Episodes restart (new seed) whenever they end; resets are part of the measured time. One-time
 start-up costs (imports, layout caches, loading compiled kernels) are paid before the clock
 starts.
-Run on one core: `taskset -c 0 python scripts/bench_sim.py`.
+Run on one core: `taskset -c 0 python scripts/benchmarks/bench_sim.py`.
 """
 
 from __future__ import annotations

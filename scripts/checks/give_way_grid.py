@@ -7,7 +7,7 @@ For every combination, runs until a collision or ``--steps`` steps and counts co
 fault (``info["collisions"]``). Prints JSON: the counts and the combinations that ended in the
 turner's fault. ``tests/tasks/fluids/test_fair.py`` samples the grid.
 
-    python scripts/give_way_grid.py --layout t_junction
+    python scripts/checks/give_way_grid.py --layout t_junction
 """
 
 from __future__ import annotations

@@ -4,7 +4,7 @@ Gymnasium's bare ``<Name>-v5`` in the same run (same seed, same random actions, 
 Prints one JSON object. A policy supervisor's label is one small MLP forward pass; an MPC
 label is a planning call, so ``--steps`` is counted per id and kind.
 
-Example: ``python scripts/bench_locomotion.py --env Hopper-IL-v0 --kind policy --steps 3000``
+Example: ``python scripts/benchmarks/bench_locomotion.py --env Hopper-IL-v0 --kind policy --steps 3000``
 """
 
 from __future__ import annotations

@@ -6,7 +6,7 @@ is how noise-injection methods collect). One JSON record per (id, kind, noise, s
 appended to ``--out`` as it finishes, so a killed run resumes where it stopped. Prints the
 Markdown table of the README.
 
-Example: ``nice -n 10 python scripts/locomotion_supervisor_quality.py --env HalfCheetah-IL-v0
+Example: ``nice -n 10 python scripts/quality/locomotion_supervisor_quality.py --env HalfCheetah-IL-v0
 --kind mpc --episodes 10 --workers 2``
 """
 

@@ -10,7 +10,7 @@ layouts, as JSON and a Markdown table.
 
 Resumable: every finished (layout, alpha, features, n) cell is appended to
 ``<out>/krr_features.jsonl``; a rerun skips those. Usage:
-``python scripts/grasping_krr_features.py --workers 2``. Needs the package importable.
+``python scripts/reproductions/grasping_krr_features.py --workers 2``. Needs the package importable.
 """
 
 from __future__ import annotations

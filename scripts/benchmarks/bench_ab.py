@@ -8,7 +8,7 @@ every run
 and the medians of the numbers the benchmark prints (any key ending in ``per_s`` or
 ``per_cpu_s``), with the ratio now / base:
 
-    python scripts/bench_ab.py --base HEAD~3 --runs 5 -- bench_sim.py --only S2 --steps 3000
+    python scripts/benchmarks/bench_ab.py --base HEAD~3 --runs 5 -- bench_sim.py --only S2 --steps 3000
 """
 
 from __future__ import annotations
@@ -22,7 +22,8 @@ import sys
 import tempfile
 from pathlib import Path
 
-ROOT = Path(__file__).resolve().parent.parent
+HERE = Path(__file__).resolve().parent  # scripts/benchmarks: the scripts it can run
+ROOT = HERE.parents[1]
 RATE_SUFFIXES = ("per_s", "per_cpu_s")
 
 
@@ -42,7 +43,7 @@ def rates(result, prefix: str = "") -> dict[str, float]:
 def run(tree: Path, bench: list[str], core: int) -> dict[str, float]:
     """One run of this tree's benchmark script against ``tree``'s fluids_bench."""
     env = {**os.environ, "PYTHONPATH": str(tree)}  # ahead of any installed fluids_bench
-    cmd = ["taskset", "-c", str(core), sys.executable, str(ROOT / "scripts" / bench[0]), *bench[1:]]
+    cmd = ["taskset", "-c", str(core), sys.executable, str(HERE / bench[0]), *bench[1:]]
     done = subprocess.run(cmd, cwd=tree, env=env, capture_output=True, text=True, check=False)
     if done.returncode:
         raise SystemExit(f"bench_ab: {' '.join(cmd)} failed in {tree}:\n{done.stderr[-2000:]}")
@@ -55,12 +56,12 @@ def main() -> None:
     parser.add_argument("--runs", type=int, default=5, help="alternated runs of each version")
     parser.add_argument("--core", type=int, default=0, help="CPU core to pin every run to")
     parser.add_argument(
-        "bench", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS]: a script in scripts/"
+        "bench", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS]: a script in scripts/benchmarks/"
     )
     args = parser.parse_args()
     bench = args.bench[1:] if args.bench[:1] == ["--"] else args.bench
-    if not bench or not (ROOT / "scripts" / bench[0]).is_file():
-        parser.error(f"benchmark is {bench[:1]}; allowed: a script in {ROOT / 'scripts'}, after --")
+    if not bench or not (HERE / bench[0]).is_file():
+        parser.error(f"benchmark is {bench[:1]}; allowed: a script in {HERE}, after --")
     if args.runs < 1:
         parser.error(f"--runs is {args.runs}; allowed: 1 or more")
     with tempfile.TemporaryDirectory(prefix="bench_ab_") as tmp:
