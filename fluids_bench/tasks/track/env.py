@@ -152,9 +152,12 @@ class DrivingTrackEnv(gym.Env[Any, np.int64]):
         progress_reward: float = 0.0,
         render_mode: str | None = None,
     ) -> None:
+        allowed_kinds = f"one of {list(OBS_TYPES)} or a list of them"
+        if not isinstance(obs_type, str | list | tuple):
+            fail(WHERE, "obs_type", obs_type, allowed_kinds)
         kinds = [obs_type] if isinstance(obs_type, str) else list(obs_type)
         if not kinds or len(set(kinds)) != len(kinds):
-            fail(WHERE, "obs_type", obs_type, f"one of {list(OBS_TYPES)} or a list of them")
+            fail(WHERE, "obs_type", obs_type, allowed_kinds)
         for kind in kinds:
             check_choice(WHERE, "obs_type", kind, OBS_TYPES)
         self.obs_type = obs_type if isinstance(obs_type, str) else kinds

@@ -1,0 +1,26 @@
+"""mkdocs-macros hook: the functions pages call as ``{{ name(...) }}``.
+
+Everything a page shows about the code (ids, arguments, spaces, env cards, CLI help) or about
+measurements (tables from ``docs/results/``) comes through here; see ``reference.py`` and
+``results.py`` beside this file.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import reference  # noqa: E402
+import results  # noqa: E402
+
+
+def define_env(env) -> None:
+    env.macro(reference.env_card)
+    env.macro(reference.kwargs_table)
+    env.macro(reference.ids_table)
+    env.macro(reference.spaces_table)
+    env.macro(reference.gallery)
+    env.macro(reference.cli_reference)
+    env.macro(results.table)

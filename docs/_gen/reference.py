@@ -1,0 +1,334 @@
+"""Reference material generated from the code: env cards, ids, keyword arguments, spaces, CLI.
+
+Used by the site's macros (``docs/_gen/macros.py``) and by the docs tests, so a page cannot say
+something the code does not. Nothing here is hand-copied: the ids come from
+:mod:`fluids_bench.registration`, the arguments from each entry point's signature, what a
+value may be from the entry point's own validation (it is called with a value no check accepts
+and the ``allowed:`` part of its error is shown), the spaces from the built env.
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import importlib
+import inspect
+import io
+import re
+import textwrap
+import warnings
+from dataclasses import dataclass, field
+from functools import cache
+
+import gymnasium as gym
+
+import fluids_bench  # noqa: F401  (registers every id)
+from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
+
+
+@dataclass(frozen=True)
+class Family:
+    """One page of the site: a task family, its ids and its picture."""
+
+    slug: str
+    title: str
+    ids: tuple[str, ...]
+    parallel_ids: tuple[str, ...] = ()
+    image: str = ""
+    blurb: str = ""
+    extra: dict = field(default_factory=dict)
+
+
+FAMILIES: tuple[Family, ...] = (
+    Family(
+        "fluids",
+        "FLUIDS",
+        ("FLUIDS-v1", "FLUIDS-Sensitivity-v1", "FLUIDS-v0", "FLUIDS-Sensitivity-v0"),
+        image="images/demo_frame.png",
+        blurb="an urban intersection: kinematic cars, pedestrians, lights; four-level supervisor",
+    ),
+    Family(
+        "fluids-multi-agent",
+        "FLUIDS multi-agent",
+        (),
+        ("FLUIDS-MultiAgent-v1", "FLUIDS-MultiAgent-v0"),
+        image="images/demo_frame.png",
+        blurb="PettingZoo ParallelEnv: every controlled car is an agent with its own label",
+    ),
+    Family(
+        "gridworld",
+        "GridWorld",
+        ("GridWorld-v0",),
+        image="images/task_gridworld.png",
+        blurb="ch. 3: a 15×15 stochastic gridworld with an exact value-iteration supervisor",
+    ),
+    Family(
+        "dag",
+        "DAG",
+        ("DAG-v0",),
+        image="images/task_dag.png",
+        blurb="ch. 4: the three-level decision DAG of Theorem 1 and its greedy supervisor",
+    ),
+    Family(
+        "singulation",
+        "Singulation",
+        ("Singulation-v0",),
+        image="images/singulation_supervisor.png",
+        blurb="ch. 5: a planar arm separates one of four touching objects (pymunk)",
+    ),
+    Family(
+        "grasping",
+        "Grasping in clutter",
+        ("GraspingInClutter-v0",),
+        image="images/grasping_supervisor.png",
+        blurb="ch. 6: a 3-joint arm grasps a target among five obstacles (pymunk)",
+    ),
+    Family(
+        "track",
+        "DrivingTrack",
+        ("DrivingTrack-v0", "DrivingTrack-Source-v0"),
+        image="images/track_laps.png",
+        blurb="ch. 6: a car on a random polygonal track, seen through HOG features",
+    ),
+    Family(
+        "locomotion",
+        "MuJoCo locomotion",
+        ("Hopper-IL-v0", "Walker2d-IL-v0", "HalfCheetah-IL-v0", "Humanoid-IL-v0"),
+        image="images/locomotion_hopper.png",
+        blurb="ch. 3: Gymnasium's MuJoCo v5 envs, unchanged, with shipped supervisors",
+    ),
+)
+
+
+def family(slug: str) -> Family:
+    for f in FAMILIES:
+        if f.slug == slug:
+            return f
+    raise ValueError(f"family is {slug!r}; allowed: {[f.slug for f in FAMILIES]}")
+
+
+def _entry_point(env_id: str):
+    """The class or factory behind an id, and the id's registered keyword arguments."""
+    if env_id in ENV_SPECS:
+        target, _, kwargs = ENV_SPECS[env_id]
+    elif env_id in PARALLEL_ENV_SPECS:
+        target, kwargs = PARALLEL_ENV_SPECS[env_id]
+    else:
+        raise ValueError(
+            f"env id is {env_id!r}; allowed: {sorted(ENV_SPECS) + sorted(PARALLEL_ENV_SPECS)}"
+        )
+    module, _, name = target.partition(":")
+    return getattr(importlib.import_module(module), name), dict(kwargs)
+
+
+def _card_owner(env_id: str):
+    """The class whose docstring is the env card (a factory's env class for PettingZoo ids)."""
+    obj, _ = _entry_point(env_id)
+    if inspect.isclass(obj):
+        return obj
+    module = importlib.import_module(obj.__module__)
+    classes = [
+        c
+        for c in vars(module).values()
+        if inspect.isclass(c) and c.__module__ == module.__name__ and "## Description" in (c.__doc__ or "")
+    ]
+    if len(classes) != 1:
+        raise RuntimeError(f"{env_id}: expected one env card class in {module.__name__}")
+    return classes[0]
+
+
+def _signature_params(env_id: str) -> list[inspect.Parameter]:
+    # a factory taking only **kwargs passes them on to the env class: read that class's
+    target = _card_owner(env_id).__init__
+    params = list(inspect.signature(target).parameters.values())
+    return [
+        p
+        for p in params
+        if p.name != "self" and p.kind in (p.POSITIONAL_OR_KEYWORD, p.KEYWORD_ONLY)
+    ]
+
+
+class _Unacceptable:
+    """A value no argument check accepts: its error message says what is allowed."""
+
+    def __repr__(self) -> str:
+        return "<probe>"
+
+    def __iter__(self):  # so an argument that iterates its value fails in its check, not here
+        raise TypeError("probe")
+
+
+@cache
+def allowed_values(env_id: str) -> dict[str, str]:
+    """For every keyword argument of ``env_id``'s entry point: what its validation allows, read
+    from the ``ValueError`` it raises for a value nothing accepts ("not checked" if it takes it)."""
+    obj, registered = _entry_point(env_id)
+    out: dict[str, str] = {}
+    for p in _signature_params(env_id):
+        kwargs = {**registered, p.name: _Unacceptable()}
+        try:
+            with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+                warnings.simplefilter("ignore")
+                env = obj(**kwargs)
+            with contextlib.suppress(Exception):
+                env.close()
+            out[p.name] = "not checked"
+        except ValueError as exc:
+            match = re.search(r"allowed: (.*)", str(exc), flags=re.S)
+            out[p.name] = match.group(1).strip() if match else str(exc)
+        except Exception as exc:  # noqa: BLE001  (shown as a defect on the page, not hidden)
+            out[p.name] = f"not checked ({type(exc).__name__})"
+    return out
+
+
+def _card_text(env_id: str) -> str:
+    doc = inspect.getdoc(_card_owner(env_id)) or ""
+    return textwrap.dedent(doc).strip()
+
+
+def card_sections(env_id: str) -> dict[str, str]:
+    """The env card's sections (``## Name`` → body), in order."""
+    sections: dict[str, str] = {}
+    name = "Summary"
+    lines: list[str] = []
+    for line in _card_text(env_id).splitlines():
+        m = re.match(r"^## (.+?)\s*$", line)
+        if m:
+            sections[name] = "\n".join(lines).strip()
+            name, lines = m.group(1), []
+        else:
+            lines.append(line)
+    sections[name] = "\n".join(lines).strip()
+    return {k: v for k, v in sections.items() if v}
+
+
+def _card_argument_notes(env_id: str) -> dict[str, str]:
+    """The card's own one-line description of each argument, from its Arguments table."""
+    notes: dict[str, str] = {}
+    for line in card_sections(env_id).get("Arguments", "").splitlines():
+        cells = [c.strip() for c in line.strip().strip("|").split("|")]
+        if len(cells) >= 2 and cells[0].startswith("`"):
+            notes[cells[0].strip("`")] = cells[-1]
+    return notes
+
+
+def _md_cell(text: object) -> str:
+    return str(text).replace("|", "\\|").replace("\n", " ")
+
+
+def kwargs_table(env_id: str) -> str:
+    """Every keyword argument: the signature's default, the id's registered value, what the
+    validation allows, and the card's description."""
+    _, registered = _entry_point(env_id)
+    allowed = allowed_values(env_id)
+    notes = _card_argument_notes(env_id)
+    rows = ["| argument | default | allowed | description |", "|---|---|---|---|"]
+    for p in _signature_params(env_id):
+        default = repr(registered[p.name]) if p.name in registered else repr(p.default)
+        if p.name in registered:
+            default = f"**{default}** (registered; signature: {p.default!r})"
+        rows.append(
+            f"| `{p.name}` | {_md_cell(default)} | {_md_cell(allowed[p.name])} "
+            f"| {_md_cell(notes.get(p.name, ''))} |"
+        )
+    return "\n".join(rows)
+
+
+def env_card(env_id: str, level: int = 3) -> str:
+    """The env card as Markdown, headings at ``level``; its hand-written Arguments table is
+    replaced by :func:`kwargs_table` (one source of truth: the code)."""
+    parts = []
+    for name, body in card_sections(env_id).items():
+        if name == "Summary":
+            parts.append(body)
+            continue
+        parts.append("#" * level + " " + name)
+        parts.append(kwargs_table(env_id) if name == "Arguments" else body)
+    if "Arguments" not in card_sections(env_id):
+        parts += ["#" * level + " Arguments", kwargs_table(env_id)]
+    return "\n\n".join(parts)
+
+
+def ids_table(slug: str) -> str:
+    """Every id of a family: how it is made, its step limit and its registered kwargs."""
+    f = family(slug)
+    rows = ["| id | made with | step limit | registered kwargs |", "|---|---|---|---|"]
+    for env_id in f.ids:
+        _, steps, kwargs = ENV_SPECS[env_id]
+        rows.append(f"| `{env_id}` | `gym.make` | {steps} | {_kwargs_text(kwargs)} |")
+    for env_id in f.parallel_ids:
+        _, kwargs = PARALLEL_ENV_SPECS[env_id]
+        rows.append(f'| `{env_id}` | `pettingzoo.make("parallel", …)` | `max_cycles` | {_kwargs_text(kwargs)} |')
+    return "\n".join(rows)
+
+
+def _kwargs_text(kwargs: dict) -> str:
+    return ", ".join(f"`{k}={v!r}`" for k, v in kwargs.items()) or "(defaults)"
+
+
+@cache
+def _spaces(env_id: str) -> tuple[str, str]:
+    with warnings.catch_warnings(), contextlib.redirect_stderr(io.StringIO()):
+        warnings.simplefilter("ignore")
+        if env_id in ENV_SPECS:
+            env = gym.make(env_id)
+            spaces = (str(env.action_space), str(env.observation_space))
+        else:
+            from fluids_bench.registration import make_parallel_env
+
+            env = make_parallel_env(env_id)
+            agent = env.possible_agents[0]
+            spaces = (
+                f"per agent: {env.action_space(agent)}",
+                f"per agent: {env.observation_space(agent)}",
+            )
+        env.close()
+    return spaces
+
+
+def spaces_table(slug: str) -> str:
+    """The action and observation space of every id of a family, as built."""
+    f = family(slug)
+    rows = ["| id | action space | observation space |", "|---|---|---|"]
+    for env_id in f.ids + f.parallel_ids:
+        action, observation = _spaces(env_id)
+        rows.append(f"| `{env_id}` | `{_md_cell(action)}` | `{_md_cell(observation)}` |")
+    return "\n".join(rows)
+
+
+def gallery() -> str:
+    """The families side by side: picture, ids, one line."""
+    rows = ["| | family | ids |", "|---|---|---|"]
+    for f in FAMILIES:
+        ids = ", ".join(f"`{i}`" for i in f.ids + f.parallel_ids)
+        rows.append(
+            f"| ![{f.title}]({f.image}){{ width=160 }} | [{f.title}](tasks/{f.slug}.md): {f.blurb} | {ids} |"
+        )
+    return "\n".join(rows)
+
+
+def cli_reference() -> str:
+    """Every ``fluids-bench`` subcommand's ``--help``, as argparse prints it."""
+    from fluids_bench.cli import build_parser
+
+    parser = build_parser()
+    parts = ["## fluids-bench", "```text", _help(parser), "```"]
+    for action in parser._actions:  # noqa: SLF001  (argparse keeps its subparsers here)
+        if isinstance(action, argparse._SubParsersAction):  # noqa: SLF001
+            for name, sub in action.choices.items():
+                parts += [f"## fluids-bench {name}", "```text", _help(sub), "```"]
+    return "\n\n".join(parts)
+
+
+def _help(parser: argparse.ArgumentParser) -> str:
+    import os
+
+    old = os.environ.get("COLUMNS")
+    os.environ["COLUMNS"] = "100"  # the same wrapping wherever the docs are built
+    try:
+        return parser.format_help().rstrip()
+    finally:
+        if old is None:
+            os.environ.pop("COLUMNS")
+        else:
+            os.environ["COLUMNS"] = old

@@ -1,0 +1,45 @@
+"""Tables read from the results files under ``docs/results/``.
+
+A page never holds a measured number by hand: it calls ``table("<name>")``, which loads
+``docs/results/<name>.json`` and renders it with ``docs/_gen/tables/<name>.py``'s
+``render(data) -> str`` (one renderer per results file, so they can change independently; a
+renderer may take keyword arguments for a part of its file: ``table("x", part="speed")``).
+Each results file names the command that wrote it (``"command"``), shown under the table.
+"""
+
+from __future__ import annotations
+
+import importlib.util
+import json
+from pathlib import Path
+
+DOCS = Path(__file__).resolve().parents[1]
+RESULTS = DOCS / "results"
+TABLES = Path(__file__).resolve().parent / "tables"
+
+
+def load(name: str) -> dict:
+    path = RESULTS / f"{name}.json"
+    if not path.is_file():
+        raise FileNotFoundError(f"results file {path} is missing; the page's table reads it")
+    return json.loads(path.read_text())
+
+
+def renderer(name: str):
+    path = TABLES / f"{name}.py"
+    if not path.is_file():
+        raise FileNotFoundError(f"no renderer {path} for docs/results/{name}.json")
+    spec = importlib.util.spec_from_file_location(f"docs_tables_{name}", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module.render
+
+
+def table(name: str, **options) -> str:
+    """The rendered table of ``docs/results/<name>.json``, with the command that produced it."""
+    data = load(name)
+    out = renderer(name)(data, **options)
+    command = data.get("command") if isinstance(data, dict) else None
+    if command and not options.get("no_command"):
+        out += f"\n\n<small>From `docs/results/{name}.json`, written by `{command}`.</small>"
+    return out
