@@ -296,14 +296,14 @@ def spaces_table(slug: str) -> str:
     return "\n".join(rows)
 
 
-def gallery() -> str:
-    """The families side by side: picture, ids, one line."""
+def gallery(root: str = "") -> str:
+    """The families side by side: picture, ids, one line. ``root``: the docs root relative to
+    the calling page ("" for a top-level page, "../" one folder down)."""
     rows = ["| | family | ids |", "|---|---|---|"]
     for f in FAMILIES:
         ids = ", ".join(f"`{i}`" for i in f.ids + f.parallel_ids)
-        rows.append(
-            f"| ![{f.title}]({f.image}){{ width=160 }} | [{f.title}](tasks/{f.slug}.md): {f.blurb} | {ids} |"
-        )
+        picture = f"![{f.title}]({root}{f.image}){{ width=160 }}"
+        rows.append(f"| {picture} | [{f.title}]({root}tasks/{f.slug}.md): {f.blurb} | {ids} |")
     return "\n".join(rows)
 
 

@@ -1,0 +1,148 @@
+"""Every fenced code block of the README and the docs runs (docs/development.md, "Code blocks").
+
+```python blocks run as scripts in a fresh interpreter; ```bash blocks run line by line; a block
+preceded by ``<!-- test: COMMAND -->`` runs COMMAND instead (the documented shortened variant
+of a long command); ``<!-- test: ci -->`` marks the set-up commands, which .ci/run runs
+literally. Other languages (text, json, ...) are output and are not run. Env cards' doctest
+examples run too.
+"""
+
+from __future__ import annotations
+
+import doctest
+import os
+import re
+import subprocess
+import sys
+import textwrap
+from dataclasses import dataclass
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+sys.path.insert(0, str(ROOT / "docs" / "_gen"))
+RUN_LANGUAGES = {"python", "bash"}
+NOT_RUN = {"text", "json", "yaml", "toml", "console", "output", ""}
+TIMEOUT_S = 300  # generous: a loaded 2-core CI machine; blocks should take seconds
+
+
+@dataclass(frozen=True)
+class Block:
+    path: Path
+    line: int
+    language: str
+    code: str
+    marker: str | None  # the <!-- test: ... --> before it
+
+    @property
+    def name(self) -> str:
+        return f"{self.path.relative_to(ROOT)}:{self.line}"
+
+
+FENCE = re.compile(r"^(\s*)```(\w*)[^\n]*$")
+MARKER = re.compile(r"^\s*<!--\s*test:\s*(.*?)\s*-->\s*$")
+
+
+def blocks_of(path: Path) -> list[Block]:
+    lines = path.read_text(encoding="utf-8").splitlines()
+    out, i = [], 0
+    while i < len(lines):
+        m = FENCE.match(lines[i])
+        if not m:
+            i += 1
+            continue
+        indent, language, start = m.group(1), m.group(2), i
+        j = i + 1
+        while j < len(lines) and lines[j].strip() != "```":
+            j += 1
+        code = textwrap.dedent("\n".join(lines[i + 1 : j]))
+        k = start - 1
+        while k >= 0 and not lines[k].strip():
+            k -= 1
+        marker = MARKER.match(lines[k]) if k >= 0 else None
+        out.append(Block(path, start + 1, language, code, marker.group(1) if marker else None))
+        i = j + 1
+    return out
+
+
+def documents() -> list[Path]:
+    docs = sorted(p for p in (ROOT / "docs").rglob("*.md") if "_gen" not in p.parts)
+    return [ROOT / "README.md", *docs]
+
+
+ALL_BLOCKS = [b for doc in documents() for b in blocks_of(doc)]
+RUN_BLOCKS = [b for b in ALL_BLOCKS if b.language in RUN_LANGUAGES and b.marker != "ci"]
+
+
+def test_every_block_has_a_known_language():
+    unknown = [f"{b.name} ({b.language!r})" for b in ALL_BLOCKS if b.language not in RUN_LANGUAGES | NOT_RUN]
+    assert not unknown, f"code blocks in a language the docs test does not know: {unknown}"
+
+
+def test_the_set_up_commands_are_what_ci_runs():
+    ci = (ROOT / ".ci" / "run").read_text()
+    marked = [b for b in ALL_BLOCKS if b.marker == "ci"]
+    assert marked, "the README's set-up block is not marked <!-- test: ci -->"
+    for block in marked:
+        for line in block.code.splitlines():
+            if line.strip() and not line.lstrip().startswith("#"):
+                assert line.strip() in ci, f"{block.name}: {line!r} is not in .ci/run"
+
+
+@pytest.fixture
+def sandbox(tmp_path):
+    (tmp_path / "scripts").symlink_to(ROOT / "scripts")
+    env = {
+        **os.environ,
+        "MPLBACKEND": "Agg",
+        "MINARI_DATASETS_PATH": str(tmp_path / "minari"),
+        "PYTHONPATH": str(ROOT),
+        "SDL_VIDEODRIVER": "dummy",
+    }
+    return tmp_path, env
+
+
+@pytest.mark.parametrize("block", RUN_BLOCKS, ids=lambda b: b.name)
+def test_code_block_runs(block, sandbox):
+    folder, env = sandbox
+    if block.marker is not None:
+        cmd = ["bash", "-euo", "pipefail", "-c", block.marker]
+    elif block.language == "python":
+        script = folder / "block.py"
+        script.write_text(block.code)
+        cmd = [sys.executable, str(script)]
+    else:
+        cmd = ["bash", "-euo", "pipefail", "-c", block.code]
+    run = subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
+    assert run.returncode == 0, f"{block.name} failed ({run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+
+
+def _card_examples():
+    import reference
+
+    out = []
+    for f in reference.FAMILIES:
+        for env_id in f.ids + f.parallel_ids:
+            owner = reference._card_owner(env_id)  # noqa: SLF001
+            if owner not in [o for o, _ in out]:
+                out.append((owner, env_id))
+    return out
+
+
+def _card_doctest(owner) -> doctest.DocTest:
+    # the card fences its example in Markdown; a closing fence would read as expected output
+    lines = textwrap.dedent(owner.__doc__ or "").splitlines()
+    doc = "\n".join("" if line.strip().startswith("```") else line for line in lines)
+    return doctest.DocTestParser().get_doctest(doc, {}, owner.__name__, None, 0)
+
+
+CARDS_WITH_EXAMPLES = [o for o, _ in _card_examples() if _card_doctest(o).examples]
+
+
+@pytest.mark.parametrize("owner", CARDS_WITH_EXAMPLES, ids=lambda o: o.__name__)
+def test_env_card_examples_run(owner):
+    test = _card_doctest(owner)
+    runner = doctest.DocTestRunner(optionflags=doctest.ELLIPSIS | doctest.NORMALIZE_WHITESPACE)
+    runner.run(test, out=lambda s: None)
+    assert runner.failures == 0, f"{owner.__name__}'s env card example failed"

@@ -1,0 +1,120 @@
+"""The documentation site: it builds strictly, names every id, and its pages hold together."""
+
+from __future__ import annotations
+
+import os
+import re
+import shutil
+import subprocess
+from html.parser import HTMLParser
+from pathlib import Path
+from urllib.parse import unquote, urlparse
+
+import numpy as np
+import pytest
+from PIL import Image
+
+from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+class _Refs(HTMLParser):
+    def __init__(self) -> None:
+        super().__init__()
+        self.images: list[str] = []
+        self.links: list[str] = []
+        self.ids: set[str] = set()
+
+    def handle_starttag(self, tag, attrs):
+        a = dict(attrs)
+        if a.get("id"):
+            self.ids.add(a["id"])
+        if tag == "img" and a.get("src"):
+            self.images.append(a["src"])
+        if tag == "a" and a.get("href"):
+            self.links.append(a["href"])
+
+
+def _pages(site: Path) -> list[Path]:
+    return [p for p in site.rglob("*.html") if p.name != "404.html"]
+
+
+def _parse(page: Path) -> _Refs:
+    refs = _Refs()
+    refs.feed(page.read_text(encoding="utf-8"))
+    return refs
+
+
+def _local(page: Path, ref: str) -> tuple[Path, str] | None:
+    url = urlparse(ref)
+    if url.scheme or url.netloc or ref.startswith(("mailto:", "data:")):
+        return None
+    target = page.parent / unquote(url.path) if url.path else page
+    if target.is_dir():
+        target = target / "index.html"
+    return target, url.fragment
+
+
+def test_every_registered_id_is_named_on_a_page(site):
+    text = "\n".join(p.read_text(encoding="utf-8") for p in _pages(site))
+    missing = [i for i in [*ENV_SPECS, *PARALLEL_ENV_SPECS] if i not in text]
+    assert not missing, f"ids named on no docs page: {missing}"
+
+
+def test_no_missing_image_or_broken_internal_link(site):
+    problems = []
+    for page in _pages(site):
+        refs = _parse(page)
+        for src in refs.images:
+            hit = _local(page, src)
+            if hit and not hit[0].is_file():
+                problems.append(f"{page.relative_to(site)}: missing image {src}")
+        for href in refs.links:
+            hit = _local(page, href)
+            if hit is None:
+                continue
+            target, fragment = hit
+            if not target.exists():
+                problems.append(f"{page.relative_to(site)}: broken link {href}")
+            elif fragment and target.suffix == ".html" and fragment not in _parse(target).ids:
+                problems.append(f"{page.relative_to(site)}: no anchor #{fragment} in {href}")
+    assert not problems, "\n".join(problems[:40])
+
+
+def test_every_results_file_is_shown_on_a_page():
+    used = set()
+    for md in (ROOT / "docs").rglob("*.md"):
+        used |= set(re.findall(r"(?<!')\{\{\s*table\(\s*\"([\w.-]+)\"", md.read_text(encoding="utf-8")))
+    files = {p.stem for p in (ROOT / "docs" / "results").glob("*.json")}
+    assert files - used == set(), f"results files no page shows: {sorted(files - used)}"
+    assert used - files == set(), f"pages read results files that do not exist: {sorted(used - files)}"
+
+
+CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
+
+
+@pytest.mark.parametrize("page", ["index.html", "tasks/fluids/index.html"])
+def test_a_real_browser_renders_the_page(site, page, tmp_path):
+    if CHROMIUM is None:
+        # CI installs it (.ci/run) and sets FLUIDS_BENCH_BROWSER_TESTS=1, so there it must run
+        reason = "Debian's chromium is not installed (apt-get install -y chromium)"
+        if os.environ.get("FLUIDS_BENCH_BROWSER_TESTS") == "1":
+            pytest.fail(reason)
+        pytest.skip(reason)
+    shot = tmp_path / "page.png"
+    subprocess.run(
+        [
+            CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+            "--disable-background-networking", "--disable-component-update", "--disable-sync",
+            f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}",
+            "--window-size=1280,900", "--hide-scrollbars", (site / page).as_uri(),
+        ],
+        capture_output=True, timeout=120, check=False,
+    )
+    assert shot.is_file(), f"chromium wrote no screenshot of {page}"
+    pixels = np.asarray(Image.open(shot).convert("L"), dtype=float)
+    assert pixels.shape == (900, 1280)
+    # a rendered page has text and a coloured header, not one flat colour
+    assert pixels.std() > 10, f"{page} rendered blank"
+    assert (pixels < 100).mean() > 0.01, f"{page} shows almost no dark pixels (no text?)"
