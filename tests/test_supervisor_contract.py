@@ -21,7 +21,7 @@ from exact_compare import exactly_equal
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.core import snapshot as snap
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY, RestorableEnv
-from fluids_bench.registration import ENV_SPECS
+from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS, make_parallel_env
 
 GYM_IDS = sorted(ENV_SPECS)
 SEED = 5
@@ -146,3 +146,25 @@ def test_wrapped_restore_carries_the_time_limit():
     other.reset(seed=SEED + 1)
     snap.restore(other, saved)
     assert other.step(0)[3] and env.step(0)[3]
+
+
+@pytest.mark.parametrize("env_id", sorted(PARALLEL_ENV_SPECS))
+def test_parallel_snapshot_restore_continues_exactly(env_id):
+    env, target = make_parallel_env(env_id), make_parallel_env(env_id)
+    _, infos = env.reset(seed=SEED)
+    for agent in env.possible_agents:
+        env.action_space(agent).seed(SEED)
+    for k in range(STEPS):
+        saved = pickle.loads(pickle.dumps(env.snapshot()))
+        target.reset(seed=1000 + k)
+        target.restore(saved)
+        for agent in env.agents:
+            assert exactly_equal(
+                target.supervisor_action(agent), infos[agent][SUPERVISOR_ACTION_KEY]
+            ), (env_id, k, agent)
+        actions = {a: env.action_space(a).sample() for a in env.agents}
+        ours = env.step(actions)
+        assert exactly_equal(list(ours), list(target.step(actions))), (env_id, k)
+        infos = ours[4]
+        if not env.agents:
+            _, infos = env.reset(seed=SEED + k)

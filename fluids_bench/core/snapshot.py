@@ -96,7 +96,8 @@ class SnapshotMixin:
 
     def _snapshot_state(self) -> dict[str, Any]:
         """The env's state as a dict (pickled by :meth:`snapshot`)."""
-        return {name: getattr(self, name, None) for name in (*RNG_FIELDS, *self._snapshot_fields)}
+        names = (*RNG_FIELDS, *self._snapshot_fields)
+        return {name: getattr(self, name) for name in names if hasattr(self, name)}
 
     def _restore_state(self, state: dict[str, Any]) -> None:
         """Put ``state`` (what :meth:`_snapshot_state` returned, unpickled) into this env."""
