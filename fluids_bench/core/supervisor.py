@@ -12,6 +12,18 @@ Labels live in the env's action space (at the level the user acts at). The super
 true state of the simulator, never the observation. A PettingZoo ``ParallelEnv`` of the suite
 answers per agent: ``env.supervisor_action(agent)`` and ``infos[agent]["supervisor_action"]``.
 
+Labels are reproducible from a snapshot. Every env of the suite also offers
+``env.unwrapped.snapshot()`` (a picklable :class:`~fluids_bench.core.snapshot.EnvSnapshot`)
+and ``env.unwrapped.restore(snapshot)`` (:class:`RestorableEnv`): restored into another env of
+the same id and kwargs (reset with any seed), the env continues bit-identically under the same
+actions (observations, rewards, terminated/truncated, infos) and ``supervisor_action()``
+equals the label of the env that drove there. A supervisor's cache must be derivable from the
+state; memory a supervisor really has (FLUIDS' velocity planner holds its targets between
+replans, Singulation's supervisor its push plan) is part of the snapshot and documented in the
+env card ("Snapshots and labels"). :func:`fluids_bench.core.snapshot.snapshot` and
+:func:`~fluids_bench.core.snapshot.restore` do the same for a wrapped env, ``TimeLimit``'s step
+count included.
+
 A supervisor does not have to live in the base env: :func:`supervisor_action` asks through the
 wrapper chain (outermost first, as Gymnasium's ``get_wrapper_attr`` does), and
 :class:`SupervisorWrapper` attaches any callable ``supervisor(env) -> action`` to any env, so
@@ -34,6 +46,21 @@ class SupervisedEnv(Protocol):
 
     def supervisor_action(self) -> Any:
         """The supervisor's action for the controlled agent in the current state."""
+        ...
+
+
+@runtime_checkable
+class RestorableEnv(Protocol):
+    """An env whose state can be saved and restored exactly (every env of the suite)."""
+
+    def snapshot(self) -> Any:
+        """A picklable copy of the env's state: everything its future steps and labels
+        depend on (the simulator, the supervisor's memory, episode counters, ``np_random``)."""
+        ...
+
+    def restore(self, snapshot: Any) -> None:
+        """Continue from ``snapshot``, taken from an env of the same id and kwargs; raises
+        ``ValueError`` for a snapshot of another id or kwargs."""
         ...
 
 

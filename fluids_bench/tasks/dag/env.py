@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_float, reject_unknown_kwargs
 from fluids_bench.tasks.dag.model import DEPTH, L, R, transition
@@ -16,7 +17,7 @@ from fluids_bench.tasks.dag.supervisor import greedy_action
 WHERE = "DAG-v0"
 
 
-class DAGEnv(gym.Env[np.ndarray, np.int64]):
+class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     """
     ## Description
 
@@ -55,6 +56,12 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
     Termination after the third decision, on reaching level 3. The registration's
     `max_episode_steps` is 3, so truncation never comes first.
 
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state (the node and `np_random`);
+    `restore(snapshot)` on another env built with the same kwargs (reset with any seed)
+    continues bit-identically. The label is a function of the node alone.
+
     ## Arguments
 
     | Parameter     | Type  | Default | Description                                               |
@@ -71,6 +78,8 @@ class DAGEnv(gym.Env[np.ndarray, np.int64]):
     """
 
     metadata = {"render_modes": [], "render_fps": 1}
+
+    _snapshot_fields = ("_level", "_index")
 
     @reject_unknown_kwargs
     def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:

@@ -7,6 +7,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_bool, check_choice, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
@@ -24,7 +25,7 @@ from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 
-class FluidsEnv(gym.Env):
+class FluidsEnv(SnapshotMixin, gym.Env):
     """
     ## Description
     FLUIDS (ch. 7 of the source dissertation): a first-order, multi-agent urban-intersection
@@ -99,6 +100,18 @@ class FluidsEnv(gym.Env):
     analysis' criterion): terminated when every car has arrived or on any collision (after the
     ego arrives, actions are ignored and rewards are 0). Truncated by ``TimeLimit`` (``FLUIDS-v0``: 400 steps =
     40 s; ``FLUIDS-v1``: 600; the sensitivity ids: 600).
+
+    ## Snapshots and labels
+    ``env.unwrapped.snapshot()`` returns a picklable :class:`~fluids_bench.core.snapshot.EnvSnapshot`;
+    ``restore(snapshot)`` on another env built with the same kwargs (reset with any seed)
+    continues bit-identically, labels included. The supervisor has memory, as the source's
+    does: the velocity planner runs every ``planner_period`` steps and holds its targets in
+    between, and the PID controllers integrate their errors. So the label is a function of
+    the world and the planner's phase (the world's step count) and held targets (and, at the
+    control level, the controllers' integrators), and all of these are in the snapshot: after
+    ``restore``, ``supervisor_action()`` equals the label of the env that drove there. A
+    supervisor built afresh on the same world would replan at once and may differ between
+    replans.
 
     ## Info
     Field meanings are shared with the multi-agent env (see
@@ -372,6 +385,16 @@ class FluidsEnv(gym.Env):
     def supervisor_action(self):
         """The supervisor's action for the ego at ``action_level`` in the current state."""
         return levels.label(self.supervisor, self.world, self.action_level, 0)
+
+    # ------------------------------------------------------------------ snapshots
+    # the world (agents, lights, time and step count), the supervisor's memory (the velocity
+    # planner's held targets, the PID controllers' integrators, the proposed controls), the
+    # fault tracker and the episode's bookkeeping; the compiled layout is built from the
+    # kwargs alone and is taken from the restoring env
+    _snapshot_fields = ("world", "supervisor", "faults", "_route_length", "_last_s", "_ended")
+
+    def _snapshot_static(self) -> dict[str, Any]:
+        return {"layout": self.world.layout}
 
     # ------------------------------------------------------------------ helpers
     def _observe(self) -> np.ndarray:

@@ -17,6 +17,7 @@ from gymnasium import spaces
 from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_bool, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
@@ -99,7 +100,7 @@ def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[
     return out, ego_only
 
 
-class FluidsParallelEnv(ParallelEnv):
+class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     """
     ## Description
     FLUIDS (ch. 7 of the source dissertation) with ``controlled_cars`` learner-controlled cars,
@@ -170,6 +171,14 @@ class FluidsParallelEnv(ParallelEnv):
       ``FLUIDS-v0``'s with ``done_when="ego"``.
     * ``arrived``: the car reached its goal. ``route``: its route's name.
 
+    ## Snapshots and labels
+    ``env.snapshot()`` returns a picklable state (the world, the supervisor's memory, the live
+    and dead agents, the cycle count, ``np_random``); ``env.restore(snapshot)`` on another env
+    built with the same kwargs (reset with any seed) continues bit-identically, labels
+    included. As in ``FLUIDS-v0``, the label is a function of the world and the velocity
+    planner's phase and held targets (and the PID controllers' integrators), all in the
+    snapshot.
+
     ## Arguments
     * ``controlled_cars``: learner-controlled cars (agents), default 4.
     * ``num_cars``: supervised background cars besides them (default 0).
@@ -201,6 +210,23 @@ class FluidsParallelEnv(ParallelEnv):
         "render_fps": 10,
         "is_parallelizable": True,
     }
+
+    # the world, the supervisor's memory, the agents' bookkeeping and PettingZoo's seed
+    _snapshot_fields = (
+        "world",
+        "supervisor",
+        "faults",
+        "agents",
+        "_dead",
+        "_just_died",
+        "_cycles",
+        "_last_s",
+        "_route_length",
+        "np_random_seed",
+    )
+
+    def _snapshot_static(self) -> dict[str, Any]:
+        return {"layout": self.world.layout}
 
     @reject_unknown_kwargs
     def __init__(

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
     check_choice,
@@ -34,7 +35,7 @@ GRASP_REWARD = 10.0  # the source's weight of the grasp in its cost
 POSITION_BOUND = 2.0  # m: |x|, |y| of any object in the state observation (the table is < 1 m)
 
 
-class GraspingInClutterEnv(gym.Env):
+class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     """
     ## Description
 
@@ -100,6 +101,14 @@ class GraspingInClutterEnv(gym.Env):
     Terminated when the target is grasped or knocked off. Truncated after 100 steps of 0.1 s
     (`max_episode_steps` of the registration); the supervisor needs about 30.
 
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state (the world, the supervisor's plan
+    cache and `np_random`); `restore(snapshot)` on another env built with the same kwargs
+    (reset with any seed) continues bit-identically, labels included. The supervisor's cached
+    corridor plan is keyed by the world state it was planned for, so the label is a function
+    of the world.
+
     ## Arguments
 
     | Parameter         | Type        | Default  | Description                                     |
@@ -125,6 +134,10 @@ class GraspingInClutterEnv(gym.Env):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    # the world (its initial state and commands, replayed exactly when unpickled) and the
+    # supervisor's plan cache, which is keyed by the world state it was made for
+    _snapshot_fields = ("world", "supervisor", "_label")
 
     @reject_unknown_kwargs
     def __init__(

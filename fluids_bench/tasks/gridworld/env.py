@@ -8,6 +8,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_float, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.gridworld.model import MOVES, GridWorld
@@ -16,7 +17,7 @@ from fluids_bench.tasks.gridworld.supervisor import value_iteration
 WHERE = "GridWorld-v0"
 
 
-class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
+class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     """
     ## Description
 
@@ -69,6 +70,12 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     No termination: the robot should reach the goal and stay. Truncation after 30 steps
     (`max_episode_steps` of the registration, the source's T = 30).
 
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state (the agent's cell and `np_random`);
+    `restore(snapshot)` on another env built with the same kwargs (reset with any seed)
+    continues bit-identically. The label is a function of the cell alone.
+
     ## Arguments
 
     | Parameter          | Type  | Default | Description                                            |
@@ -98,6 +105,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 4}
+
+    # the agent's cell (the world is generated from world_seed at construction)
+    _snapshot_fields = ("_state",)
 
     @reject_unknown_kwargs
     def __init__(

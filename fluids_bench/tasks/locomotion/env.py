@@ -9,6 +9,7 @@ of which supervisor labels (``metadata["supervisor"]``: kind, recipe, weights sh
 
 from __future__ import annotations
 
+import copy
 import dataclasses
 import os
 from typing import Any
@@ -21,6 +22,7 @@ from gymnasium.envs.mujoco.hopper_v5 import HopperEnv
 from gymnasium.envs.mujoco.humanoid_v5 import HumanoidEnv
 from gymnasium.envs.mujoco.walker2d_v5 import Walker2dEnv
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import check_choice, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.locomotion.mpc import MPCConfig
@@ -63,7 +65,7 @@ SUPERVISOR_RETURN: dict[str, float | None] = {
 _MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
 
 
-class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
+class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
     """Base class of the four ids; subclasses set ``task`` and carry the env card."""
 
     task: str = ""
@@ -179,6 +181,25 @@ class LocomotionILEnv(gym.Env[np.ndarray, np.ndarray]):
     def close(self) -> None:
         self._sim.close()
 
+    # -- snapshots: the whole MjData, not only the physics state ----------------------------
+    # Gymnasium's observation (Humanoid's cinert, cvel, qfrc_actuator, cfrc_ext) carries
+    # quantities MuJoCo computed before the last integration step, so they are not a function
+    # of (qpos, qvel): setting a fresh env's physics state and calling mj_forward gives other
+    # numbers, and another label. The snapshot holds a copy of the whole MjData (state, warm
+    # start, every derived field) and restore copies it into this env's MjData.
+    def _snapshot_state(self) -> dict[str, Any]:
+        return {
+            **super()._snapshot_state(),
+            "data": copy.copy(self._sim.data),
+            "sim_rng": (self._sim._np_random, self._sim._np_random_seed),
+        }
+
+    def _restore_state(self, state: dict[str, Any]) -> None:
+        data = state.pop("data")
+        self._sim._np_random, self._sim._np_random_seed = state.pop("sim_rng")
+        super()._restore_state(state)
+        mujoco.mj_copyData(self._sim.data, self._sim.model, data)
+
     # -- pickling: rebuild from kwargs, then restore the exact physics state -----------------
     def __getstate__(self) -> dict[str, Any]:
         return {
@@ -210,6 +231,16 @@ _CARD_COMMON = """
     label; its cost is stated in `metadata["supervisor"]["label_cost"]`) or `"guided_mpc"`
     (the same search started from the policy's plan). Every label is a deterministic function of
     the physics state. `metadata["supervisor"]` records the kind, recipe and weights hash.
+
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state (the whole `MjData`, Gymnasium's and
+    this env's `np_random`); `restore(snapshot)` on another env built with the same kwargs
+    (reset with any seed) continues bit-identically, labels included. The whole `MjData` is
+    needed, not only `qpos`/`qvel`: the observation (and so the policy's label) reads fields
+    MuJoCo computed before the last integration step (Humanoid's `cinert`, `cvel`,
+    `qfrc_actuator`, `cfrc_ext`), which a fresh env set to the same `qpos`/`qvel` recomputes
+    differently. The label is a function of that `MjData`.
 
     ## Arguments
 

@@ -9,6 +9,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
     check_choice,
@@ -34,7 +35,7 @@ STATE_SIZE = 2 + 4 * NUM_OBJECTS
 RESET_STATE_SIZE = 2 + 3 * NUM_OBJECTS
 
 
-class SingulationEnv(gym.Env):
+class SingulationEnv(SnapshotMixin, gym.Env):
     """
     ## Description
 
@@ -86,6 +87,19 @@ class SingulationEnv(gym.Env):
     `info["progress"]` is the continuous measure: the largest, over objects, of the distance
     (m) from its centre to the nearest other centre (success is progress ≥ 0.10).
 
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state; `restore(snapshot)` on another env
+    built with the same kwargs (reset with any seed) continues bit-identically, labels
+    included. The world is stored as its initial state and the joint commands since, and
+    rebuilt by replaying them (a copy of pymunk's space is not bit-identical; a replay is);
+    pickling or deep-copying the env does the same. The supervisor keeps a push plan between
+    replans (the target object, the push line, the object poses it was planned for, whether
+    the push has started, the approach route): the label is a function of the world and that
+    plan, and the plan is part of the snapshot, so after `restore` `supervisor_action()`
+    equals the label of the env that drove there. A supervisor built afresh on the same world
+    replans at once and may choose another push.
+
     ## Arguments
 
     | Parameter              | Type        | Default   | Description                                        |
@@ -104,6 +118,10 @@ class SingulationEnv(gym.Env):
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
     RENDER_SIZE = 400
+
+    # the world (its initial state and joint commands, replayed exactly when unpickled: pymunk
+    # keeps contact impulses that no copy restores), the supervisor's push plan and _solved
+    _snapshot_fields = ("_world", "_supervisor", "_solved")
 
     @reject_unknown_kwargs
     def __init__(

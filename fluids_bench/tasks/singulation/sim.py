@@ -297,6 +297,11 @@ class SingulationWorld:
     Build one from a joint pose and object poses; two builds from the same numbers step
     bit-identically. The joint pose is kept as numbers (the commanded pose, reached at the end
     of every step); the fingertip body follows it.
+
+    Pickling (and so ``copy.deepcopy``) stores the numbers the world was built from and the
+    joint commands stepped since, and rebuilds it by replaying them: the copy continues
+    bit-identically. (pymunk's own ``Space.copy`` does not: the contact cache the solver warm
+    starts from is not restored, and a copy drifts by ~1e-5 m within 30 steps.)
     """
 
     def __init__(
@@ -309,6 +314,8 @@ class SingulationWorld:
     ) -> None:
         self.config = config
         self.substeps = substeps
+        self._initial = (float(theta), float(r), np.array(poses, dtype=np.float64))
+        self._commands: list[tuple[float, float]] = []  # step() arguments since the build
         # the shapes hold their bodies by weak reference: self.bodies and self.tip keep them
         self.bodies: list[pymunk.Body] = []
         self._shapes: list[pymunk.Shape] = []
@@ -329,6 +336,8 @@ class SingulationWorld:
         at about half the cost: the shapes are kept, with new bodies (a used body keeps the
         solver's bias velocity) in a new space (no contact cache, the same shape ids). The
         supervisor's foresight restarts one world for every candidate push."""
+        self._initial = (float(theta), float(r), np.array(poses, dtype=np.float64))
+        self._commands = []
         self.space.remove(*self._shapes, self._tip_shape)  # the old bodies go with the space
         self.bodies = [pymunk.Body() for _ in self._shapes]
         for body, shape in zip(self.bodies, self._shapes, strict=True):
@@ -359,6 +368,23 @@ class SingulationWorld:
         self._values: list[float] | None = None
         self._poses: np.ndarray | None = None
         self._progress = 0.0
+
+    # -- pickling: rebuild and replay (exact) -----------------------------------------------
+
+    def __getstate__(self) -> dict:
+        theta, r, poses = self._initial
+        return {
+            "config": self.config,
+            "substeps": self.substeps,
+            "initial": (theta, r, poses.copy()),
+            "commands": list(self._commands),
+        }
+
+    def __setstate__(self, state: dict) -> None:
+        theta, r, poses = state["initial"]
+        self.__init__(state["config"], theta, r, poses, state["substeps"])
+        for command in state["commands"]:
+            self.step(*command)
 
     # -- state ---------------------------------------------------------------------------
 
@@ -413,6 +439,7 @@ class SingulationWorld:
     def step(self, dtheta: float, dr: float) -> None:
         """Command a joint change (rad, m), clipped to the per-step limits and the joint limits;
         the fingertip moves along the joint-space segment and ends on the commanded pose."""
+        self._commands.append((dtheta, dr))
         dtheta = min(max(dtheta, -MAX_DTHETA), MAX_DTHETA)
         dr = min(max(dr, -MAX_DR), MAX_DR)
         theta0, r0 = self.theta, self.r

@@ -10,6 +10,7 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
     check_choice,
@@ -48,7 +49,7 @@ def _python_scalars(init):
     return converted
 
 
-class DrivingTrackEnv(gym.Env[Any, np.int64]):
+class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
     """
     ## Description
 
@@ -108,6 +109,13 @@ class DrivingTrackEnv(gym.Env[Any, np.int64]):
     (crashes in the lap under way), `crashed` (this step), `is_success` (a lap was completed
     without a crash).
 
+    ## Snapshots and labels
+
+    `env.unwrapped.snapshot()` returns a picklable state (the track, the car, the lap
+    bookkeeping and `np_random`); `restore(snapshot)` on another env built with the same
+    kwargs (reset with any seed) continues bit-identically. The label (a depth-limited search
+    from the car's pose) is a function of the track and the car's pose.
+
     ## Arguments
 
     | Parameter         | Type             | Default | Description                                     |
@@ -136,6 +144,13 @@ class DrivingTrackEnv(gym.Env[Any, np.int64]):
     """
 
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+
+    # the track (a new one every episode unless track_seed is given), the car, the search
+    # supervisor and the lap bookkeeping; a fixed track is built from the kwargs and kept
+    _snapshot_fields = ("track", "sim", "supervisor", "view", "_lap_start_crashes", "_clean_laps")
+
+    def _snapshot_static(self) -> dict[str, Any]:
+        return {} if self._fixed_track is None else {"track": self._fixed_track}
 
     @reject_unknown_kwargs
     @_python_scalars

@@ -1,0 +1,113 @@
+"""Label purity and exact continuation after restoring a state, per id, printed as JSON.
+
+For each id, drive ``--states`` steps with a random learner and as many with a noisy
+supervisor (the label plus N(0, (0.3 half-range)²) for Box actions; the label with
+probability 0.7 for Discrete ones), resetting with the next seed when an episode ends. At
+every state, copy the env and count how often the copy's ``supervisor_action()`` differs from
+the label of the env that drove there (``label``), and how often the copy's next ``--ahead``
+steps under the driving env's actions differ from the driving env's in anything it returns
+(``continuation``). The copy is made by
+
+* ``--copy snapshot``: ``env.unwrapped.snapshot()`` (with ``TimeLimit``'s count), pickled,
+  restored into another ``gym.make`` env reset with another seed (the contract of issue #27);
+* ``--copy deepcopy``: ``copy.deepcopy`` of the wrapped env (also runs on revisions without
+  snapshots: compare with ``PYTHONPATH=/path/to/old``).
+
+    PYTHONPATH=. python scripts/checks/supervisor_purity.py --ids Singulation-v0 --states 60
+"""
+
+from __future__ import annotations
+
+import argparse
+import copy
+import json
+import pickle
+import sys
+from pathlib import Path
+
+import gymnasium as gym
+import numpy as np
+
+import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.registration import ENV_SPECS
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
+from exact_compare import exactly_equal  # noqa: E402
+
+SEED = 20_000  # seeds the project's tests and tables do not use
+
+
+def _act(env, kind, rng, info):
+    space = env.action_space
+    if kind == "random":
+        return space.sample()
+    label = info["supervisor_action"]
+    if isinstance(space, gym.spaces.Discrete):
+        return label if rng.random() < 0.7 else space.sample()
+    low, high = space.low.astype(np.float64), space.high.astype(np.float64)
+    noisy = label + 0.3 * (high - low) / 2 * rng.standard_normal(space.shape)
+    return np.clip(noisy, low, high).astype(space.dtype)
+
+
+def _copy(env, env_id, how, k):
+    if how == "deepcopy":
+        return copy.deepcopy(env)
+    from fluids_bench.core import snapshot
+
+    saved = pickle.loads(pickle.dumps(snapshot.snapshot(env)))
+    target = gym.make(env_id)
+    target.reset(seed=SEED + 10_000 + k)
+    snapshot.restore(target, saved)
+    return target
+
+
+def measure(env_id: str, kind: str, states: int, ahead: int, how: str) -> dict:
+    env = gym.make(env_id)
+    env.action_space.seed(SEED)
+    rng = np.random.default_rng(SEED)
+    episode = 0
+    _, info = env.reset(seed=SEED)
+    label_diff = cont_diff = 0
+    active = []  # [copy, steps left]
+    for k in range(states):
+        action = _act(env, kind, rng, info)
+        clone = _copy(env, env_id, how, k)
+        if not exactly_equal(clone.unwrapped.supervisor_action(), info["supervisor_action"]):
+            label_diff += 1
+        active.append([clone, ahead, False])
+        step = env.step(action)
+        for entry in active:
+            if not exactly_equal(list(step), list(entry[0].step(action))):
+                entry[2] = True
+            entry[1] -= 1
+        done = step[2] or step[3]
+        finished = [e for e in active if e[1] == 0 or done]
+        cont_diff += sum(e[2] for e in finished)
+        active = [e for e in active if not (e[1] == 0 or done)]
+        info = step[4]
+        if done:
+            episode += 1
+            _, info = env.reset(seed=SEED + episode)
+    cont_diff += sum(e[2] for e in active)
+    return {"states": states, "label": label_diff, "continuation": cont_diff}
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--ids", nargs="+", default=sorted(ENV_SPECS))
+    parser.add_argument("--states", type=int, default=60, help="states per driver and id")
+    parser.add_argument("--ahead", type=int, default=2, help="steps compared after each copy")
+    parser.add_argument("--copy", choices=["snapshot", "deepcopy"], default="snapshot")
+    args = parser.parse_args()
+    out = {
+        env_id: {
+            kind: measure(env_id, kind, args.states, args.ahead, args.copy)
+            for kind in ("random", "noisy")
+        }
+        for env_id in args.ids
+    }
+    print(json.dumps({"copy": args.copy, "ahead": args.ahead, "results": out}, indent=1))
+
+
+if __name__ == "__main__":
+    main()
