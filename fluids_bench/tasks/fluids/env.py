@@ -8,7 +8,7 @@ import gymnasium as gym
 import numpy as np
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_bool, check_choice, reject_unknown_kwargs
+from fluids_bench.core.validation import as_seed, check_bool, check_choice, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -293,6 +293,7 @@ class FluidsEnv(gym.Env):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         self.world = World(self.scene, self.world.layout)
         spawn(self.world, self.np_random)

@@ -9,8 +9,10 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    as_seed,
     check_choice,
     check_float,
     check_int,
@@ -209,6 +211,7 @@ class SingulationEnv(gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         c = self.config
         state = None if options is None else options.get("state")
@@ -229,9 +232,7 @@ class SingulationEnv(gym.Env):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         if self._world is None:
             raise RuntimeError(f"{WHERE}: call reset() before step()")
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (2,) or not (math.isfinite(a[0]) and math.isfinite(a[1])):
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        a = check_action(WHERE, self.action_space, action)
         a0 = min(max(float(a[0]), -1.0), 1.0)
         a1 = min(max(float(a[1]), -1.0), 1.0)
         self._world.step(a0 * MAX_DTHETA, a1 * MAX_DR)
