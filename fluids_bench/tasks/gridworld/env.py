@@ -42,6 +42,9 @@ class GridWorldEnv(gym.Env[np.ndarray, np.int64]):
     The supervisor (`supervisor_action()` and `info["supervisor_action"]`) is the optimal
     stationary policy of the discounted problem, solved exactly by value iteration on the
     explicit transition table (`transitions`), see `fluids_bench.tasks.gridworld.supervisor`.
+    Every `discount` in (0, 1) is solved: where value iteration needs more than 3,000 sweeps
+    (discounts above about 0.99) it finishes with exact policy iteration, which takes a few
+    seconds on the largest grid even at 0.9999.
     The world itself (generation, slips, the table, the picture) is
     `fluids_bench.tasks.gridworld.model.GridWorld` (`env.world`); `cells`, `next_state`,
     `transitions` and `state_rewards` are its arrays.
