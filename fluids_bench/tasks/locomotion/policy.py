@@ -100,15 +100,18 @@ class MLPPolicy:
         named |= {f"b{i}": b for i, b in enumerate(self.biases)}
         named |= {"action_low": self.action_low, "action_high": self.action_high}
         for name, array in named.items():
-            if not np.isfinite(array).all():
+            # obs_std may be +inf: that input is ignored (the shipped Humanoid file does this
+            # for observation entries that never vary); its NaN and <= 0 are refused below
+            if not np.isfinite(array).all() and name != "obs_std":
                 raise ValueError(
                     f"MLPPolicy: {name} holds {int((~np.isfinite(array)).sum())} NaN or "
                     "infinite values; allowed: finite numbers"
                 )
-        if not (self.obs_std > 0).all():
+        if not (self.obs_std > 0).all():  # False for NaN too
             raise ValueError(
-                f"MLPPolicy: obs_std has {int((self.obs_std <= 0).sum())} entries <= 0 (min "
-                f"{self.obs_std.min()}); allowed: positive (the observation is divided by it)"
+                f"MLPPolicy: obs_std has {int((~(self.obs_std > 0)).sum())} entries <= 0 or NaN "
+                f"(min {np.nanmin(self.obs_std)}); allowed: positive, or inf for an ignored "
+                "input (the observation is divided by it)"
             )
         if not (self.action_low < self.action_high).all():
             raise ValueError(
