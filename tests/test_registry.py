@@ -14,9 +14,11 @@ when an episode ends. An expensive id declares fewer steps in ``registration.TES
 from __future__ import annotations
 
 import pickle
+import re
 import warnings
 
 import gymnasium as gym
+import numpy as np
 import pettingzoo
 import pytest
 from exact_compare import exactly_equal
@@ -151,6 +153,78 @@ def test_supervisor_contract(env_id):
     assert exactly_equal(asked, _rollout(env_id, _steps(env_id))), (
         f"{env_id}: calling supervisor_action() changed the episode"
     )
+
+
+def _bad_actions(space: gym.Space) -> list:
+    """Actions every env must refuse with a ValueError, never coerce."""
+    if isinstance(space, gym.spaces.Discrete):
+        n = int(space.n)
+        return [
+            True,
+            np.True_,
+            1.0,
+            np.float64(1.0),
+            np.float32(0.0),
+            float("inf"),
+            float("-inf"),
+            float("nan"),
+            1j,
+            "1",
+            None,
+            n,  # one past the end
+            -1,
+            np.array([0]),  # shape (1,) is not a scalar
+            np.array(0.0),
+            np.array(True),
+        ]
+    ok = np.zeros(space.shape)
+    bad = []
+    for value in (np.nan, np.inf, -np.inf):
+        a = ok.copy()
+        a.reshape(-1)[0] = value
+        bad.append(a)
+    return [
+        *bad,
+        ok.astype(np.complex128),
+        ok.astype(bool),
+        ok.tolist()[:-1],  # too short
+        np.zeros((space.shape[0] + 1,)),  # too long
+        ok.reshape(1, -1),  # a batch of one is not an action
+        0.0,
+        "0",
+        np.array(["0"] * space.shape[0]),
+        [None] * space.shape[0],
+    ]
+
+
+@pytest.mark.parametrize("env_id", GYM_IDS)
+def test_bad_actions_are_refused_naming_the_action_and_the_space(env_id):
+    env = gym.make(env_id)
+    env.reset(seed=SEED)
+    space = env.action_space
+    for action in _bad_actions(space):
+        with pytest.raises(ValueError, match=r"action") as caught:
+            env.step(action)
+        assert str(space) in str(caught.value), (action, str(caught.value))
+    if isinstance(space, gym.spaces.Discrete):  # numpy integers stay actions
+        for action in (np.int64(space.start), np.int32(space.start), np.array(space.start)):
+            env.step(action)
+
+
+@pytest.mark.parametrize("env_id", GYM_IDS)
+def test_numpy_integer_seeds_seed_as_python_ints(env_id):
+    env = gym.make(env_id)
+    assert exactly_equal(env.reset(seed=np.int64(5)), env.reset(seed=5))
+    assert exactly_equal(env.reset(seed=np.uint8(5)), env.reset(seed=5))
+    for bad in (-1, 1.5, np.float64(5.0), "5"):  # Gymnasium's own check still answers
+        with pytest.raises(gym.error.Error, match=re.escape("Seed must be")):
+            env.reset(seed=bad)
+
+
+@pytest.mark.parametrize("env_id", PARALLEL_IDS)
+def test_parallel_numpy_integer_seeds_seed_as_python_ints(env_id):
+    env = _make_parallel(env_id)
+    assert exactly_equal(env.reset(seed=np.int64(5)), env.reset(seed=5))
 
 
 def _make_parallel(env_id: str):

@@ -104,3 +104,12 @@ def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
         init(self, *args, **kwargs)
 
     return checked
+
+
+def as_seed(seed: Any) -> Any:
+    """A numpy integer seed (``np.int64(5)``, as ``rng.integers`` gives) as the Python int
+    Gymnasium's ``reset`` requires; anything else unchanged, for Gymnasium's own check. Envs call
+    it before ``super().reset(seed=...)``: ``seed=np.int64(5)`` then seeds exactly as ``seed=5``."""
+    if isinstance(seed, np.integer):
+        return int(seed)
+    return seed

@@ -85,9 +85,23 @@ class ResultStore:
     # -- manifest -----------------------------------------------------------------------------
 
     def read_manifest(self) -> dict[str, Any] | None:
+        """The folder's manifest, None if it has none; a ValueError naming the file and what to
+        do if it is not a JSON object (truncated, edited, not UTF-8)."""
         if not self.manifest_path.exists():
             return None
-        return json.loads(self.manifest_path.read_text())
+        try:
+            manifest = json.loads(self.manifest_path.read_text(encoding="utf-8"))
+        except (UnicodeDecodeError, json.JSONDecodeError) as e:
+            problem = f"is not valid JSON ({e})"
+        else:
+            if isinstance(manifest, dict):
+                return manifest
+            problem = f"holds a {type(manifest).__name__}, not a JSON object"
+        raise ValueError(
+            f"{self.manifest_path} {problem}; it is written atomically, so it was damaged or "
+            "edited: restore it from a copy, use another --out folder, or --overwrite to "
+            "discard this sweep's results"
+        )
 
     def open(self, manifest: Mapping[str, Any], overwrite: bool = False) -> dict[int, dict]:
         """Lock the folder, check or write ``manifest``, and return the finished rows.
@@ -105,7 +119,12 @@ class ResultStore:
         return dict(self.rows)
 
     def _start(self, manifest: dict[str, Any], overwrite: bool) -> dict[int, dict[str, Any]]:
-        existing = self.read_manifest()
+        try:
+            existing = self.read_manifest()
+        except ValueError:
+            if not overwrite:
+                raise
+            existing = None  # a damaged manifest is discarded with the results it described
         if existing is not None and existing != manifest and not overwrite:
             changed = sorted(
                 k for k in manifest.keys() | existing.keys() if manifest.get(k) != existing.get(k)

@@ -112,3 +112,22 @@ def test_corrupt_or_conflicting_rows_are_errors(tmp_path):
         format_row({"index": 0})
     with pytest.raises(RuntimeError, match="open"):
         ResultStore(tmp_path).append(_row(1))
+
+
+@pytest.mark.parametrize("damage", ["truncate", "list", "binary"])
+def test_a_damaged_manifest_is_named_with_what_to_do(tmp_path, damage):
+    with ResultStore(tmp_path) as store:
+        store.open(MANIFEST)
+        store.append(_row(0))
+    path = tmp_path / "manifest.json"
+    text = path.read_bytes()
+    path.write_bytes(
+        {"truncate": text[: len(text) // 2], "list": b"[1]", "binary": b"\xff\xfe"}[damage]
+    )
+    with pytest.raises(ValueError, match=r"manifest\.json .*--out folder, or --overwrite"):
+        ResultStore(tmp_path).open(MANIFEST)
+    with pytest.raises(ValueError, match=r"manifest\.json"):
+        ResultStore(tmp_path).read_manifest()
+    with ResultStore(tmp_path) as store:  # --overwrite starts the sweep over
+        assert store.open(MANIFEST, overwrite=True) == {}
+    assert ResultStore(tmp_path).read_manifest() == MANIFEST

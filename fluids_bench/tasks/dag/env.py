@@ -8,10 +8,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_float, reject_unknown_kwargs
-from fluids_bench.tasks.dag.model import DEPTH, L, R, transition
+from fluids_bench.core.validation import as_seed, check_choice, check_float, reject_unknown_kwargs
+from fluids_bench.tasks.dag.model import DEPTH, L, transition
 from fluids_bench.tasks.dag.supervisor import greedy_action
 
 WHERE = "DAG-v0"
@@ -105,14 +106,13 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[np.ndarray, dict[str, Any]]:
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         self._level, self._index = 0, 0
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
-        move = int(action)
-        if move != action or move not in (L, R):  # cheaper than Space.contains
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        move = check_action(WHERE, self.action_space, action)
         if self._level == DEPTH:
             raise RuntimeError(f"{WHERE}: step() after the episode ended; call reset()")
         # draw on every step, not only at the root, so the random stream does not depend on

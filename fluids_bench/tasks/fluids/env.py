@@ -9,7 +9,7 @@ import numpy as np
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_bool, check_choice, reject_unknown_kwargs
+from fluids_bench.core.validation import as_seed, check_bool, check_choice, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -163,8 +163,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       ImportError that says so).
     * ``waypoints``, ``waypoint_spacing``: trajectory-level size, 1 to 50 points, 0.5 to 20 m
       apart (default 5 points, 2 m apart).
-    * ``car_mass``: the cars' true mass in kg, 1 to 1e5 (default 1500); the supervisor assumes
-      1500.
+    * ``car_mass``: the cars' true mass in kg, 500 to 5000 (default 1500); the supervisor's
+      controller assumes 1500, and far from it (1 kg, 1e5 kg) it oscillates into collisions or
+      never arrives, so the range stops at 1/3x and 10/3x of it.
     * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
       waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
     * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
@@ -306,6 +307,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         self.world = World(self.scene, self.world.layout)
         spawn(self.world, self.np_random)

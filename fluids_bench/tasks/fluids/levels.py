@@ -14,6 +14,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_box_action, check_discrete_action
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.behavior import choose_movement, movement_count
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
@@ -31,33 +32,13 @@ def action_space(level: str, world: World, waypoints: int) -> spaces.Space:
 
 def validate(level: str, space: spaces.Space, action: Any, where: str):
     """``action`` as the env uses it; ValueError naming the level, what is wrong and what is
-    allowed. Box actions must be real numbers (ints or floats; strings, bools and complex
-    numbers are refused, never coerced); out of bounds they are clipped; NaN and infinities
-    are refused."""
+    allowed (the suite's shared check, :func:`fluids_bench.core.actions.check_action`). Box
+    actions must be real numbers of exactly the space's shape (strings, bools and complex
+    numbers are refused, never coerced; ``(1, n)`` is not ``(n,)``); out of bounds they are
+    clipped; NaN and infinities are refused."""
     if level == "behavior":
-        a = np.asarray(action)
-        if (
-            a.shape not in ((), (1,))
-            or not np.issubdtype(a.dtype, np.integer)
-            or not space.contains(int(a.reshape(())))
-        ):
-            raise ValueError(
-                f"{where}: behavior action is {action!r}; allowed: an integer in [0, {space.n})"
-            )
-        return int(a.reshape(()))
-    a = action if isinstance(action, np.ndarray) else np.asarray(action)
-    if a.dtype.kind not in "iuf":  # "0.5", True, 1j, objects: a mistake, not a number to coerce
-        raise ValueError(
-            f"{where}: {level} action is {action!r} (dtype {a.dtype}); allowed: an array of "
-            f"{space.shape[0]} real numbers (int or float) in [{space.low.min()}, "
-            f"{space.high.max()}]"
-        )
-    a = np.asarray(a, dtype=np.float64).reshape(-1)
-    if a.shape != space.shape:
-        raise ValueError(f"{where}: {level} action has shape {a.shape}; allowed: {space.shape}")
-    values = a.tolist()  # a handful of numbers: Python floats cost less than numpy calls
-    if not all(map(math.isfinite, values)):
-        raise ValueError(f"{where}: {level} action {values} is not finite; allowed: finite numbers")
+        return check_discrete_action(where, space, action, "behavior action")
+    values = check_box_action(where, space, action, f"{level} action").tolist()
     low, high = space.low.reshape(-1).tolist(), space.high.reshape(-1).tolist()
     return np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high, strict=True)])
 

@@ -19,7 +19,7 @@ from pettingzoo import ParallelEnv
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_bool, check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import as_seed, check_bool, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import build_scenario, is_success, progress, step_reward
@@ -366,6 +366,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     # ------------------------------------------------------------------ PettingZoo API
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None):
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         if seed is not None:
             self._np_random, self.np_random_seed = seeding.np_random(seed)
         rng = self.np_random

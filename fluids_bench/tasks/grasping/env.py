@@ -9,9 +9,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    as_seed,
     check_choice,
     check_float,
     check_int,
@@ -196,6 +198,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         scene = sample_scene(self.cfg, self.np_random, self.layout_seed)
         self.world = GraspWorld(self.cfg, scene)
@@ -206,9 +209,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         if self.world is None:
             raise RuntimeError(f"{WHERE}: call reset() before step()")
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (3,) or not np.all(np.isfinite(a)):
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        a = check_action(WHERE, self.action_space, action)
         vx = min(1.0, max(-1.0, float(a[0]))) * self.cfg.max_speed
         vy = min(1.0, max(-1.0, float(a[1]))) * self.cfg.max_speed
         events = self.world.step(vx, vy, bool(a[2] >= 0.5))

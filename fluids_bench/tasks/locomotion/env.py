@@ -22,9 +22,10 @@ from gymnasium.envs.mujoco.hopper_v5 import HopperEnv
 from gymnasium.envs.mujoco.humanoid_v5 import HumanoidEnv
 from gymnasium.envs.mujoco.walker2d_v5 import Walker2dEnv
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import check_choice, check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import as_seed, check_choice, check_int, reject_unknown_kwargs
 from fluids_bench.tasks.locomotion.mpc import MPCConfig
 from fluids_bench.tasks.locomotion.supervisors import KINDS, make_supervisor
 
@@ -159,15 +160,15 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
 
     # -- Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         obs, info = self._sim.reset(seed=seed, options=options)
         info[SUPERVISOR_ACTION_KEY] = self._label(obs)
         return obs, info
 
     def step(self, action):
-        obs, reward, terminated, truncated, info = self._sim.step(
-            np.asarray(action, dtype=np.float64)
-        )
+        action = check_action(f"{self.task}-IL-v0", self.action_space, action)
+        obs, reward, terminated, truncated, info = self._sim.step(action)
         info[SUPERVISOR_ACTION_KEY] = self._label(obs)
         return obs, float(reward), terminated, truncated, info
 

@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import zipfile
 from pathlib import Path
 
 import numpy as np
@@ -56,6 +57,7 @@ class MLPPolicy:
         self.biases = [np.asarray(b, dtype=np.float64) for b in biases]
         self.action_low = np.asarray(action_low, dtype=np.float64)
         self.action_high = np.asarray(action_high, dtype=np.float64)
+        self._check_values()
         dim = self.obs_mean.shape[0]
         for i, (w, b) in enumerate(zip(self.weights, self.biases, strict=True)):
             if w.ndim != 2 or w.shape[1] != dim or b.shape != (w.shape[0],):
@@ -78,6 +80,43 @@ class MLPPolicy:
             raise ValueError(
                 f"MLPPolicy: output width {dim}; allowed: the action dimension "
                 f"{self.action_low.shape[0]}"
+            )
+
+    def _check_values(self) -> None:
+        """Shapes of the normaliser and the bounds, finite numbers everywhere, ``obs_std > 0``
+        (it divides) and ``action_low < action_high``: a ValueError naming the array."""
+        if self.obs_mean.ndim != 1 or self.obs_std.shape != self.obs_mean.shape:
+            raise ValueError(
+                f"MLPPolicy: obs_mean {self.obs_mean.shape}, obs_std {self.obs_std.shape}; "
+                "allowed: two vectors of the observation size"
+            )
+        if self.action_low.ndim != 1 or self.action_high.shape != self.action_low.shape:
+            raise ValueError(
+                f"MLPPolicy: action_low {self.action_low.shape}, action_high "
+                f"{self.action_high.shape}; allowed: two vectors of the action size"
+            )
+        named = {"obs_mean": self.obs_mean, "obs_std": self.obs_std}
+        named |= {f"W{i}": w for i, w in enumerate(self.weights)}
+        named |= {f"b{i}": b for i, b in enumerate(self.biases)}
+        named |= {"action_low": self.action_low, "action_high": self.action_high}
+        for name, array in named.items():
+            # obs_std may be +inf: that input is ignored (the shipped Humanoid file does this
+            # for observation entries that never vary); its NaN and <= 0 are refused below
+            if not np.isfinite(array).all() and name != "obs_std":
+                raise ValueError(
+                    f"MLPPolicy: {name} holds {int((~np.isfinite(array)).sum())} NaN or "
+                    "infinite values; allowed: finite numbers"
+                )
+        if not (self.obs_std > 0).all():  # False for NaN too
+            raise ValueError(
+                f"MLPPolicy: obs_std has {int((~(self.obs_std > 0)).sum())} entries <= 0 or NaN "
+                f"(min {np.nanmin(self.obs_std)}); allowed: positive, or inf for an ignored "
+                "input (the observation is divided by it)"
+            )
+        if not (self.action_low < self.action_high).all():
+            raise ValueError(
+                "MLPPolicy: action_low is not below action_high everywhere; allowed: "
+                "action_low < action_high"
             )
 
     @property
@@ -114,16 +153,44 @@ class MLPPolicy:
 
     @classmethod
     def from_bytes(cls, data: bytes) -> MLPPolicy:
-        with np.load(io.BytesIO(data)) as z:
+        """The policy of ``.npz`` bytes; a ValueError if they are not a complete, sane file."""
+        try:
+            z = np.load(io.BytesIO(data), allow_pickle=False)
+        except (zipfile.BadZipFile, ValueError, OSError, EOFError) as e:
+            raise ValueError(
+                f"MLPPolicy: not a readable .npz file ({type(e).__name__}: {e}); allowed: the "
+                "numpy.savez file MLPPolicy.to_bytes writes"
+            ) from None
+        if not isinstance(z, np.lib.npyio.NpzFile):
+            raise ValueError("MLPPolicy: a single .npy array; allowed: an .npz of named arrays")
+        with z:
             n = sum(1 for k in z.files if k.startswith("W"))
-            return cls(
-                z["obs_mean"],
-                z["obs_std"],
-                [z[f"W{i}"] for i in range(n)],
-                [z[f"b{i}"] for i in range(n)],
-                z["action_low"],
-                z["action_high"],
-            )
+            needed = ["obs_mean", "obs_std", "action_low", "action_high"]
+            needed += [f"{p}{i}" for i in range(n) for p in "Wb"]
+            missing = [k for k in needed if k not in z.files]
+            if missing or n == 0:
+                raise ValueError(
+                    f"MLPPolicy: missing arrays {missing or ['W0', 'b0']} (has {sorted(z.files)}); "
+                    "allowed: obs_mean, obs_std, W0, b0, W1, b1, ..., action_low, action_high"
+                )
+            try:
+                arrays = {k: z[k] for k in needed}
+            except (zipfile.BadZipFile, ValueError, OSError, EOFError) as e:
+                raise ValueError(
+                    f"MLPPolicy: an array cannot be read ({type(e).__name__}: {e}); allowed: "
+                    "the numpy.savez file MLPPolicy.to_bytes writes"
+                ) from None
+        for k, a in arrays.items():
+            if a.dtype.kind not in "iuf":
+                raise ValueError(f"MLPPolicy: {k} has dtype {a.dtype}; allowed: real numbers")
+        return cls(
+            arrays["obs_mean"],
+            arrays["obs_std"],
+            [arrays[f"W{i}"] for i in range(n)],
+            [arrays[f"b{i}"] for i in range(n)],
+            arrays["action_low"],
+            arrays["action_high"],
+        )
 
     @classmethod
     def load(cls, path: str | Path, sha256: str) -> MLPPolicy:
@@ -135,7 +202,10 @@ class MLPPolicy:
                 f"MLPPolicy.load: weight file {str(path)!r} has sha256 {actual}; "
                 f"allowed: the recorded {sha256}"
             )
-        return cls.from_bytes(data)
+        try:
+            return cls.from_bytes(data)
+        except ValueError as e:
+            raise ValueError(f"MLPPolicy.load: weight file {str(path)!r}: {e}") from None
 
 
 @njit(cache=True)

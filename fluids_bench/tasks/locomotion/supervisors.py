@@ -167,5 +167,14 @@ def make_supervisor(
             f"supervisor: weights take {policy.obs_dim} inputs; allowed: {task}'s observation "
             f"size {env.observation_space.shape[0]}"
         )
+    space = env.action_space
+    if policy.action_low.shape != space.shape or not (
+        (policy.action_low >= space.low).all() and (policy.action_high <= space.high).all()
+    ):
+        raise ValueError(
+            f"supervisor: weight file {record['file']!r} has action bounds "
+            f"[{policy.action_low.tolist()}, {policy.action_high.tolist()}]; allowed: inside "
+            f"{task}'s action space {space}"
+        )
     guide = PolicySupervisor(task, policy, record)
     return guide if kind == "policy" else MPCSupervisor(task, env, mpc, guide)

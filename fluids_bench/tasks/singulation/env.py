@@ -7,11 +7,14 @@ from typing import Any
 
 import gymnasium as gym
 import numpy as np
+import shapely
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    as_seed,
     check_choice,
     check_float,
     check_int,
@@ -23,6 +26,7 @@ from fluids_bench.tasks.singulation.sim import (
     MAX_DR,
     MAX_DTHETA,
     NUM_OBJECTS,
+    OBJECT_SHAPES,
     SceneConfig,
     SingulationWorld,
     sample_cluster,
@@ -33,6 +37,52 @@ WHERE = "Singulation-v0"
 OBS_TYPES = ("state", "pixels")
 STATE_SIZE = 2 + 4 * NUM_OBJECTS
 RESET_STATE_SIZE = 2 + 3 * NUM_OBJECTS
+
+
+# Objects given to reset may overlap by at most this share of the smaller one's area (pymunk
+# separates a slight overlap; a deep one, or objects at one point, explodes or sticks).
+MAX_OVERLAP = 0.05
+
+
+def _check_reset_state(c: SceneConfig, state: Any) -> tuple[float, float, np.ndarray]:
+    """``options["state"]`` as (theta, r, poses), or a ValueError saying what is wrong: the arm
+    within its joint limits, every object's centre on the table, no two objects overlapping."""
+    name = "options['state']"
+    values = np.asarray(state) if not isinstance(state, str) else np.asarray([])
+    if values.dtype.kind not in "iuf" or values.shape != (RESET_STATE_SIZE,):
+        fail(
+            WHERE, name, state, f"{RESET_STATE_SIZE} real numbers [theta, r, x_0, y_0, phi_0, ...]"
+        )
+    values = values.astype(np.float64)
+    if not np.isfinite(values).all():
+        fail(WHERE, name, state, f"{RESET_STATE_SIZE} finite numbers")
+    theta, r = float(values[0]), float(values[1])
+    check_float(WHERE, "options['state'] theta", theta, c.theta_min, c.theta_max)
+    check_float(WHERE, "options['state'] r", r, c.r_min, c.r_max)
+    poses = values[2:].reshape(NUM_OBJECTS, 3)
+    half = c.table_width / 2
+    polygons = []
+    for i, (x, y, phi) in enumerate(poses):
+        if not (-half <= x <= half and 0.0 <= y <= c.table_depth):
+            fail(
+                WHERE,
+                f"options['state'] object {i} centre",
+                (float(x), float(y)),
+                f"on the table: x in [{-half}, {half}] m, y in [0, {c.table_depth}] m",
+            )
+        rot = np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
+        polygons.append(shapely.Polygon(OBJECT_SHAPES[i] @ rot.T + (x, y)))
+    for i in range(NUM_OBJECTS):
+        for j in range(i + 1, NUM_OBJECTS):
+            shared = polygons[i].intersection(polygons[j]).area
+            if shared > MAX_OVERLAP * min(polygons[i].area, polygons[j].area):
+                fail(
+                    WHERE,
+                    f"options['state'] objects {i} and {j}",
+                    f"overlapping by {shared:.3g} m^2",
+                    f"objects that overlap by at most {MAX_OVERLAP:.0%} of the smaller's area",
+                )
+    return theta, r, poses
 
 
 class SingulationEnv(SnapshotMixin, gym.Env):
@@ -77,7 +127,9 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     and translated by an isotropic Gaussian of standard deviation `cluster_std` around
     (0, 0.45) m (clipped at 3 standard deviations). A draw that is already singulated is
     redrawn. `reset(options={"state": [theta, r, x_0, y_0, phi_0, ..., x_3, y_3, phi_3]})`
-    starts from that exact state instead.
+    starts from that exact state instead: the arm within its joint limits (30° to 150°, 0.12 to
+    0.78 m), every object's centre on the table (x in [-0.5, 0.5] m, y in [0, 0.8] m) and no two
+    objects overlapping by more than 5 % of the smaller's area; anything else is a ValueError.
 
     ## Episode End
 
@@ -227,18 +279,17 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         c = self.config
+        if options is not None and (not isinstance(options, dict) or set(options) - {"state"}):
+            fail(WHERE, "options", options, "None or a dict with the optional key 'state'")
         state = None if options is None else options.get("state")
         if state is None:
             theta, r = c.home_theta, c.home_r
             poses = sample_cluster(c, self.np_random)
         else:
-            values = np.asarray(state, dtype=np.float64)
-            if values.shape != (RESET_STATE_SIZE,) or not np.isfinite(values).all():
-                fail(WHERE, "options['state']", state, f"{RESET_STATE_SIZE} finite numbers")
-            theta, r = values[0], values[1]
-            poses = values[2:].reshape(NUM_OBJECTS, 3)
+            theta, r, poses = _check_reset_state(c, state)
         self._world = SingulationWorld(c, theta, r, poses)
         self._supervisor = SingulationSupervisor()
         self._solved = False
@@ -247,9 +298,7 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
         if self._world is None:
             raise RuntimeError(f"{WHERE}: call reset() before step()")
-        a = np.asarray(action, dtype=np.float64).reshape(-1)
-        if a.shape != (2,) or not (math.isfinite(a[0]) and math.isfinite(a[1])):
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        a = check_action(WHERE, self.action_space, action)
         a0 = min(max(float(a[0]), -1.0), 1.0)
         a1 = min(max(float(a[1]), -1.0), 1.0)
         self._world.step(a0 * MAX_DTHETA, a1 * MAX_DR)

@@ -10,9 +10,11 @@ import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    as_seed,
     check_choice,
     check_float,
     check_int,
@@ -268,6 +270,7 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
     def reset(
         self, *, seed: int | None = None, options: dict[str, Any] | None = None
     ) -> tuple[Any, dict[str, Any]]:
+        seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         if self._fixed_track is None:
             self._setup(generate_track(self.np_random, self.config))
@@ -278,9 +281,7 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
         return self._observation(), self._info(False)
 
     def step(self, action: Any) -> tuple[Any, float, bool, bool, dict[str, Any]]:
-        index = int(action)
-        if index != action or not 0 <= index < 3:
-            raise ValueError(f"{WHERE}: action {action!r} is not in {self.action_space}")
+        index = check_action(WHERE, self.action_space, action)
         laps_before = self.sim.laps
         crashed = self.sim.step(index)
         laps_now = self.sim.laps

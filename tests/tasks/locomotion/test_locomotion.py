@@ -349,3 +349,46 @@ def test_mpc_config_validates():
     with pytest.raises(ValueError, match="task"):
         MPCConfig(task="Ant")
     assert MPCConfig(task="Hopper", samples=np.int64(3).item()).samples == 3
+
+
+def _damaged_weights(tmp_path, damage: str) -> str:
+    """Hopper weight bytes spoilt in one way (written with numpy.savez, as a user might)."""
+    path, _, policy = tiny_weights(tmp_path, "Hopper-IL-v0")
+    with np.load(path) as z:
+        arrays = {k: z[k] for k in z.files}
+    if damage == "truncated":
+        data = open(path, "rb").read()
+        bad = tmp_path / "truncated.npz"
+        bad.write_bytes(data[: len(data) // 2])
+        return str(bad)
+    if damage == "obs_std=0":
+        arrays["obs_std"][3] = 0.0
+    elif damage == "nan":
+        arrays["W0"][0, 0] = np.nan
+    elif damage == "bounds":
+        arrays["action_low"] = arrays["action_low"] * 2.0
+    elif damage == "missing":
+        del arrays["b1"]
+    elif damage == "low>high":
+        arrays["action_low"], arrays["action_high"] = arrays["action_high"], arrays["action_low"]
+    bad = tmp_path / f"{damage}.npz"
+    np.savez(bad, **arrays)
+    return str(bad)
+
+
+@pytest.mark.parametrize(
+    ("damage", "named"),
+    [
+        ("obs_std=0", "obs_std has 1 entries <= 0 or NaN"),  # was ZeroDivisionError / inf labels
+        ("nan", "W0 holds 1 NaN"),  # was NaN labels
+        ("bounds", "action bounds .*allowed: inside Hopper's action space"),
+        ("low>high", "action_low is not below action_high"),
+        ("missing", r"missing arrays \['b1'\]"),  # was KeyError
+        ("truncated", "not a readable .npz"),  # was BadZipFile
+    ],
+)
+def test_user_weights_are_validated_at_load_naming_the_file(tmp_path, damage, named):
+    path = _damaged_weights(tmp_path, damage)
+    with pytest.raises(ValueError, match=rf"{path}.*{named}|{named}.*{path}") as caught:
+        gym.make("Hopper-IL-v0", supervisor="policy", weights=path, weights_sha256=sha256_of(path))
+    assert path in str(caught.value)

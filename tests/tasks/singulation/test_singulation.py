@@ -364,3 +364,45 @@ def test_minari_export_through_the_command_line(tmp_path: Path, monkeypatch) -> 
     assert episode.rewards[-1] == 1.0 and episode.terminations[-1]  # singulated
     assert episode.actions.shape == (len(episode.rewards), 2)
     assert dataset.recover_environment().spec.id == ENV_ID
+
+
+@pytest.mark.parametrize(
+    ("options", "named"),
+    [
+        ("abc", "options"),  # was AttributeError
+        ({"stat": None}, "options"),
+        ({"state": "abc"}, "state"),
+        ({"state": [1j] * 14}, "state"),
+        ({"state": state(math.pi / 2, -0.2, [(k * 0.12, 0.5) for k in range(4)])}, "r"),
+        ({"state": state(0.0, 0.2, [(k * 0.12, 0.5) for k in range(4)])}, "theta"),
+        (
+            {"state": state(math.pi / 2, 0.2, [(1e9, 0.5)] + [(k * 0.12, 0.5) for k in range(3)])},
+            "object 0 centre",
+        ),
+        (
+            {
+                "state": state(
+                    math.pi / 2, 0.2, [(0.0, -0.3)] + [(k * 0.12, 0.5) for k in range(1, 4)]
+                )
+            },
+            "object 0 centre",
+        ),
+        ({"state": state(math.pi / 2, 0.2, [(0.0, 0.5)] * 4)}, "objects 0 and 1"),  # one point
+    ],
+    ids=repr,
+)
+def test_reset_options_are_validated(options: object, named: str) -> None:
+    env = gym.make(ENV_ID).unwrapped
+    with pytest.raises(ValueError, match=rf"Singulation-v0: .*{named}.*allowed"):
+        env.reset(seed=0, options=options)
+
+
+def test_reset_state_inside_the_limits_still_starts_there() -> None:
+    env = gym.make(ENV_ID).unwrapped
+    _, info = env.reset(
+        seed=0,
+        options={
+            "state": state(math.pi / 3, 0.5, [(-0.4, 0.1), (0.0, 0.3), (0.3, 0.7), (0.45, 0.05)])
+        },
+    )
+    assert info["is_success"]
