@@ -445,6 +445,30 @@ MALFORMED = {
         "meeting others only at its edges; it overlaps lane",
     ),
     "no format version": (_delete("format_version"), "missing required field 'format_version'"),
+    # physical limits: elements that load but no car or walker can use
+    "zero-length lane": (
+        _set("lanes", 0, "centerline", [[30, 1.75], [30, 1.75]]),
+        "lanes[0] ('east_in_0'): field 'centerline'",
+    ),
+    "a 1e-9 m lane": (
+        _set("lanes", 0, "centerline", [[30, 1.75], [30 + 1e-9, 1.75]]),
+        "allowed: a path at least 0.5 m long",
+    ),
+    "zero-length crosswalk": (
+        lambda d: d["crosswalks"][0].__setitem__("end", d["crosswalks"][0]["start"]),
+        "crosswalks[0] ('cw_east'): field 'start/end'",
+    ),
+    "zero-length walk": (
+        lambda d: d["walks"][0].__setitem__("waypoints", [d["walks"][0]["waypoints"][0]] * 2),
+        "walks[0]",
+    ),
+    "tiny width": (_set("lanes", 2, "width", 1e-300), "allowed: a number of metres in [0.5, 50]"),
+    "huge width": (_set("crosswalks", 0, "width", 1e9), "allowed: a number of metres in [0.5, 50]"),
+    "huge speed limit": (_set("lanes", 0, "speed_limit", 1e300), "allowed: a number in (0, 50]"),
+    "duplicate route": (
+        lambda d: d["routes"].append(dict(d["routes"][0])),
+        "field 'routes' is ['east_in_0->north_out_0']; allowed: each movement (entry->exit) once",
+    ),
 }
 
 
@@ -460,6 +484,25 @@ def test_malformed_layout_is_rejected_naming_element_and_field(tmp_path, case):
     message = str(info.value)
     assert message.startswith(f"{path}: "), message
     assert expected in message, message
+
+
+def test_duplicate_json_keys_are_refused(tmp_path):
+    text = json.dumps(layout_to_dict(four_way(lanes=1)))
+    path = tmp_path / "twice.json"
+    path.write_text(text.replace('"name": "four_way"', '"name": "four_way", "name": "other"', 1))
+    with pytest.raises(ValueError, match="key 'name' appears twice") as info:
+        load_layout(path)
+    assert str(path) in str(info.value)
+
+
+def test_deeply_nested_json_is_refused_with_a_value_error(tmp_path):
+    path = tmp_path / "deep.json"
+    path.write_text(
+        '{"format_version": 1, "name": "x", "bounds": ' + "[" * 100_000 + "]" * 100_000 + "}"
+    )
+    with pytest.raises(ValueError, match="nested too deeply") as info:
+        load_layout(path)
+    assert str(path) in str(info.value)
 
 
 @pytest.mark.parametrize(

@@ -272,6 +272,16 @@ def save_layout(spec: LayoutSpec, path: str | os.PathLike) -> None:
         raise
 
 
+def _no_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
+    """A JSON object whose keys are unique (``json`` would keep the last of two silently)."""
+    out: dict[str, Any] = {}
+    for key, value in pairs:
+        if key in out:
+            raise ValueError(f"key {key!r} appears twice in one object; allowed: each key once")
+        out[key] = value
+    return out
+
+
 def load_layout(path: str | os.PathLike) -> LayoutSpec:
     """Read a layout file (``.toml``: TOML, anything else: JSON); errors name the file."""
     path = Path(path)
@@ -281,7 +291,9 @@ def load_layout(path: str | os.PathLike) -> LayoutSpec:
                 data = tomllib.load(fh)
         else:
             with open(path, encoding="utf-8") as fh:
-                data = json.load(fh)
+                data = json.load(fh, object_pairs_hook=_no_duplicate_keys)
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be a layout file") from None
     except json.JSONDecodeError as err:
         raise ValueError(
             f"{path}: invalid JSON at line {err.lineno}, column {err.colno}: {err.msg}"
@@ -290,10 +302,14 @@ def load_layout(path: str | os.PathLike) -> LayoutSpec:
         raise ValueError(f"{path}: invalid TOML: {err}") from None
     except UnicodeDecodeError as err:
         raise ValueError(f"{path}: not UTF-8 text: {err}") from None
+    except ValueError as err:  # a duplicate key
+        raise ValueError(f"{path}: {err}") from None
     try:
         return layout_from_dict(data)
     except ValueError as err:
         raise ValueError(f"{path}: {err}") from None
+    except RecursionError:
+        raise ValueError(f"{path}: nested too deeply to be a layout file") from None
 
 
 __all__ = ["FORMAT_VERSION", "layout_from_dict", "layout_to_dict", "load_layout", "save_layout"]

@@ -22,6 +22,12 @@ Point = tuple[float, float]
 COORD_LIMIT = 1000.0  # m: |bounds| limit
 POINT_SLACK = 1000.0  # m: how far outside ``bounds`` a point (kerbs, walks) may lie
 LANE_OVERLAP = 0.05  # m²: lane corridors sharing more area than this overlap (touching is 0)
+# Physical limits of a layout element: paths are sampled every 0.5 m, so a shorter lane, walk or
+# crossing has no sample to drive or walk along; widths and speeds outside these bounds are no
+# street (a 1e-300 m lane has no corridor, a 1e9 m one covers the world, 1e300 m/s overflows).
+MIN_LENGTH = 0.5  # m
+WIDTH_RANGE = (0.5, 50.0)  # m
+MAX_SPEED_LIMIT = 50.0  # m/s (180 km/h)
 TRAFFIC_STATES = ("green", "yellow", "red")
 CROSSWALK_STATES = ("white", "red")
 
@@ -40,6 +46,28 @@ def _check_points(where: str, name: str, pts, minimum: int) -> tuple[Point, ...]
     if not all(math.isfinite(c) for p in out for c in p):
         _fail(where, name, pts, "finite coordinates")
     return out
+
+
+def _check_length(where: str, name: str, pts: tuple[Point, ...]) -> None:
+    length = sum(math.dist(a, b) for a, b in zip(pts, pts[1:], strict=False))
+    if length < MIN_LENGTH:
+        _fail(where, name, pts, f"a path at least {MIN_LENGTH:g} m long (it is {length:.3g} m)")
+
+
+def _check_in(where: str, name: str, value, lo: float, hi: float) -> float:
+    """A finite number in ``(lo, hi]`` (``lo`` excluded: widths and speeds are positive)."""
+    v = _check_positive(where, name, value)
+    if not lo < v <= hi:
+        _fail(where, name, value, f"a number in ({lo:g}, {hi:g}]")
+    return v
+
+
+def _check_width(where: str, value) -> float:
+    lo, hi = WIDTH_RANGE
+    v = _check_positive(where, "width", value)
+    if not lo <= v <= hi:
+        _fail(where, "width", value, f"a number of metres in [{lo:g}, {hi:g}]")
+    return v
 
 
 def _check_positive(where: str, name: str, value) -> float:
@@ -68,9 +96,12 @@ class Lane:
         object.__setattr__(
             self, "centerline", _check_points(where, "centerline", self.centerline, 2)
         )
-        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+        _check_length(where, "centerline", self.centerline)
+        object.__setattr__(self, "width", _check_width(where, self.width))
         object.__setattr__(
-            self, "speed_limit", _check_positive(where, "speed_limit", self.speed_limit)
+            self,
+            "speed_limit",
+            _check_in(where, "speed_limit", self.speed_limit, 0, MAX_SPEED_LIMIT),
         )
 
 
@@ -85,7 +116,8 @@ class Sidewalk:
         object.__setattr__(
             self, "centerline", _check_points(where, "centerline", self.centerline, 2)
         )
-        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+        _check_length(where, "centerline", self.centerline)
+        object.__setattr__(self, "width", _check_width(where, self.width))
 
 
 @dataclass(frozen=True)
@@ -101,9 +133,10 @@ class Crosswalk:
     def __post_init__(self) -> None:
         where = f"crosswalk '{self.name}'"
         a, b = _check_points(where, "start/end", (self.start, self.end), 2)
+        _check_length(where, "start/end", (a, b))
         object.__setattr__(self, "start", a)
         object.__setattr__(self, "end", b)
-        object.__setattr__(self, "width", _check_positive(where, "width", self.width))
+        object.__setattr__(self, "width", _check_width(where, self.width))
 
 
 @dataclass(frozen=True)
@@ -168,9 +201,9 @@ class Walk:
     waypoints: tuple[Point, ...]
 
     def __post_init__(self) -> None:
-        object.__setattr__(
-            self, "waypoints", _check_points(f"walk '{self.name}'", "waypoints", self.waypoints, 2)
-        )
+        where = f"walk '{self.name}'"
+        object.__setattr__(self, "waypoints", _check_points(where, "waypoints", self.waypoints, 2))
+        _check_length(where, "waypoints", self.waypoints)
 
 
 @dataclass(frozen=True)
@@ -225,6 +258,10 @@ class LayoutSpec:
                 )
         if not self.routes:
             _fail(where, "routes", self.routes, "at least one car route")
+        route_names = [r.name for r in self.routes]
+        dup = sorted({n for n in route_names if route_names.count(n) > 1})
+        if dup:
+            _fail(where, "routes", dup, "each movement (entry->exit) once")
         for r in self.routes:
             for end in ("entry", "exit"):
                 if getattr(r, end) not in lanes:
