@@ -1,35 +1,50 @@
-"""``fluids-bench demo``: one seeded episode of any registered env under its supervisor, with a
-video.
+"""``fluids-bench demo``: one seeded episode of any registered id under its supervisor.
 
-The controlled agent follows the supervisor's label (``info["supervisor_action"]``) every step;
-frames come from ``render_mode="rgb_array"``. The command prints a summary and writes an MP4 of
-the episode and a PNG snapshot under ``--out``. Steps per second time ``env.step`` alone: drawing
-and encoding frames are not counted, and the env's compiled kernels (if any) are loaded in a
-throwaway env first.
+The controlled agent follows the supervisor's label (``info["supervisor_action"]``) every
+step; for the multi-agent ids (PettingZoo ParallelEnvs, built with
+``fluids_bench.registration.make_parallel_env``) every agent follows its own label. The command
+prints a summary and writes, under ``--out`` (default ``fluids_demo/<ID>/``, one folder per id):
 
-FLUIDS ids (the default, FLUIDS-v0) take ``--layout``; their summary gives success, collisions,
-steps and simulation speed, and the snapshot is the first collision if there is one, else the
-ego nearest the junction's centre. Other ids print success (when the env reports
-``is_success``), return, steps and speed, and snapshot the last frame.
+* ``episode.png``, a snapshot: for FLUIDS ids the first collision if there is one, else the ego
+  nearest the junction's centre (candidates are drawn as the episode goes, about 2 ms each);
+  for the others the last frame, and with ``--no-video`` that one frame is all that is drawn;
+* ``episode.mp4`` (unless ``--no-video``): every ``--frame-every``-th step and the last, played
+  in real time. By default the stride keeps drawing to about 15 s (MuJoCo's software renderer
+  takes ~0.1 s a frame, so a 1,000-step locomotion episode is drawn every 7th step or so;
+  FLUIDS, ~2 ms a frame, every step). The summary says which stride was used;
+* for an id without pictures (``DAG-v0``), ``episode.txt``: the episode as text, one line per
+  step, also printed.
+
+A progress bar counts steps on stderr (``--no-progress`` hides it). ``--steps N`` cuts the
+episode after N steps (the tests run every id that way). Steps per second time ``env.step``
+alone: drawing and encoding are not counted, and the env's compiled kernels (if any) are loaded
+in a throwaway env first. MuJoCo's compiler warnings go to Python's ``warnings``, not to a
+``MUJOCO_LOG.TXT`` in the working directory (:mod:`fluids_bench.tasks.locomotion.env`).
 
 Examples::
 
-    fluids-bench demo --seed 3 --layout roundabout --steps 300 --out fluids_demo
-    fluids-bench demo --env GridWorld-v0 --out gridworld_demo
+    fluids-bench demo --seed 3 --layout roundabout --steps 300
+    fluids-bench demo --env Hopper-IL-v0 --no-video
+    fluids-bench demo --env FLUIDS-MultiAgent-v1 --out multi_demo
 """
 
 from __future__ import annotations
 
 import argparse
+import math
 import time
 from pathlib import Path
 from typing import Any
 
 from fluids_bench.tasks.fluids.sim.config import LAYOUTS
 
-VIDEO_NAME, SNAPSHOT_NAME = "episode.mp4", "episode.png"
+VIDEO_NAME, SNAPSHOT_NAME, TEXT_NAME = "episode.mp4", "episode.png", "episode.txt"
 DEFAULT_ENV = "FLUIDS-v0"
+DEFAULT_OUT = Path("fluids_demo")
 FLUIDS_ENTRY_POINT = "fluids_bench.tasks.fluids.env:FluidsEnv"
+DRAW_BUDGET_S = 15.0  # the default stride keeps a video's drawing to about this long
+# names of Discrete actions for the text trace, where an id has them
+ACTION_NAMES = {"DAG-v0": ("L", "R")}
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -39,7 +54,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
-    p.add_argument("--env", default=DEFAULT_ENV, help=f"registered env id (default {DEFAULT_ENV})")
+    p.add_argument(
+        "--env",
+        default=DEFAULT_ENV,
+        help=f"registered Gymnasium or PettingZoo id (default {DEFAULT_ENV})",
+    )
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument(
         "--layout", choices=LAYOUTS, default=None, help="FLUIDS ids only (default four_way)"
@@ -47,35 +66,127 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     p.add_argument(
         "--steps", type=int, default=None, help="most steps to run (default: the id's limit)"
     )
-    p.add_argument("--out", type=Path, default=Path("fluids_demo"), help="output folder")
+    p.add_argument(
+        "--out",
+        type=Path,
+        default=None,
+        help=f"output folder (default {DEFAULT_OUT}/<ID>)",
+    )
     p.add_argument(
         "--no-video", action="store_true", help="skip the MP4 (the PNG is still written)"
     )
+    p.add_argument(
+        "--frame-every",
+        type=int,
+        default=None,
+        metavar="K",
+        help="video: draw every K-th step (default: a stride that keeps drawing to ~15 s)",
+    )
+    p.add_argument("--no-progress", action="store_true", help="no progress bar")
     p.set_defaults(func=run)
 
 
-def _write_png(path: Path, frame) -> None:
+def write_png(path: Path, frame) -> None:
     import cv2
 
     if not cv2.imwrite(str(path), cv2.cvtColor(frame, cv2.COLOR_RGB2BGR)):
         raise FileNotFoundError(f"could not write {path}")
 
 
-def _check_env_id(env_id: str) -> bool:
-    """ValueError unless ``env_id`` is registered and renders rgb_array frames; True for FLUIDS
-    ids."""
+class Recorder:
+    """The frames of one episode: every ``every``-th step and the last into the video (when
+    there is one), and the snapshot. ``render`` draws the current state."""
+
+    def __init__(self, render, out: Path, fps: float, video: bool, every: int | None, limit: int):
+        self.render, self.out, self.writer = render, out, None
+        self.snapshot, self.drawn = None, 0
+        self.every = 1
+        if video:
+            if every is None:
+                render()  # the first frame sets the renderer up: not representative
+                t0 = time.perf_counter()
+                render()
+                cost = time.perf_counter() - t0
+                every = max(1, math.ceil(limit * cost / DRAW_BUDGET_S))
+            self.every = every
+            self.writer = open_video(out / VIDEO_NAME, max(fps / every, 1.0))
+
+    def frame(self, step: int, last: bool) -> Any:
+        """Draw step ``step`` into the video when it is due (and always the last step);
+        returns the frame drawn, or None."""
+        if self.writer is None or not (last or step % self.every == 0):
+            return None
+        frame = self.render()
+        self.writer.append_data(_padded(frame))
+        self.drawn += 1
+        return frame
+
+    def close(self) -> None:
+        if self.writer is not None:
+            self.writer.close()
+
+    def wrote(self) -> list[str]:
+        files = []
+        if self.writer is not None:
+            stride = "every step" if self.every == 1 else f"every {self.every} steps"
+            files.append(f"{self.out / VIDEO_NAME} ({self.drawn} frames, {stride} and the last)")
+        return files + [str(self.out / SNAPSHOT_NAME)]
+
+
+def _padded(frame):
+    """``frame`` padded (edge colour) to multiples of 16 pixels: H.264 wants them, and imageio
+    would otherwise resize it, warning on every video (DrivingTrack's 500 x 500)."""
+    import numpy as np
+
+    h, w = frame.shape[:2]
+    pad = ((0, -h % 16), (0, -w % 16)) + ((0, 0),) * (frame.ndim - 2)
+    return np.pad(frame, pad, mode="edge") if pad[0][1] or pad[1][1] else frame
+
+
+def open_video(path: Path, fps: float):
+    import imageio.v2 as imageio
+
+    return imageio.get_writer(
+        path,
+        fps=fps,
+        codec="libx264",
+        quality=7,
+        macro_block_size=16,
+        pixelformat="yuv420p",
+        ffmpeg_params=["-preset", "veryfast"],
+    )
+
+
+def progress_bar(total: int | None, env_id: str, disable: bool):
+    from tqdm.auto import tqdm
+
+    return tqdm(total=total, desc=f"demo {env_id}", unit="step", disable=disable, leave=False)
+
+
+def _registered(env_id: str) -> str:
+    """``"gym"`` or ``"pettingzoo"``: which registry holds ``env_id``; ValueError if neither."""
+    import gymnasium as gym
+
+    import fluids_bench  # noqa: F401  (registers the env ids)
+    from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
+
+    if env_id in PARALLEL_ENV_SPECS:
+        return "pettingzoo"
+    if env_id not in gym.registry:
+        raise ValueError(
+            f"--env is {env_id!r}; allowed: a Gymnasium id ({', '.join(sorted(ENV_SPECS))}) "
+            f"or a PettingZoo id ({', '.join(sorted(PARALLEL_ENV_SPECS))})"
+        )
+    return "gym"
+
+
+def _draws(env_id: str) -> bool:
+    """Whether ``env_id`` renders rgb_array frames (else the demo writes text)."""
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
 
-    from fluids_bench.registration import ENV_SPECS
-
-    if env_id not in gym.registry:
-        raise ValueError(f"--env is {env_id!r}; registered ids: {', '.join(sorted(ENV_SPECS))}")
-    entry_point = gym.spec(env_id).entry_point
-    metadata = getattr(load_env_creator(entry_point), "metadata", {})
-    if "rgb_array" not in metadata.get("render_modes", []):
-        raise ValueError(f"--env {env_id} does not render rgb_array frames: it has no demo")
-    return entry_point == FLUIDS_ENTRY_POINT
+    metadata = getattr(load_env_creator(gym.spec(env_id).entry_point), "metadata", {})
+    return "rgb_array" in metadata.get("render_modes", [])
 
 
 def _load_kernels(env_id: str, kwargs: dict[str, Any]) -> None:
@@ -96,94 +207,101 @@ def _load_kernels(env_id: str, kwargs: dict[str, Any]) -> None:
     env.close()
 
 
-def _open_video(path: Path, fps: float):
-    import imageio.v2 as imageio
-
-    return imageio.get_writer(
-        path,
-        fps=fps,
-        codec="libx264",
-        quality=7,
-        macro_block_size=16,
-        pixelformat="yuv420p",
-        ffmpeg_params=["-preset", "veryfast"],
-    )
-
-
 def run(args: argparse.Namespace) -> int:
+    if args.steps is not None and args.steps < 1:
+        raise ValueError(f"--steps is {args.steps}; allowed: an integer >= 1")
+    if args.frame_every is not None and args.frame_every < 1:
+        raise ValueError(f"--frame-every is {args.frame_every}; allowed: an integer >= 1")
+    registry = _registered(args.env)
+    if args.out is None:
+        args.out = DEFAULT_OUT / args.env
+    if registry == "pettingzoo":
+        from fluids_bench.commands.demo_multi import run_parallel
+
+        return run_parallel(args)
+    return _run_gym(args)
+
+
+def _run_gym(args: argparse.Namespace) -> int:
     import gymnasium as gym
     import numpy as np
 
-    import fluids_bench  # noqa: F401  (registers the env ids)
     from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
-    if args.steps is not None and args.steps < 1:
-        raise ValueError(f"--steps is {args.steps}; allowed: an integer >= 1")
-    fluids = _check_env_id(args.env)
-    if args.steps is not None:
-        kwargs_limit = {"max_episode_steps": args.steps}
-    else:
-        kwargs_limit = {}
+    fluids = gym.spec(args.env).entry_point == FLUIDS_ENTRY_POINT
     kwargs: dict[str, Any] = {}
     if args.layout is not None:
         if not fluids:
             raise ValueError(f"--layout applies to FLUIDS ids only, not to {args.env}")
         kwargs["layout"] = args.layout
+    draws = _draws(args.env)
     _load_kernels(args.env, kwargs)
-    env = gym.make(args.env, render_mode="rgb_array", **kwargs_limit, **kwargs)
+    limit_kwargs = {} if args.steps is None else {"max_episode_steps": args.steps}
+    render_kwargs = {"render_mode": "rgb_array"} if draws else {}
+    env = gym.make(args.env, **render_kwargs, **limit_kwargs, **kwargs)
+    limit = env.spec.max_episode_steps
     args.out.mkdir(parents=True, exist_ok=True)
     obs, info = env.reset(seed=args.seed)
     sim = env.unwrapped
+    trace = [] if draws else [f"reset: observation {_text(obs)}"]
+    recorder = None
+    if draws:
+        fps = env.metadata.get("render_fps") or 10
+        recorder = Recorder(env.render, args.out, fps, not args.no_video, args.frame_every, limit)
     if fluids:
         centre = np.mean(np.reshape(sim.world.layout.bounds, (2, 2)), axis=0)
 
     def ego_distance() -> float:
         return float(np.hypot(*(sim.world.state[0, :2] - centre)))
 
-    writer = None
-    if not args.no_video:
-        writer = _open_video(args.out / VIDEO_NAME, env.metadata.get("render_fps", 10))
-    # snapshot: FLUIDS, the lowest score (ego distance to the centre; a collision, -1, wins);
-    # other envs, the last frame
-    best, snapshot = np.inf, None
+    # FLUIDS' snapshot: the lowest score (ego distance to the centre; a collision, -1, wins)
+    best = np.inf
 
-    def consider(score: float) -> None:
-        nonlocal best, snapshot
-        frame = None
-        if writer is not None:
-            frame = env.render()
-            writer.append_data(frame)
-        if not fluids or score < best:
+    def consider(step: int, score: float, last: bool) -> None:
+        nonlocal best
+        frame = recorder.frame(step, last)
+        if fluids and score < best:
             best = score
-            snapshot = frame if frame is not None else env.render()
+            recorder.snapshot = frame if frame is not None else env.render()
+        elif not fluids and last:
+            recorder.snapshot = frame if frame is not None else env.render()
 
-    consider(ego_distance() if fluids else 0.0)
     steps, collisions, sim_seconds, total = 0, [], 0.0, 0.0
+    bar = progress_bar(limit, args.env, args.no_progress)
     try:
+        if recorder is not None:
+            consider(0, ego_distance() if fluids else 0.0, False)
         while True:
+            action = info[SUPERVISOR_ACTION_KEY]
             t0 = time.perf_counter()
-            obs, reward, terminated, truncated, info = env.step(info[SUPERVISOR_ACTION_KEY])
+            obs, reward, terminated, truncated, info = env.step(action)
             sim_seconds += time.perf_counter() - t0
             steps += 1
             total += float(reward)
-            if fluids:
+            bar.update(1)
+            done = terminated or truncated
+            if recorder is None:
+                trace.append(_trace_line(args.env, steps, action, reward, obs))
+            elif fluids:
                 first_hit = bool(info["collisions"]) and not collisions
                 collisions.extend(info["collisions"])
-                consider(-1.0 if first_hit else ego_distance())
+                consider(steps, -1.0 if first_hit else ego_distance(), done)
             else:
-                consider(0.0)
-            if terminated or truncated:
+                consider(steps, 0.0, done)
+            if done:
                 break
     finally:
-        if writer is not None:
-            writer.close()
+        bar.close()
+        if recorder is not None:
+            recorder.close()
         env.close()
-    _write_png(args.out / SNAPSHOT_NAME, snapshot)
+    if recorder is not None:
+        write_png(args.out / SNAPSHOT_NAME, recorder.snapshot)
+        wrote = recorder.wrote()
+    else:
+        (args.out / TEXT_NAME).write_text("\n".join(trace) + "\n")
+        wrote = [str(args.out / TEXT_NAME)]
     success = info.get("is_success")
-    speed = (
-        f"  simulation: {steps / max(sim_seconds, 1e-9):.0f} steps/s ({steps} steps in "
-        f"{sim_seconds:.2f} s; drawing and video not counted)"
-    )
     if fluids:
         ego = sum(1 for c in collisions if 0 in (c["a"], c["b"]))
         layout = args.layout or sim.scene.layout
@@ -196,9 +314,32 @@ def run(args: argparse.Namespace) -> int:
         print(f"{args.env} demo: seed {args.seed}")
         shown = "n/a" if success is None else bool(success)
         print(f"  success: {shown}   return: {total:.3f}   steps: {steps}")
-    print(speed)
-    wrote = [str(args.out / SNAPSHOT_NAME)]
-    if writer is not None:
-        wrote.insert(0, f"{args.out / VIDEO_NAME} ({steps + 1} frames)")
+        if "crashes" in info and "laps" in info:  # DrivingTrack: what the viewer sees
+            print(
+                f"  crashes: {info['crashes']} in {info['laps']:.2f} laps; a crash puts the car "
+                "back on the road a little ahead and it drives on (return = -crashes; success "
+                "= a lap without a crash)"
+            )
+        for line in trace:
+            print("  " + line)
+    print(
+        f"  simulation: {steps / max(sim_seconds, 1e-9):.0f} steps/s ({steps} steps in "
+        f"{sim_seconds:.2f} s; drawing and video not counted)"
+    )
     print("  wrote " + " and ".join(wrote))
     return 0
+
+
+def _text(values) -> str:
+    import numpy as np
+
+    return np.array2string(np.asarray(values), precision=3, separator=", ")
+
+
+def _trace_line(env_id: str, step: int, action, reward: float, obs) -> str:
+    names = ACTION_NAMES.get(env_id)
+    shown = names[int(action)] if names is not None else _text(action)
+    return (
+        f"step {step}: the supervisor chose {shown}, reward {float(reward):.3f}, "
+        f"observation {_text(obs)}"
+    )

@@ -1,6 +1,8 @@
 """``fluids-bench train``: run one imitation-learning algorithm on one env, save JSON and a PNG.
 
-Example::
+The JSON is rewritten (atomically) as each iteration finishes, marked ``"complete": false``
+until the run ends: an interrupted run (Ctrl-C) keeps the records of its finished iterations
+and says where. Example::
 
     fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
         --env-kwarg world_seed=3 --iterations 20 --out out/train
@@ -11,6 +13,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -157,6 +160,22 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
     return args.algo, config
 
 
+def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
+    """The JSON of a run stopped after ``records`` (``"complete": false``): the finished
+    iterations' records and the config; the supervisor's reference return comes with the
+    complete result only."""
+    return {
+        "algo": name,
+        "config": config.to_dict(),
+        "records": [dataclasses.asdict(r) for r in records],
+        "complete": False,
+    }
+
+
+def _number(value: float | None) -> str:
+    return "n/a" if value is None else f"{value:.3f}"
+
+
 def main(args: argparse.Namespace) -> int:
     from tqdm import tqdm
 
@@ -164,24 +183,40 @@ def main(args: argparse.Namespace) -> int:
     from fluids_bench.algos.plots import plot_learning_curves
     from fluids_bench.algos.registry import get_algorithm
     from fluids_bench.algos.results import write_json_atomic
+    from fluids_bench.cli import interrupted
 
     name, config = build_config(args)
     make_env(config.env_id, dict(config.env_kwargs)).close()  # fail before the progress bar
-    # iteration 0 exists when the algorithm starts with initial demonstrations
-    total = config.iterations + (1 if getattr(config, "initial_demos", 0) else 0)
-    with tqdm(total=total, desc=f"{name} on {config.env_id}", disable=args.no_progress) as bar:
-
-        def progress(record: Any) -> None:
-            bar.update(1)
-            if record.normalised_performance is not None:
-                bar.set_postfix(
-                    perf=f"{record.normalised_performance:.3f}", labels=record.labels_requested
-                )
-
-        result = get_algorithm(name).run(config, progress)
     stem = f"{name}_{config.env_id}_seed{config.seed}"
     json_path, png_path = args.out / f"{stem}.json", args.out / f"{stem}.png"
-    write_json_atomic(json_path, result.to_dict())
+    # iteration 0 exists when the algorithm starts with initial demonstrations
+    total = config.iterations + (1 if getattr(config, "initial_demos", 0) else 0)
+    finished: list[Any] = []
+    try:
+        with tqdm(total=total, desc=f"{name} on {config.env_id}", disable=args.no_progress) as bar:
+
+            def progress(record: Any) -> None:
+                bar.update(1)
+                if record.normalised_performance is not None:
+                    bar.set_postfix(
+                        perf=f"{record.normalised_performance:.3f}", labels=record.labels_requested
+                    )
+                # every finished iteration goes to disk at once (atomically), so that Ctrl-C or
+                # a crash later in the run keeps it
+                finished.append(record)
+                write_json_atomic(json_path, _payload(name, config, finished))
+
+            result = get_algorithm(name).run(config, progress)
+    except (KeyboardInterrupt, SystemError) as exc:
+        if not interrupted(exc):
+            raise
+        if finished:
+            kept = f"the {len(finished)} finished iterations are in {json_path} (complete: false)"
+        else:
+            kept = "no iteration had finished; nothing written"
+        print(f"fluids-bench train: interrupted; {kept}", file=sys.stderr)
+        return 130
+    write_json_atomic(json_path, {**result.to_dict(), "complete": True})
     plot_learning_curves([result], png_path, args.x_axis)
     final = result.final
     success = (
@@ -190,7 +225,8 @@ def main(args: argparse.Namespace) -> int:
         else f"success {final.eval_success_rate:.2f} ± {final.eval_success_se or 0.0:.2f}, "
     )
     print(
-        f"{name} on {config.env_id}: normalised performance {final.normalised_performance}, "
+        f"{name} on {config.env_id}: normalised performance "
+        f"{_number(final.normalised_performance)}, "
         f"{success}{final.training_labels} training labels "
         f"(+{final.estimation_labels} for noise estimation), "
         f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s total"

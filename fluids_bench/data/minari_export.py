@@ -22,12 +22,14 @@ process; one whose process is gone (an export killed with SIGKILL, which runs no
 removed by the next export. An existing id is refused unless ``overwrite``
 (:func:`check_new_dataset` lets a caller refuse it before collecting anything).
 Dict observation spaces are stored as Minari's dict of arrays, and images losslessly (no JPEG).
-Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py).
+Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py, the
+``hdf5`` extra: :func:`check_data_format` refuses it up front when h5py is missing).
 """
 
 from __future__ import annotations
 
 import contextlib
+import importlib.util
 import os
 import re
 import shutil
@@ -76,6 +78,23 @@ def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
             "digits, '-', '_'; a namespace has at least two characters)"
         )
     return match.group("namespace"), match.group("dataset"), int(match.group("version"))
+
+
+HDF5_MISSING = 'data_format "hdf5" needs h5py: pip install "fluids-bench[hdf5]"'
+
+
+def check_data_format(data_format: str) -> None:
+    """ValueError for an unknown format; ImportError naming the extra when the format's
+    library is missing. Call it before collecting, not only before writing."""
+    if data_format not in DATA_FORMATS:
+        raise ValueError(f"data_format is {data_format!r}; allowed: {list(DATA_FORMATS)}")
+    if data_format == "hdf5" and importlib.util.find_spec("h5py") is None:
+        raise ImportError(HDF5_MISSING)
+
+
+def datasets_root() -> Path:
+    """The datasets root Minari uses now (``MINARI_DATASETS_PATH``, else its default)."""
+    return Path(get_dataset_path())
 
 
 def dataset_path(dataset_id: str) -> Path:
@@ -219,10 +238,7 @@ def export_minari(
         raise ValueError("export_minari: no trajectories to export")
     if (ref_min_score is None) != (ref_max_score is None):
         raise ValueError("export_minari: pass both ref_min_score and ref_max_score, or neither")
-    if data_format not in DATA_FORMATS:
-        raise ValueError(
-            f"export_minari: data_format is {data_format!r}; allowed: {list(DATA_FORMATS)}"
-        )
+    check_data_format(data_format)
     check_new_dataset(dataset_id, overwrite)
     root = Path(get_dataset_path())
     final = root / dataset_id
@@ -267,7 +283,8 @@ def export_minari(
         if namespace is not None and namespace not in list_local_namespaces():
             create_namespace(namespace)
         final.parent.mkdir(parents=True, exist_ok=True)
-        _move_into_place(staging / dataset_id, final, staging.with_name(staging.name + "-old"))
+        aside = staging.with_name(staging.name + "-old")
+        _move_into_place(staging / dataset_id, final, aside, overwrite)
     finally:
         shutil.rmtree(staging, ignore_errors=True)
         with contextlib.suppress(OSError):
@@ -275,10 +292,12 @@ def export_minari(
     return minari.load_dataset(dataset_id)
 
 
-def _move_into_place(built: Path, final: Path, aside: Path) -> None:
-    """Rename ``built`` to ``final``; an existing ``final`` is set aside first and removed
-    after, or put back if the rename fails."""
-    replaced = final.exists()
+def _move_into_place(built: Path, final: Path, aside: Path, overwrite: bool) -> None:
+    """Rename ``built`` to ``final``. With ``overwrite`` an existing ``final`` is set aside
+    first and removed after, or put back if the rename fails. Without it a dataset that
+    appeared since the export began (another run's) is never replaced: the rename itself fails
+    on a non-empty folder, so no check-then-act window is left."""
+    replaced = overwrite and final.exists()
     if replaced:
         os.rename(final, aside)
     try:
@@ -287,7 +306,10 @@ def _move_into_place(built: Path, final: Path, aside: Path) -> None:
         if replaced:
             os.rename(aside, final)
         elif final.exists():
-            raise FileExistsError(f"dataset at {final} appeared during the export") from exc
+            raise FileExistsError(
+                f"dataset at {final} appeared during the export (another run wrote it); "
+                "it is kept, this export is discarded"
+            ) from exc
         raise
     if replaced:
         shutil.rmtree(aside)

@@ -97,3 +97,46 @@ def test_train_accepts_the_protocol_knobs_and_reports_both_label_counts(
     assert final["training_labels"] == final["estimation_labels"] == 60
     out = capsys.readouterr().out
     assert "60 training labels (+60 for noise estimation)" in out and "s total" in out
+
+
+def test_summary_numbers_have_a_sensible_precision(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code = train(
+        "--env", "DAG-v0", "--algo", "bc", "--iterations", "2", "--eval-episodes", "3",
+        "--out", str(tmp_path),
+    )  # fmt: skip
+    assert code == 0
+    out = capsys.readouterr().out
+    performance = out.split("normalised performance ")[1].split(",")[0]
+    assert performance == "n/a" or len(performance.split(".")[1]) == 3, out
+    payload = json.loads((tmp_path / "bc_DAG-v0_seed0.json").read_text())
+    assert payload["complete"] is True
+
+
+def test_interrupted_train_keeps_the_finished_iterations(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from fluids_bench.algos.harness import Harness
+
+    collect, calls = Harness.collect, []
+
+    def collect_then_ctrl_c(self, actor):
+        calls.append(actor)
+        if len(calls) == 3:  # Ctrl-C during the third iteration's demonstration
+            raise KeyboardInterrupt
+        return collect(self, actor)
+
+    monkeypatch.setattr(Harness, "collect", collect_then_ctrl_c)
+    code = train(
+        "--env", "GridWorld-v0", "--algo", "dagger", "--iterations", "5",
+        "--eval-episodes", "1", "--out", str(tmp_path),
+    )  # fmt: skip
+    assert code == 130
+    path = tmp_path / "dagger_GridWorld-v0_seed0.json"
+    payload = json.loads(path.read_text())
+    assert payload["complete"] is False
+    assert [r["iteration"] for r in payload["records"]] == [0, 1]
+    assert payload["config"]["iterations"] == 5
+    assert f"interrupted; the 2 finished iterations are in {path}" in capsys.readouterr().err
+    assert not list(tmp_path.glob(".*.tmp"))

@@ -184,3 +184,103 @@ def test_a_full_disk_is_one_clear_line(monkeypatch, capsys, datasets_root):
     assert not (datasets_root / "test" / "full-v0").exists()
     assert not (datasets_root / STAGING_DIR).exists()  # nothing half-written is left
     assert minari_export.remove_stale_staging(datasets_root) == []
+
+
+def test_hdf5_without_h5py_is_refused_before_collecting(monkeypatch, capsys):
+    import importlib.util
+
+    find_spec = importlib.util.find_spec
+    monkeypatch.setattr(
+        importlib.util,
+        "find_spec",
+        lambda name, *a: None if name == "h5py" else find_spec(name, *a),
+    )
+
+    def no_collecting(*args, **kwargs):
+        raise AssertionError("collected although the dataset cannot be written")
+
+    monkeypatch.setattr("fluids_bench.data.collect.collect", no_collecting)
+    assert main(_collect_args("test/hdf5-v0", "--data-format", "hdf5")) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert err == [
+        'fluids-bench collect: error: data_format "hdf5" needs h5py: '
+        'pip install "fluids-bench[hdf5]"'
+    ]
+
+
+def test_measured_reference_scores_are_stored_and_others_left_out(capsys):
+    import minari
+
+    from fluids_bench.tasks.locomotion.env import RANDOM_RETURN, SUPERVISOR_RETURN
+
+    argv = _collect_args("test/hopper-v0", "--max-steps", "5", env="Hopper-IL-v0", episodes=1)
+    assert main(argv) == 0
+    meta = minari.load_dataset("test/hopper-v0").storage.metadata
+    assert (meta["ref_min_score"], meta["ref_max_score"]) == (
+        RANDOM_RETURN["Hopper"],
+        SUPERVISOR_RETURN["Hopper"],
+    )
+    # another supervisor than the measured one: no reference scores
+    argv = _collect_args(
+        "test/hopper-mpc-v0", "--max-steps", "2", "--env-kwarg", "supervisor=mpc",
+        env="Hopper-IL-v0", episodes=1,
+    )  # fmt: skip
+    assert main(argv) == 0
+    assert minari.load_dataset("test/hopper-mpc-v0").storage.metadata.get("ref_min_score") is None
+    assert main(_collect_args("test/dag-v0")) == 0  # no measured scores for DAG
+    meta = minari.load_dataset("test/dag-v0").storage.metadata
+    assert meta.get("ref_min_score") is None and meta.get("ref_max_score") is None
+    # given ones win
+    argv = _collect_args("test/dag-ref-v0", "--ref-min-score", "-1", "--ref-max-score", "2")
+    assert main(argv) == 0
+    meta = minari.load_dataset("test/dag-ref-v0").storage.metadata
+    assert (meta["ref_min_score"], meta["ref_max_score"]) == (-1.0, 2.0)
+
+
+def test_a_concurrent_collect_into_the_same_id_is_refused(monkeypatch, capsys, datasets_root):
+    # the race, deterministically: while the first run collects, a second run into the same
+    # new id starts and runs to its end (as another process would)
+    import minari
+
+    from fluids_bench.data import collect as collect_module
+
+    collect, second = collect_module.collect, []
+
+    def collect_while_another_run_starts(*args, **kwargs):
+        second.append(main(_collect_args("test/race-v0", "--seed", "50", episodes=2)))
+        return collect(*args, **kwargs)
+
+    monkeypatch.setattr(collect_module, "collect", collect_while_another_run_starts)
+    assert main(_collect_args("test/race-v0", episodes=3)) == 0
+    assert second == [2]
+    err = capsys.readouterr().err
+    assert "dataset 'test/race-v0' is being written by process" in err, err
+    assert minari.load_dataset("test/race-v0").total_episodes == 3  # the first run's data
+    assert not (datasets_root / ".fluids-bench-claims").exists()  # the claim is released
+
+
+def test_a_dataset_that_appears_during_an_export_is_never_replaced(datasets_root):
+    # the last line of defence, under the claim: the final rename refuses an existing dataset
+    import minari
+
+    from fluids_bench.data.collect import collect
+    from fluids_bench.data.minari_export import export_minari
+
+    first = collect("DAG-v0", 2, progress=False)
+    other = collect("DAG-v0", 3, seed=9, progress=False)
+    create, raced = minari.create_dataset_from_buffers, []
+    meta = {"algorithm_name": "test", "description": "test"}
+
+    def another_run_finishes_first(*args, **kwargs):
+        out = create(*args, **kwargs)
+        if not raced:  # once: the other run's own export goes through here too
+            raced.append(True)
+            with minari_export._datasets_root(datasets_root):
+                export_minari("test/late-v0", other, env_id="DAG-v0", **meta)
+        return out
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(minari, "create_dataset_from_buffers", another_run_finishes_first)
+        with pytest.raises(FileExistsError, match="appeared during the export"):
+            export_minari("test/late-v0", first, env_id="DAG-v0", **meta)
+    assert minari.load_dataset("test/late-v0").total_episodes == 3  # the other run's, kept
