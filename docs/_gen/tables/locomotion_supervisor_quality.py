@@ -25,7 +25,12 @@ def _supervisor_name(data: dict, row: dict) -> str:
     return f"policy (ARS, iteration {shipped['selected_at_iteration']})"
 
 
+NEVER_TERMINATES = ("HalfCheetah-IL-v0",)  # Gymnasium's HalfCheetah has no termination
+
+
 def _falls(row: dict) -> str:
+    if row["env_id"] in NEVER_TERMINATES:
+        return "–"
     return f"{row['falls']} / {row['episodes']}"
 
 
@@ -43,7 +48,7 @@ def supervisor(data: dict) -> str:
         )
     lines += [
         "",
-        f"Mean ± standard deviation over seeded episodes of {data['steps']} steps (seeds {data['seeds']}); "
+        f"Mean ± standard deviation over seeded episodes of {data['steps']:,} steps (seeds {data['seeds']}); "
         f"a fall is an episode that terminated early; ms / label: the label alone, median; {data['machine']}.",
     ]
     return "\n".join(lines)
@@ -63,14 +68,16 @@ def noise(data: dict) -> str:
             if r is None:
                 cells.append("")
                 continue
-            cell = f"{_n(r['mean_return'])} ± {_n(r['std_return'])}, falls {_falls(r)}"
+            cell = f"{_n(r['mean_return'])} ± {_n(r['std_return'])}"
+            if r["env_id"] not in NEVER_TERMINATES:
+                cell += f", falls {_falls(r)}"
             if r["flipped_share"] > 0.005:
                 cell += f", on its back {100 * r['flipped_share']:.0f}% of steps"
             cells.append(cell)
         lines.append(f"| `{env_id}` | " + " | ".join(cells) + " |")
     lines += [
         "",
-        f"Return over {data['steps']}-step episodes (seeds {data['seeds']}), mean ± standard deviation; "
+        f"Return over {data['steps']:,}-step episodes (seeds {data['seeds']}), mean ± standard deviation; "
         f"noise: {data['noise']}.",
     ]
     return "\n".join(lines)
