@@ -108,7 +108,12 @@ def dag_picture(path: Path, mu: float) -> None:
         "",
         xy=(x1 - 0.05, y1 + 0.2),
         xytext=(x0 - 0.1, y0 - 0.2),
-        arrowprops={"arrowstyle": "-|>", "ls": "--", "color": "tab:red", "connectionstyle": "arc3,rad=-0.5"},
+        arrowprops={
+            "arrowstyle": "-|>",
+            "ls": "--",
+            "color": "tab:red",
+            "connectionstyle": "arc3,rad=-0.5",
+        },
     )
     ax.text(0.45, 0.0, f"L slips to R\nwith μ = {mu:g}", color="tab:red", fontsize=8, va="center")
     for level in range(DEPTH + 1):

@@ -35,10 +35,14 @@ def render(data: dict, **options) -> str:
     lines = [head, "|---|" + "---|" * (len(eval_at) + 2)]
     for _, _, learner, method, s in rows:
         name = METHODS[method].format(trace=settings.get("dart_fixed_trace", 0.0))
-        cells = [f"{_n(m)} ± {_n(e)}" for m, e in zip(s["eval_return_mean"], s["eval_return_se"])]
+        cells = [
+            f"{_n(m)} ± {_n(e)}"
+            for m, e in zip(s["eval_return_mean"], s["eval_return_se"], strict=True)
+        ]
         collection = sum(s["collection_return_mean"]) / len(s["collection_return_mean"])
         lines.append(
-            f"| {'MLP' if learner == 'mlp' else 'linear'} / {name} | " + " | ".join(cells)
+            f"| {'MLP' if learner == 'mlp' else 'linear'} / {name} | "
+            + " | ".join(cells)
             + f" | {_n(collection)} | {s['train_seconds_total_mean']:.0f} |"
         )
     first = rows[0][4]

@@ -16,7 +16,9 @@ def render(data: dict, columns: tuple[int, ...] = (1, 5, 11, 21), **options) -> 
     demos = next(iter(summary.values()))["demonstrations"]
     shown = [d for d in columns if d in demos]
     lines = [
-        "| demonstrations (state–label pairs) | " + " | ".join(f"{d} ({30 * d})" for d in shown) + " |",
+        "| demonstrations (state–label pairs) | "
+        + " | ".join(f"{d} ({30 * d})" for d in shown)
+        + " |",
         "|---|" + "---|" * len(shown),
     ]
     for key, name in NAMES.items():

@@ -25,12 +25,17 @@ def render(data: dict, **options) -> str:
             label += " (`DrivingTrack-Source-v0`)"
         elif depth == DEFAULT_DEPTH:
             label += " (default)"
-        cells = [f"{by[depth, n]['crashes_per_lap']:.2f}" if (depth, n) in by else "" for n in noises]
+        cells = [
+            f"{by[depth, n]['crashes_per_lap']:.2f}" if (depth, n) in by else "" for n in noises
+        ]
         cells += [
-            f"{100 * by[depth, n]['clean_lap_share']:.1f}%" if (depth, n) in by else "" for n in noises
+            f"{100 * by[depth, n]['clean_lap_share']:.1f}%" if (depth, n) in by else ""
+            for n in noises
         ]
         lines.append(
-            f"| {label} | " + " | ".join(cells) + f" | {by[depth, noises[0]]['cpu_us_per_step']:.0f} |"
+            f"| {label} | "
+            + " | ".join(cells)
+            + f" | {by[depth, noises[0]]['cpu_us_per_step']:.0f} |"
         )
     lines += [
         "",
