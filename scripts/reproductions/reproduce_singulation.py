@@ -21,7 +21,7 @@ to ``--out/runs/`` atomically as it finishes, so an interrupted run resumes wher
 ``summary.json`` and ``singulation_fig5_3.png`` are rebuilt from all results at the end, and so
 is the results file the docs read (``--results``, default
 ``docs/results/reproduce_singulation.json`` for the default policy and evaluation size: the
-command line, settings and the summary). About 34 CPU-s per (run, arm): the four arms and the
+command line, settings, the summary and every (run, arm) result). About 34 CPU-s per (run, arm): the four arms and the
 two ablations at 10 runs are ~2,000 CPU-s.
 Quick run: ``python scripts/reproductions/reproduce_singulation.py --runs 2 --eval-episodes 10``.
 """
@@ -362,7 +362,7 @@ def main() -> None:
     }
     write_json_atomic(args.out / f"singulation_{tag}.json", payload)
     results_file = {"command": command_line(), "seeds": "run r uses seed r; arms share each run's seed"}
-    results_file |= {k: v for k, v in payload.items() if k != "results"}
+    results_file |= payload  # per-run results too: small, and the paired differences need them
     results_file["machine"] = machine_at_start
     args.results.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.results, results_file)
