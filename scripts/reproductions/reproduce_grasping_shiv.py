@@ -276,7 +276,7 @@ def main() -> None:
     if args.results is None:
         suffix = "" if args.alpha == 1.0 else "_alpha" + f"{args.alpha:.0e}".replace("e-0", "e-")
         if (args.sigma, args.sigma_r) != (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]):
-            suffix += "_sigma-auto" if args.sigma == "auto" else f"_sigma{args.sigma:g}"
+            suffix += "_sigma-auto" if args.sigma is None else f"_sigma{args.sigma:g}"
         if args.samples_per_demo is not None:
             suffix += f"_spd{args.samples_per_demo}"
         if args.raw_features:
