@@ -8,8 +8,10 @@ action box; the DART setting). Horizon: the registration's 100 steps of 0.1 s. R
 objects, steps, replans and CPU time per step, as JSON and a Markdown table.
 
 Resumable: every finished episode is appended to ``<out>/grasping_quality.jsonl``; a rerun
-skips those. Usage: ``python scripts/quality/grasping_supervisor_quality.py --episodes 200 --workers 2``.
-Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
+skips those. Writes the results file the docs read (``--results``, default
+``docs/results/grasping_supervisor_quality.json``, atomically, with the command line, seeds and
+settings). Usage: ``python scripts/quality/grasping_supervisor_quality.py --episodes 200 --workers 1``
+(about 0.35 CPU-s per episode). Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -30,6 +34,20 @@ from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 
 ENV_ID = "GraspingInClutter-v0"
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "docs" / "results" / "grasping_supervisor_quality.json"
+CPU_SECONDS_PER_EPISODE = 0.35  # measured: supervisor-driven episodes of ~25 steps
+
+
+def command_line() -> str:
+    script = Path(__file__).resolve()
+    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def episode(job: tuple[float, int]) -> dict:
@@ -90,9 +108,18 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--episodes", type=int, default=200)
     parser.add_argument("--noise", type=float, default=0.1, help="std of the injected noise")
-    parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
+    parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", default="out/grasping_quality", help="output folder")
+    parser.add_argument(
+        "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
+    )
     args = parser.parse_args()
+    if args.episodes < 1 or args.workers < 1 or args.noise < 0:
+        parser.error("--episodes and --workers >= 1, --noise >= 0")
+    expected = CPU_SECONDS_PER_EPISODE * 2 * args.episodes / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
+    start = time.perf_counter()
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
     log = out / "grasping_quality.jsonl"
@@ -108,16 +135,25 @@ def main() -> None:
             f.write(json.dumps(row) + "\n")
             f.flush()
     report = {
+        "command": command_line(),
         "env": ENV_ID,
+        "seeds": f"0-{args.episodes - 1}",
+        "episodes": args.episodes,
         "horizon_steps": gym.spec(ENV_ID).max_episode_steps,
         "noise_std": args.noise,
+        "noise": "executed = clip(label + N(0, s^2 I), low, high) on every action dimension",
+        "workers": args.workers,
+        "machine": machine_at_start,
+        "seconds": round(time.perf_counter() - start, 1),
         "results": {
             str(noise): summary([done[(noise, s)] for s in range(args.episodes)])
             for noise in levels
         },
     }
     write_json_atomic(out / "grasping_quality.json", report)
-    print(json.dumps(report, indent=2))
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, report)
+    print(f"wrote {args.results}")
     print("\n| executed action | episodes | success | mean cost | grasped | knocked off / ep. |")
     print("|---|---|---|---|---|---|")
     for noise in levels:

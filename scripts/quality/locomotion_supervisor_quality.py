@@ -3,11 +3,15 @@
 Each episode: ``gym.make(<id>, supervisor=<kind>)``, ``reset(seed=s)``, then the supervisor's
 label is executed every step (with ``--noise-std`` > 0: label + N(0, std^2 I), clipped, which
 is how noise-injection methods collect). One JSON record per (id, kind, noise, seed) is
-appended to ``--out`` as it finishes, so a killed run resumes where it stopped. Prints the
-Markdown table of the README.
+appended to ``--out`` as it finishes, so a killed run resumes where it stopped. Prints a
+Markdown table and writes the results file the docs read (``--results``, default
+``docs/results/locomotion_supervisor_quality.json``, atomically: the command line, seeds,
+settings, one summary row per (id, supervisor, noise) and the shipped policies' training records
+from ``weights/manifest.json``).
 
-Example: ``nice -n 10 python scripts/quality/locomotion_supervisor_quality.py --env HalfCheetah-IL-v0
---kind mpc --episodes 10 --workers 2``
+Example: ``nice -n 10 python scripts/quality/locomotion_supervisor_quality.py --env Hopper-IL-v0
+Walker2d-IL-v0 HalfCheetah-IL-v0 Humanoid-IL-v0 --episodes 10 --noise-std 0 0.02 0.05 0.1 0.3``
+(a policy-supervised 1,000-step episode costs about 0.3 CPU-s; an MPC one minutes).
 """
 
 from __future__ import annotations
@@ -15,6 +19,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -24,6 +30,80 @@ import numpy as np
 from tqdm import tqdm
 
 SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid": 9575.0}
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "docs" / "results" / "locomotion_supervisor_quality.json"
+CPU_SECONDS_PER_EPISODE = {"policy": 0.3, "mpc": 600.0, "guided_mpc": 300.0}  # 1,000 steps
+
+
+def command_line() -> str:
+    script = Path(__file__).resolve()
+    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
+
+
+def summarise(records: list[dict]) -> list[dict]:
+    """One row per (id, supervisor, mpc settings, noise): returns, falls, time on its back."""
+    groups: dict[tuple, list[dict]] = {}
+    for r in records:
+        groups.setdefault(
+            (r["env_id"], r["kind"], json.dumps(r["mpc"], sort_keys=True), r["noise_std"]), []
+        ).append(r)
+    rows = []
+    for (env_id, kind, mpc, noise), rs in sorted(groups.items()):
+        rs = sorted(rs, key=lambda r: r["seed"])
+        ret = np.array([r["return"] for r in rs])
+        fell = [r for r in rs if r["fell"]]
+        rows.append(
+            {
+                "env_id": env_id,
+                "kind": kind,
+                "mpc": json.loads(mpc),
+                "noise_std": noise,
+                "episodes": len(rs),
+                "seeds": [r["seed"] for r in rs],
+                "mean_return": round(float(ret.mean()), 1),
+                "std_return": round(float(ret.std()), 1),
+                "min_return": round(float(ret.min()), 1),
+                "falls": len(fell),
+                "fall_steps": [r["steps"] for r in fell],
+                "flipped_share": round(float(np.mean([r["flipped_frac"] for r in rs])), 4),
+                "ms_per_label": round(float(np.median([r["ms_per_label"] for r in rs])), 4),
+                "source_expert": SOURCE[env_id.split("-")[0]],
+            }
+        )
+    return rows
+
+
+def shipped() -> dict:
+    """The shipped policies' training records, from the package's weights manifest."""
+    path = ROOT / "fluids_bench" / "tasks" / "locomotion" / "weights" / "manifest.json"
+    out = {}
+    for name, entry in json.loads(path.read_text()).items():
+        recipe = entry["recipe"]
+        keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
+        out[name] = {
+            "file": entry["file"],
+            "sha256": entry["sha256"],
+            "selected_at_iteration": entry["selected_at_iteration"],
+            "training_env_steps": entry["training_env_steps"],
+            "training_eval_mean_return": round(entry["training_eval"]["mean_return"], 1),
+            "training_eval_episodes": len(entry["training_eval"]["steps"]),
+            "recipe": {k: recipe[k] for k in keep if k in recipe},
+            "init": (
+                {
+                    "iteration": recipe["init"]["iteration"],
+                    "recipe": {k: recipe["init"]["recipe"][k] for k in keep if k in recipe["init"]["recipe"]},
+                }
+                if "init" in recipe
+                else None
+            ),
+        }
+    return out
 
 
 def episode(
@@ -105,10 +185,23 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--noise-std", type=float, nargs="+", default=[0.0])
     p.add_argument("--mpc", type=json.loads, default=None, help="planner overrides, JSON")
     p.add_argument("--workers", type=int, default=1)
-    p.add_argument("--out", type=Path, default=Path("runs/locomotion_quality.jsonl"))
+    p.add_argument("--out", type=Path, default=Path("out/locomotion_quality.jsonl"))
+    p.add_argument(
+        "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
+    )
     args = p.parse_args(argv)
+    if args.episodes < 1 or args.workers < 1 or args.steps < 1 or min(args.noise_std) < 0:
+        p.error("--episodes, --workers and --steps >= 1, --noise-std >= 0")
     import fluids_bench  # noqa: F401
+    from fluids_bench.algos.results import write_json_atomic
     from fluids_bench.tasks.locomotion.env import DEFAULT_SUPERVISOR
+
+    kinds = [args.kind or DEFAULT_SUPERVISOR[e.split("-")[0]] for e in args.env]
+    expected = sum(CPU_SECONDS_PER_EPISODE.get(k, 600.0) for k in kinds)
+    expected *= args.episodes * len(args.noise_std) * args.steps / 1000 / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
+    start = time.perf_counter()
 
     args.out.parent.mkdir(parents=True, exist_ok=True)
     done = {}
@@ -140,7 +233,33 @@ def main(argv: list[str] | None = None) -> int:
             os.fsync(f.fileno())
             done[key(r)] = r
     wanted = {(e, k) for e in args.env for k in [args.kind or DEFAULT_SUPERVISOR[e.split("-")[0]]]}
-    print(table([r for r in done.values() if (r["env_id"], r["kind"]) in wanted]))
+    seeds = set(range(args.first_seed, args.first_seed + args.episodes))
+    mine = [
+        r
+        for r in done.values()
+        if (r["env_id"], r["kind"]) in wanted
+        and r["noise_std"] in args.noise_std
+        and r["seed"] in seeds
+        and r["mpc"] == args.mpc
+    ]
+    print(table(mine))
+    report = {
+        "command": command_line(),
+        "envs": args.env,
+        "seeds": f"{args.first_seed}-{args.first_seed + args.episodes - 1}",
+        "episodes": args.episodes,
+        "steps": args.steps,
+        "noise_levels": args.noise_std,
+        "noise": "executed = clip(label + N(0, std^2 I), low, high); the label is kept",
+        "workers": args.workers,
+        "machine": machine_at_start,
+        "seconds": round(time.perf_counter() - start, 1),
+        "rows": summarise(mine),
+        "shipped": shipped(),
+    }
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, report)
+    print(f"wrote {args.results}")
     return 0
 
 

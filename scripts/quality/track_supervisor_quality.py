@@ -9,7 +9,10 @@ Reported: crashes per lap (total crashes / total laps), the share of laps comple
 crash, the share of episodes that crashed at all, and the mean label time.
 
 Resumable: each finished (depth, noise) row is appended to ``--out`` (JSON lines) and skipped
-on a rerun. Usage: ``python scripts/quality/track_supervisor_quality.py --tracks 200 --workers 2``.
+on a rerun. Writes the results file the docs read (``--results``, default
+``docs/results/track_supervisor_quality.json``, atomically, with the command line, seeds and
+settings). Usage: ``python scripts/quality/track_supervisor_quality.py --tracks 200 --workers 1``
+(about 0.05 CPU-s per two-lap episode with the state observation).
 """
 
 from __future__ import annotations
@@ -17,6 +20,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -26,7 +31,23 @@ import numpy as np
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401
+from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+
+ROOT = Path(__file__).resolve().parents[2]
+RESULTS = ROOT / "docs" / "results" / "track_supervisor_quality.json"
+CPU_SECONDS_PER_EPISODE = 0.05  # measured: two laps (~180 steps) at depth 8, state observation
+
+
+def command_line() -> str:
+    script = Path(__file__).resolve()
+    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def run_row(depth: int, noise: float, tracks: int) -> dict:
@@ -85,9 +106,19 @@ def main() -> None:
     parser.add_argument("--depths", type=int, nargs="+", default=[1, 2, 3, 4, 6, 8, 10])
     parser.add_argument("--noise", type=float, nargs="+", default=[0.0, 0.1])
     parser.add_argument("--tracks", type=int, default=200)
-    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--out", type=Path, default=Path("out/track_supervisor_quality.jsonl"))
+    parser.add_argument(
+        "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
+    )
     args = parser.parse_args()
+    if args.tracks < 1 or args.workers < 1 or min(args.noise) < 0 or min(args.depths) < 1:
+        parser.error("--tracks, --workers and --depths >= 1, --noise >= 0")
+    expected = CPU_SECONDS_PER_EPISODE * args.tracks * len(args.depths) * len(args.noise)
+    expected /= args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
+    start = time.perf_counter()
     args.out.parent.mkdir(parents=True, exist_ok=True)
     done = []
     if args.out.exists():
@@ -107,7 +138,30 @@ def main() -> None:
             sink.flush()
             os.fsync(sink.fileno())
             done.append(row)
-    print(table(done))
+    rows = sorted(
+        (r for r in done if r["depth"] in args.depths and r["noise"] in args.noise),
+        key=lambda r: (r["depth"], r["noise"]),
+    )
+    report = {
+        "command": command_line(),
+        "env": "DrivingTrack-v0",
+        "env_kwargs": {"obs_type": "state"},
+        "seeds": f"track_seed and episode seed 0-{args.tracks - 1}",
+        "tracks": args.tracks,
+        "depths": args.depths,
+        "noise_levels": args.noise,
+        "noise": "with probability p a step executes one of the two other actions, uniformly",
+        "episode": "two laps (the registration's limits)",
+        "source_crashes_per_lap": 5.4,
+        "workers": args.workers,
+        "machine": machine_at_start,
+        "seconds": round(time.perf_counter() - start, 1),
+        "rows": rows,
+    }
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, report)
+    print(table(rows))
+    print(f"wrote {args.results}")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,9 @@
 - Off-policy: Behavior Cloning with N supervisor demonstrations; the fraction of runs that end
   at the best constant policy L goes to 1 as N grows (law of large numbers, ``3 - 2 mu > 2 mu``).
 
-Writes ``dag.json`` and ``dag.png`` to ``--out``. Needs the package importable
+Writes ``dag.json`` and ``dag.png`` to ``--out`` and the same JSON, with the command line, to the
+results file the docs read (``--results``, default ``docs/results/reproduce_dag.json``). About
+2 CPU-min at the defaults. Needs the package importable
 (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 
@@ -17,6 +19,9 @@ from __future__ import annotations
 
 import argparse
 import math
+import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -31,6 +36,23 @@ from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.tasks.dag.model import R
 from fluids_bench.tasks.dag.supervisor import expected_return
+
+REPO = Path(__file__).resolve().parents[2]
+RESULTS = REPO / "docs" / "results" / "reproduce_dag.json"
+CPU_SECONDS_PER_RUN = 0.004  # measured: one on- or off-policy run at 20 iterations
+
+
+def command_line() -> str:
+    """The command line that ran this script, with the script's path from the repository root."""
+    script = Path(__file__).resolve()
+    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
+
 
 ROOT = np.zeros(2, dtype=np.float32)
 CONSTANT = PolicySpec("constant")
@@ -110,12 +132,19 @@ def main() -> None:
     parser.add_argument("--iterations", type=int, default=20, help="on-policy iterations")
     parser.add_argument("--off-policy-n", type=int, nargs="+", default=[1, 2, 4, 8, 16, 32])
     parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument(
+        "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
+    )
     args = parser.parse_args()
     if min(args.max_m, args.runs, args.iterations, args.workers, *args.off_policy_n) < 1:
         parser.error("--max-m, --runs, --iterations, --workers and --off-policy-n must be >= 1")
     if not 0.0 < args.mu < 0.5:
         parser.error("--mu must be in (0, 0.5): L is the best constant policy only then")
 
+    runs = args.runs * (args.max_m + len(args.off_policy_n))
+    expected = CPU_SECONDS_PER_RUN * runs * args.iterations / 20 / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
     start = time.perf_counter()
     chunk = 250
     on_jobs = [
@@ -161,7 +190,7 @@ def main() -> None:
 
     payload = {
         "figure": "dissertation Theorem 1 / Fig. 4.1 (DAG counter-example)",
-        "settings": vars(args) | {"out": str(args.out)},
+        "settings": {k: v for k, v in vars(args).items() if k != "results"} | {"out": str(args.out)},
         "expected_returns": {p: expected_return(args.mu, p) for p in ("supervisor", "L", "R")},
         "c": c,
         "on_policy": on_rows,
@@ -170,6 +199,10 @@ def main() -> None:
     }
     args.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.out / "dag.json", payload)
+    results = {"command": command_line(), "seeds": "on-policy m * 1e6 + run, off-policy N * 1e6 + 5e5 + run"}
+    results |= payload | {"machine": machine_at_start}
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, results)
     plot(on_rows, off_rows, c, args, args.out / "dag.png")
     for row in on_rows:
         print(
@@ -180,6 +213,7 @@ def main() -> None:
     for row in off_rows:
         print(f"N={row['n']}: off-policy ends at L {row['end_l_frequency']:.4f}")
     print(f"c = {c:.4f}; {seconds:.0f} s; wrote {args.out / 'dag.json'} and {args.out / 'dag.png'}")
+    print(f"wrote {args.results}")
 
 
 def plot(

@@ -20,7 +20,10 @@ supervisor on the same seeds; normalised performance is ``(10 - cost) / (10 - co
 
 Writes ``<out>/runs/<algo>_<round>.json`` per run (a rerun skips finished runs), then
 ``<out>/grasping_shiv.json`` (curves, means, standard errors, queries to reach the supervisor)
-and ``<out>/grasping_shiv.png``. Usage: ``python scripts/reproductions/reproduce_grasping_shiv.py --workers 2``.
+and ``<out>/grasping_shiv.png``, and the results file the docs read (``--results``; by default
+``docs/results/reproduce_grasping_shiv<suffix>.json``, the suffix naming the settings that differ
+from the source's: ``_alpha1e-3``, ``_sigma-auto``, ``_spd25``, ``_raw``). One setting (24 runs)
+takes about 25–50 CPU-min. Usage: ``python scripts/reproductions/reproduce_grasping_shiv.py --workers 2``.
 Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 
@@ -28,6 +31,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -40,6 +46,21 @@ from fluids_bench.algos import bc, dagger, shiv
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+
+REPO = Path(__file__).resolve().parents[2]
+CPU_SECONDS_PER_RUN = 100.0  # measured: 24 runs took 14-28 min with 2 workers
+
+
+def command_line() -> str:
+    """The command line that ran this script, with the script's path from the repository root."""
+    script = Path(__file__).resolve()
+    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 ENV_ID = "GraspingInClutter-v0"
 ALGOS = ("dagger", "shiv", "bc")  # BC: the off-policy reference (supervisor demonstrations)
@@ -241,12 +262,26 @@ def main() -> None:
         "--algos", nargs="+", choices=ALGOS, default=list(ALGOS), help="learners to run"
     )
     parser.add_argument("--png", type=Path, default=None, help="also write the plot here")
+    parser.add_argument(
+        "--results", type=Path, default=None,
+        help="the results file the docs read (default: docs/results/reproduce_grasping_shiv"
+        "<suffix>.json, the suffix naming the settings off the source's)",
+    )  # fmt: skip
     args = parser.parse_args()
     if min(args.rounds, args.iterations, args.eval_episodes, args.workers) < 1:
         parser.error("--rounds, --iterations, --eval-episodes, --workers: >= 1")
     if args.samples_per_demo is not None and args.samples_per_demo < 1:
         parser.error(f"--samples-per-demo {args.samples_per_demo}: allowed: >= 1")
     standardize = not args.raw_features
+    if args.results is None:
+        suffix = "" if args.alpha == 1.0 else "_alpha" + f"{args.alpha:.0e}".replace("e-0", "e-")
+        if (args.sigma, args.sigma_r) != (SHIV_PARAMS["sigma"], SHIV_PARAMS["sigma_r"]):
+            suffix += "_sigma-auto" if args.sigma is None else f"_sigma{args.sigma:g}"
+        if args.samples_per_demo is not None:
+            suffix += f"_spd{args.samples_per_demo}"
+        if args.raw_features:
+            suffix += "_raw"
+        args.results = REPO / "docs" / "results" / f"reproduce_grasping_shiv{suffix}.json"
     runs_dir = args.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
     sigmas = (args.sigma, args.sigma_r)
@@ -266,6 +301,9 @@ def main() -> None:
             if tuple(run.get("settings", ())) == settings:
                 runs[(algo, r)] = run
     todo = [job for job in jobs if job not in runs]
+    expected = CPU_SECONDS_PER_RUN * len(todo) * args.iterations / 10 / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
 
     def keep(run: dict[str, Any]) -> None:
         run["settings"] = list(settings)
@@ -309,6 +347,11 @@ def main() -> None:
         "runs": ordered,
     }
     write_json_atomic(args.out / "grasping_shiv.json", payload)
+    results_file = {"command": command_line(), "seeds": "round r: layout_seed r; see the runs' seeds"}
+    results_file |= {k: v for k, v in payload.items() if k != "runs"} | {"machine": machine_at_start}
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, results_file)
+    print(f"wrote {args.results}")
     plot(summary, args.out / "grasping_shiv.png", args.rounds, args.alpha, standardize)
     if args.png is not None:
         plot(summary, args.png, args.rounds, args.alpha, standardize)

@@ -15,7 +15,10 @@ The source's settings are written out in :data:`ON_POLICY` and :data:`OFF_POLICY
 the library's defaults) and printed at the start. Each world's curves are saved to
 ``--out/worlds/world_NNN.json`` as soon as they are done, so an interrupted run resumes where it
 stopped. Writes ``gridworld.json`` (settings, per-world curves, means and standard errors) and
-``gridworld.png`` to ``--out``. Quick run: ``python scripts/reproductions/reproduce_gridworld.py --worlds 5``.
+``gridworld.png`` to ``--out``, and the results file the docs read (``--results``, default
+``docs/results/reproduce_gridworld.json``: the command line, settings and the curves' means and
+standard errors; the per-world curves stay in ``--out``). About 0.9 CPU-s per world.
+Quick run: ``python scripts/reproductions/reproduce_gridworld.py --worlds 5 --results out/gw.json``.
 Needs the package importable (``pip install -e .`` or ``PYTHONPATH=.``).
 """
 
@@ -23,6 +26,9 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -35,6 +41,21 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+
+REPO = Path(__file__).resolve().parents[2]
+RESULTS = REPO / "docs" / "results" / "reproduce_gridworld.json"
+CPU_SECONDS_PER_WORLD = 0.9  # measured: both classes, both methods, 20 iterations
+def command_line() -> str:
+    """The command line that ran this script, with the script's path from the repository root."""
+    script = Path(__file__).resolve()
+    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
+
 
 CLASSES = {
     "linear_svm": PolicySpec("linear_svm"),
@@ -142,9 +163,15 @@ def main() -> None:
     parser.add_argument("--eval-episodes", type=int, default=20)
     parser.add_argument("--eval-every", type=int, default=2, help="evaluate every k iterations")
     parser.add_argument("--workers", type=int, default=2, help="processes (1: run inline)")
+    parser.add_argument(
+        "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
+    )
     args = parser.parse_args()
     if min(args.worlds, args.iterations, args.eval_episodes, args.eval_every, args.workers) < 1:
         parser.error("--worlds, --iterations, --eval-episodes, --eval-every, --workers: >= 1")
+    expected = CPU_SECONDS_PER_WORLD * args.worlds * args.iterations / 20 / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
 
     print(f"off-policy (BC): {OFF_POLICY}")
     print(f"on-policy (DAgger): {ON_POLICY}")
@@ -179,6 +206,11 @@ def main() -> None:
         "worlds": worlds,
     }
     write_json_atomic(args.out / "gridworld.json", payload)
+    results = {"command": command_line(), "seeds": f"world_seed 0-{args.worlds - 1}"}
+    results |= {k: v for k, v in payload.items() if k != "worlds"}
+    results |= {"workers": args.workers, "machine": machine_at_start}
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, results)
     plot(summary, args.out / "gridworld.png", args.worlds)
     for key, curve in summary.items():
         picks = sorted(
@@ -188,7 +220,8 @@ def main() -> None:
             f"{curve['demonstrations'][i]} demos: {curve['mean'][i]:.3f}" for i in picks
         )
         print(f"{key:34s} {shown}  ({curve['worlds_used']} worlds)")
-    print(f"{seconds:.0f} s; wrote {args.out / 'gridworld.json'} and {args.out / 'gridworld.png'}")
+    print(f"{seconds:.0f} s; wrote {args.out / 'gridworld.json'}, {args.out / 'gridworld.png'}")
+    print(f"wrote {args.results}")
 
 
 if __name__ == "__main__":

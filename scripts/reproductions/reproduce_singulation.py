@@ -18,7 +18,11 @@ observation) with the algorithmic supervisor as the teacher and evaluates each o
 The source reports ~60% (off-policy) vs ~40% (on-policy) after 60 demonstrations with human
 teachers. Every algorithm parameter is set here explicitly. Each (run, arm) result is written
 to ``--out/runs/`` atomically as it finishes, so an interrupted run resumes where it stopped;
-``summary.json`` and ``singulation_fig5_3.png`` are rebuilt from all results at the end.
+``summary.json`` and ``singulation_fig5_3.png`` are rebuilt from all results at the end, and so
+is the results file the docs read (``--results``, default
+``docs/results/reproduce_singulation.json`` for the default policy and evaluation size: the
+command line, settings, the summary and every (run, arm) result). About 34 CPU-s per (run, arm): the four arms and the
+two ablations at 10 runs are ~2,000 CPU-s.
 Quick run: ``python scripts/reproductions/reproduce_singulation.py --runs 2 --eval-episodes 10``.
 """
 
@@ -27,6 +31,9 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import os
+import platform
+import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -47,6 +54,20 @@ from fluids_bench.tasks.singulation.label_noise import (
     calibrate,
     pearson,
 )
+
+REPO = Path(__file__).resolve().parents[2]
+CPU_SECONDS_PER_RUN_ARM = 34.0  # measured: 60 (run, arm) results took 2,052 CPU-s
+def command_line() -> str:
+    """The command line that ran this script, with the script's path from the repository root."""
+    script = Path(__file__).resolve()
+    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
+
 
 ARMS = ("bc", "dagger", "dagger_retro", "dart")
 # ablations of the retroactive-label model (not run by default): only its shrinkage of the
@@ -265,9 +286,19 @@ def main() -> None:
     parser.add_argument("--policy", choices=sorted(POLICIES), default="mlp")
     parser.add_argument("--arms", nargs="+", choices=(*ARMS, *ABLATIONS), default=list(ARMS))
     parser.add_argument("--workers", type=int, default=2, help="processes (1: run inline)")
+    parser.add_argument(
+        "--results",
+        type=Path,
+        default=None,
+        help="the results file the docs read (default: docs/results/reproduce_singulation.json, "
+        "or reproduce_singulation_<policy>_e<eval episodes>.json off the defaults)",
+    )
     args = parser.parse_args()
     if min(args.runs, args.eval_episodes, args.workers) < 1:
         parser.error("--runs, --eval-episodes, --workers: >= 1")
+    if args.results is None:
+        suffix = "" if (args.policy, args.eval_episodes) == ("mlp", 30) else f"_{args.policy}_e{args.eval_episodes}"
+        args.results = REPO / "docs" / "results" / f"reproduce_singulation{suffix}.json"
 
     runs_dir = args.out / "runs"
     runs_dir.mkdir(parents=True, exist_ok=True)
@@ -275,6 +306,9 @@ def main() -> None:
     jobs = [(run, arm) for run in range(args.runs) for arm in args.arms]
     path = {job: runs_dir / f"{tag}_{job[1]}_{job[0]}.json" for job in jobs}
     todo = [job for job in jobs if not path[job].exists()]
+    expected = CPU_SECONDS_PER_RUN_ARM * len(todo) * args.eval_episodes / 30 / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
     bar = tqdm(total=len(jobs), initial=len(jobs) - len(todo), desc="runs x arms")
 
     def save(job: tuple[int, str], result: dict[str, Any]) -> None:
@@ -327,6 +361,11 @@ def main() -> None:
         "results": results,
     }
     write_json_atomic(args.out / f"singulation_{tag}.json", payload)
+    results_file = {"command": command_line(), "seeds": "run r uses seed r; arms share each run's seed"}
+    results_file |= payload  # per-run results too: small, and the paired differences need them
+    results_file["machine"] = machine_at_start
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, results_file)
     plot(summary, args.out / f"singulation_fig5_3_{tag}.png")
     for arm, curve in summary.items():
         shown = ", ".join(
@@ -339,7 +378,7 @@ def main() -> None:
             )
         )
         print(f"{arm:13s} {shown}  ({curve['runs']} runs)")
-    print(f"wrote {args.out / f'singulation_{tag}.json'}")
+    print(f"wrote {args.out / f'singulation_{tag}.json'} and {args.results}")
 
 
 if __name__ == "__main__":

@@ -40,7 +40,10 @@ Each (experiment, track, method) is one unit whose result is written atomically 
 (``--images``) are rebuilt from whatever units exist.
 
 Usage: ``python scripts/reproductions/reproduce_track_shiv.py --workers 2`` (the source's size: 40, 50 and
-40 tracks); ``--tracks N`` caps every experiment at N tracks.
+40 tracks, about 2,600 CPU-s); ``--tracks N`` caps every experiment at N tracks. Also writes the
+results file the docs read (``--results``, default ``docs/results/reproduce_track_shiv.json``,
+or ``reproduce_track_shiv_raw_sigma.json`` with ``--raw-sigma``): the command line and the
+summary.
 """
 
 from __future__ import annotations
@@ -48,6 +51,9 @@ from __future__ import annotations
 import argparse
 import functools
 import json
+import os
+import platform
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -72,6 +78,21 @@ from fluids_bench.algos.query import (
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.tasks.track.bandwidth import median_state_distance, source_sigma
+
+REPO = Path(__file__).resolve().parents[2]
+CPU_SECONDS_PER_UNIT = 8.0  # measured: 322 units at the source's size took 2,578 CPU-s
+
+
+def command_line() -> str:
+    """The command line that ran this script, with the script's path from the repository root."""
+    script = Path(__file__).resolve()
+    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
+    return " ".join(["python", shown, *sys.argv[1:]])
+
+
+def machine() -> str:
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 ENV_ID = "DrivingTrack-Source-v0"
 POLICY = PolicySpec("linear_svm_span", {"C": 0.01, "max_iter": 10_000})
@@ -402,7 +423,15 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("out/reproduce_track_shiv"))
     parser.add_argument("--images", type=Path, default=Path("docs/images"))
+    parser.add_argument(
+        "--results", type=Path, default=None,
+        help="the results file the docs read (default: docs/results/reproduce_track_shiv.json; "
+        "with --raw-sigma, reproduce_track_shiv_raw_sigma.json)",
+    )  # fmt: skip
     args = parser.parse_args()
+    if args.results is None:
+        name = "reproduce_track_shiv_raw_sigma" if args.raw_sigma else "reproduce_track_shiv"
+        args.results = REPO / "docs" / "results" / f"{name}.json"
     if min(args.iterations, args.eval_episodes, args.workers, args.tracks or 1) < 1:
         parser.error("--iterations, --eval-episodes, --workers, --tracks: >= 1")
     tracks = {k: min(v, args.tracks or v) for k, v in SOURCE_TRACKS.items()}
@@ -421,6 +450,9 @@ def main() -> None:
         if path.exists():
             done[key] = json.loads(path.read_text())
     pending = [] if args.summarise_only else [k for k in todo if k not in done]
+    expected = CPU_SECONDS_PER_UNIT * len(pending) / args.workers
+    print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
+    machine_at_start = machine()
     start = time.perf_counter()
     with ProcessPoolExecutor(args.workers, initializer=_one_thread) as pool:
         futures = {pool.submit(todo[k][0], *todo[k][1]): k for k in pending}
@@ -454,6 +486,11 @@ def main() -> None:
         else None,
     }
     write_json_atomic(args.out / "track_shiv.json", summary)
+    results_file = {"command": command_line(), "seeds": "track_seed = track index; see the units"}
+    results_file |= summary | {"machine": machine_at_start}
+    args.results.parent.mkdir(parents=True, exist_ok=True)
+    write_json_atomic(args.results, results_file)
+    print(f"wrote {args.results}")
     if summary["fig63"]:
         plot_fig63(summary["fig63"], args.images / "track_shiv_fig63.png")
     if summary["fig65"]:

@@ -95,6 +95,7 @@ def layer_shapes(obs_dim: int, act_dim: int, hidden: list[int]) -> list[tuple[in
 
 def atomic_write(path: Path, data: bytes) -> None:
     tmp = path.with_name(path.name + ".tmp")
+    path.parent.mkdir(parents=True, exist_ok=True)
     tmp.write_bytes(data)
     os.replace(tmp, path)
 

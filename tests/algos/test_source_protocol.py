@@ -4,6 +4,7 @@ evaluation metrics, and supervisors brought by the user through a wrapper."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 from dataclasses import replace
@@ -308,8 +309,9 @@ def test_gridworld_reproduction_states_and_prints_the_sources_settings(tmp_path:
     script = ROOT / "scripts" / "reproductions" / "reproduce_gridworld.py"
     args = ["--worlds", "1", "--iterations", "2", "--eval-episodes", "1", "--workers", "1"]
     env = {"PYTHONPATH": str(ROOT), "PATH": "/usr/bin:/bin"}
+    results = tmp_path / "results.json"  # never the repository's docs/results
     run = subprocess.run(
-        [sys.executable, str(script), *args, "--out", str(tmp_path)],
+        [sys.executable, str(script), *args, "--out", str(tmp_path), "--results", str(results)],
         capture_output=True,
         text=True,
         env=env,
@@ -317,7 +319,11 @@ def test_gridworld_reproduction_states_and_prints_the_sources_settings(tmp_path:
     )
     assert "'beta': 0.0" in run.stdout and "'initial_demos': 1" in run.stdout
     assert "'beta_schedule': 'constant'" in run.stdout
+    assert "expected run time" in run.stdout
     assert (tmp_path / "worlds" / "world_000.json").exists()  # resumable per world
+    written = json.loads(results.read_text())
+    assert written["command"].startswith("python scripts/reproductions/reproduce_gridworld.py --worlds 1")
+    assert written["settings"]["on_policy"]["beta"] == 0.0 and "worlds" not in written
 
 
 # -- 6. evaluation metrics --------------------------------------------------------------------
