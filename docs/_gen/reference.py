@@ -131,7 +131,9 @@ def _card_owner(env_id: str):
     classes = [
         c
         for c in vars(module).values()
-        if inspect.isclass(c) and c.__module__ == module.__name__ and "## Description" in (c.__doc__ or "")
+        if inspect.isclass(c)
+        and c.__module__ == module.__name__
+        and "## Description" in (c.__doc__ or "")
     ]
     if len(classes) != 1:
         raise RuntimeError(f"{env_id}: expected one env card class in {module.__name__}")
@@ -259,7 +261,9 @@ def ids_table(slug: str) -> str:
         rows.append(f"| `{env_id}` | `gym.make` | {steps} | {_kwargs_text(kwargs)} |")
     for env_id in f.parallel_ids:
         _, kwargs = PARALLEL_ENV_SPECS[env_id]
-        rows.append(f'| `{env_id}` | `pettingzoo.make("parallel", …)` | `max_cycles` | {_kwargs_text(kwargs)} |')
+        rows.append(
+            f'| `{env_id}` | `pettingzoo.make("parallel", …)` | `max_cycles` | {_kwargs_text(kwargs)} |'
+        )
     return "\n".join(rows)
 
 
@@ -270,8 +274,10 @@ def _kwargs_text(kwargs: dict) -> str:
 def _space_text(space) -> str:
     """``str(space)``, except that a Box whose bounds vary per element (the quasi-LIDAR's rows)
     shows one row of bounds instead of the whole array."""
-    if isinstance(space, gym.spaces.Box) and space.shape and (
-        np.ptp(space.low) > 0 or np.ptp(space.high) > 0
+    if (
+        isinstance(space, gym.spaces.Box)
+        and space.shape
+        and (np.ptp(space.low) > 0 or np.ptp(space.high) > 0)
     ):
         low = space.low.reshape(-1, space.shape[-1])
         high = space.high.reshape(-1, space.shape[-1])
