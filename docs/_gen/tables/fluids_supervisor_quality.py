@@ -45,6 +45,7 @@ def render(data, part: str = "summary", layout: str = "four_way", **_) -> str:
         f"Scenes: {s['cars'][0]}–{s['cars'][1]} cars × {s['pedestrians'][0]}–"
         f"{s['pedestrians'][1]} pedestrians, seeds {s['seeds']}, a deadlock after "
         f"{s['max_steps']} steps; {data['wall_seconds'] / 60:.0f} min wall with "
-        f"{s['workers']} worker(s) on a shared {m.get('cpu_count', '?')}-core machine.",
+        f"{s['workers']} worker{'s' if s['workers'] > 1 else ''} on a shared "
+        f"{m.get('cpu_count', '?')}-core machine.",
     ]
     return "\n".join(out)
