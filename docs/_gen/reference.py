@@ -21,6 +21,7 @@ from dataclasses import dataclass, field
 from functools import cache
 
 import gymnasium as gym
+import numpy as np
 
 import fluids_bench  # noqa: F401  (registers every id)
 from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
@@ -130,7 +131,9 @@ def _card_owner(env_id: str):
     classes = [
         c
         for c in vars(module).values()
-        if inspect.isclass(c) and c.__module__ == module.__name__ and "## Description" in (c.__doc__ or "")
+        if inspect.isclass(c)
+        and c.__module__ == module.__name__
+        and "## Description" in (c.__doc__ or "")
     ]
     if len(classes) != 1:
         raise RuntimeError(f"{env_id}: expected one env card class in {module.__name__}")
@@ -258,12 +261,35 @@ def ids_table(slug: str) -> str:
         rows.append(f"| `{env_id}` | `gym.make` | {steps} | {_kwargs_text(kwargs)} |")
     for env_id in f.parallel_ids:
         _, kwargs = PARALLEL_ENV_SPECS[env_id]
-        rows.append(f'| `{env_id}` | `pettingzoo.make("parallel", …)` | `max_cycles` | {_kwargs_text(kwargs)} |')
+        rows.append(
+            f'| `{env_id}` | `pettingzoo.make("parallel", …)` | `max_cycles` | {_kwargs_text(kwargs)} |'
+        )
     return "\n".join(rows)
 
 
 def _kwargs_text(kwargs: dict) -> str:
     return ", ".join(f"`{k}={v!r}`" for k, v in kwargs.items()) or "(defaults)"
+
+
+def _space_text(space) -> str:
+    """``str(space)``, except that a Box whose bounds vary per element (the quasi-LIDAR's rows)
+    shows one row of bounds instead of the whole array."""
+    if (
+        isinstance(space, gym.spaces.Box)
+        and space.shape
+        and (np.ptp(space.low) > 0 or np.ptp(space.high) > 0)
+    ):
+        low = space.low.reshape(-1, space.shape[-1])
+        high = space.high.reshape(-1, space.shape[-1])
+        if (low == low[0]).all() and (high == high[0]).all() and len(space.shape) > 1:
+            lo = ", ".join(f"{v:g}" for v in low[0])
+            hi = ", ".join(f"{v:g}" for v in high[0])
+            return f"Box(low=[{lo}], high=[{hi}] per row, {space.shape}, {space.dtype})"
+        return f"Box(bounds per element, {space.shape}, {space.dtype})"
+    if isinstance(space, gym.spaces.Dict):
+        inner = ", ".join(f"{k!r}: {_space_text(v)}" for k, v in space.spaces.items())
+        return f"Dict({inner})"
+    return str(space)
 
 
 @cache
@@ -272,15 +298,15 @@ def _spaces(env_id: str) -> tuple[str, str]:
         warnings.simplefilter("ignore")
         if env_id in ENV_SPECS:
             env = gym.make(env_id)
-            spaces = (str(env.action_space), str(env.observation_space))
+            spaces = (_space_text(env.action_space), _space_text(env.observation_space))
         else:
             from fluids_bench.registration import make_parallel_env
 
             env = make_parallel_env(env_id)
             agent = env.possible_agents[0]
             spaces = (
-                f"per agent: {env.action_space(agent)}",
-                f"per agent: {env.observation_space(agent)}",
+                f"per agent: {_space_text(env.action_space(agent))}",
+                f"per agent: {_space_text(env.observation_space(agent))}",
             )
         env.close()
     return spaces

@@ -10,13 +10,12 @@ Example: ``python scripts/benchmarks/bench_locomotion.py --env Hopper-IL-v0 --ki
 from __future__ import annotations
 
 import argparse
-import json
-import os
-import platform
+import sys
 import time
 
 import gymnasium as gym
 import numpy as np
+from _results import add_results_option, emit
 
 import fluids_bench  # noqa: F401  (registers the ids)
 
@@ -45,7 +44,12 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--steps", type=int, default=1000, help="steps per timed block")
     p.add_argument("--repeats", type=int, default=20, help="blocks per side, interleaved")
     p.add_argument("--seed", type=int, default=0)
+    add_results_option(p)
     args = p.parse_args(argv)
+    print(
+        f"expected run time: ~{max(1, round(len(args.env) * args.repeats * args.steps / 4000))} s on one core (policy supervisors)",
+        file=sys.stderr,
+    )
     rows = []
     for env_id in args.env:
         name = env_id.split("-")[0]
@@ -68,17 +72,15 @@ def main(argv: list[str] | None = None) -> int:
                 "steps": args.steps,
             }
         )
-    print(
-        json.dumps(
-            {
-                "benchmark": "locomotion env steps/s, label every step vs Gymnasium's bare v5 env",
-                "machine": platform.processor() or platform.machine(),
-                "cpus": os.cpu_count(),
-                "load_average_1min": round(os.getloadavg()[0], 2),
-                "results": rows,
-            },
-            indent=1,
-        )
+    emit(
+        {
+            "benchmark": "locomotion env steps/s, label every step vs Gymnasium's bare v5 env",
+            "steps": args.steps,
+            "repeats": args.repeats,
+            "results": rows,
+        },
+        args,
+        indent=1,
     )
     return 0
 

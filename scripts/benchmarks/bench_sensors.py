@@ -19,12 +19,12 @@ from __future__ import annotations
 
 import argparse
 import inspect
-import json
 import platform
 import time
 
 import gymnasium as gym
 import numpy as np
+from _results import add_results_option, emit
 from bench_sim import bench_env  # the same S2 loop as the simulator benchmark (scripts/)
 
 import fluids_bench
@@ -104,6 +104,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=2000, help="env steps per S2 variant")
     parser.add_argument("--calls", type=int, default=1000, help="timed calls per sensor")
+    add_results_option(parser)
     args = parser.parse_args()
     # numpy's speed on tiny arrays, to compare machines (and loads) with each other
     a = np.zeros(64)
@@ -117,18 +118,18 @@ def main() -> None:
             name: bench_env({**S2, **kw}, args.steps) for name, kw in ENV_VARIANTS.items()
         },
     }
-    print(
-        json.dumps(
-            {
-                "benchmark": "bench_sensors",
-                "fluids_bench": fluids_bench.__version__,
-                "python": platform.python_version(),
-                "numpy": np.__version__,
-                "numpy_add_64_ns": round(add_ns, 1),
-                "results": results,
-            },
-            indent=2,
-        )
+    emit(
+        {
+            "benchmark": "bench_sensors",
+            "fluids_bench": fluids_bench.__version__,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "numpy_add_64_ns": round(add_ns, 1),
+            "steps": args.steps,
+            "calls": args.calls,
+            "results": results,
+        },
+        args,
     )
 
 

@@ -14,12 +14,13 @@ Run on one core: `taskset -c 0 python scripts/benchmarks/bench_sim.py`.
 from __future__ import annotations
 
 import argparse
-import json
 import platform
+import sys
 import time
 
 import gymnasium as gym
 import numpy as np
+from _results import add_results_option, emit
 
 import fluids_bench
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
@@ -84,7 +85,12 @@ def main() -> None:
         "--period", type=int, default=None, help="velocity-planner period (default: the env's)"
     )
     parser.add_argument("--only", nargs="*", default=None, help="scenario names to run (S1 S2 S3)")
+    add_results_option(parser)
     args = parser.parse_args()
+    print(
+        f"expected run time: ~{max(1, round(args.steps * 3 / 2000))} s per scenario, one core",
+        file=sys.stderr,
+    )
     period = args.period
     env_period = {} if period is None else {"planner_period": period}
     world_period = period if period is not None else VelocityPlannerConfig().period
@@ -101,17 +107,16 @@ def main() -> None:
         ),
     }
     results = {name: fn() for name, fn in scenarios.items() if not args.only or name in args.only}
-    print(
-        json.dumps(
-            {
-                "benchmark": "bench_sim",
-                "fluids_bench": fluids_bench.__version__,
-                "python": platform.python_version(),
-                "numpy": np.__version__,
-                "results": results,
-            },
-            indent=2,
-        )
+    emit(
+        {
+            "benchmark": "bench_sim",
+            "fluids_bench": fluids_bench.__version__,
+            "python": platform.python_version(),
+            "numpy": np.__version__,
+            "steps": args.steps,
+            "results": results,
+        },
+        args,
     )
 
 

@@ -21,11 +21,13 @@ from __future__ import annotations
 import argparse
 import json
 import platform
+import sys
 import time
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
+from _results import add_results_option, emit
 
 import fluids_bench  # noqa: F401  (registers the ids)
 
@@ -90,20 +92,23 @@ def main() -> None:
     parser.add_argument("--steps", type=int, default=3000, help="env steps per mode")
     parser.add_argument("--modes", nargs="+", choices=MODES, default=list(MODES))
     parser.add_argument("--kwargs", default="{}", help="env kwargs as JSON")
+    add_results_option(parser)
     args = parser.parse_args()
+    print(
+        f"expected run time: ~{max(1, round(args.steps * len(args.modes) / 1000))} s on one core",
+        file=sys.stderr,
+    )
     kwargs = json.loads(args.kwargs)
     results = {m: bench(args.env, m, args.steps, kwargs) for m in args.modes}
-    print(
-        json.dumps(
-            {
-                "env": args.env,
-                "kwargs": kwargs,
-                "python": platform.python_version(),
-                "machine": platform.machine(),
-                "results": results,
-            },
-            indent=2,
-        )
+    emit(
+        {
+            "env": args.env,
+            "kwargs": kwargs,
+            "steps": args.steps,
+            "python": platform.python_version(),
+            "results": results,
+        },
+        args,
     )
 
 

@@ -13,12 +13,12 @@ Run on one core: ``taskset -c 0 python scripts/benchmarks/bench_track.py``.
 from __future__ import annotations
 
 import argparse
-import json
-import platform
+import sys
 import time
 
 import gymnasium as gym
 import numpy as np
+from _results import add_results_option, emit
 
 import fluids_bench
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
@@ -78,17 +78,22 @@ def bench_pieces(calls: int) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--steps", type=int, default=5000)
+    add_results_option(parser)
     args = parser.parse_args()
+    print(
+        f"expected run time: ~{max(1, round(args.steps * 2.5 / 1000))} s on one core",
+        file=sys.stderr,
+    )
     result = {
-        "machine": platform.processor() or platform.machine(),
         "fluids_bench": fluids_bench.__version__,
+        "steps": args.steps,
         "hog": bench_env("DrivingTrack-v0", args.steps),
         "hog_source": bench_env("DrivingTrack-Source-v0", args.steps),
         "pixels": bench_env("DrivingTrack-v0", args.steps, obs_type="pixels"),
         "state": bench_env("DrivingTrack-v0", args.steps, obs_type="state"),
         "pieces_cpu_us": bench_pieces(1000),
     }
-    print(json.dumps(result, indent=2))
+    emit(result, args)
 
 
 if __name__ == "__main__":

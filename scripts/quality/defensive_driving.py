@@ -14,7 +14,9 @@ collisions by who was at fault (``info["collisions"][i]["at_fault"]``, see
 ``--defensive`` compares both planners (v0's: off; v1's: on); ``--yield-to-pedestrians`` makes
 the defensive arm v1's whole planner (cars also wait for walkers on crosswalks). An episode runs until the ego
 arrives or collides, or 400 steps; scene (c cars, p pedestrians) uses seeds 1000c + 100p + i. Rows append to ``--out``.jsonl as they finish and a rerun
-skips them (resumable); the summary is written atomically to ``--out``.
+skips them (resumable); the summary is written atomically to ``--out``, and with ``--results
+FILE`` also to FILE with the command and its settings (the docs' tables read
+``docs/results/defensive_driving_v1.json`` and ``docs/results/defensive_driving_v0_v1.json``).
 
     python scripts/quality/defensive_driving.py --episodes 200 --workers 2 --out defensive.json
 """
@@ -24,6 +26,8 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import shlex
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
@@ -32,6 +36,7 @@ import numpy as np
 from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")
@@ -140,6 +145,9 @@ def main() -> None:
     )
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--out", default=None, help="JSON summary (rows also in OUT.jsonl)")
+    parser.add_argument(
+        "--results", default=None, help="also write the summary, command and settings to this file"
+    )
     args = parser.parse_args()
     modes = {"on": [True], "off": [False], "both": [False, True]}[args.defensive]
     jobs = [
@@ -182,6 +190,26 @@ def main() -> None:
         for f in s:
             s[f] += r[f]
     text = json.dumps({"summary": summary, "scenes": rows}, indent=1)
+    if args.results:
+        write_json_atomic(
+            args.results,
+            {
+                "command": "python scripts/quality/defensive_driving.py "
+                + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+                "settings": {
+                    "layouts": args.layouts,
+                    "cars": list(args.cars),
+                    "pedestrians": list(args.peds),
+                    "policies": args.policies,
+                    "episodes_per_scene": args.episodes,
+                    "seeds": "1000*cars + 100*pedestrians + i, i < episodes",
+                    "planners": args.defensive,
+                    "yield_to_pedestrians": args.yield_to_pedestrians,
+                },
+                "summary": summary,
+                "scenes": rows,
+            },
+        )
     if args.out:
         with open(f"{args.out}.tmp", "w") as f:
             f.write(text)

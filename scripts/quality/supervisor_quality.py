@@ -4,6 +4,9 @@ For every scene of ``--cars`` × ``--peds`` on ``--layout``, runs ``--episodes``
 which the supervisor drives every agent until all have arrived. An episode succeeds when every
 agent reaches its goal with no collision; one that runs out of steps without a collision is a
 deadlock. Usage: ``python scripts/quality/supervisor_quality.py --layout four_way --episodes 200``.
+Several layouts may be given (the default is all three). With ``--results FILE`` (e.g.
+``docs/results/fluids_supervisor_quality.json``) the report of every layout, the command and its
+settings are written to FILE atomically; the docs' supervisor quality table reads it.
 
 With ``--out FILE``, each scene's row is appended to ``FILE.jsonl`` as soon as it finishes, and a
 rerun skips the scenes already there: a killed run resumes where it stopped.
@@ -14,11 +17,15 @@ from __future__ import annotations
 import argparse
 import json
 import os
+import platform
+import shlex
+import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 from tqdm import tqdm
 
+from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
@@ -46,7 +53,10 @@ def _scene_result(args: tuple[str, int, int, int, int]) -> dict:
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument(
-        "--layout", default="four_way", choices=["four_way", "t_junction", "roundabout"]
+        "--layout",
+        nargs="+",
+        default=["four_way", "t_junction", "roundabout"],
+        choices=["four_way", "t_junction", "roundabout"],
     )
     parser.add_argument("--cars", type=int, nargs=2, default=(2, 7), metavar=("MIN", "MAX"))
     parser.add_argument("--peds", type=int, nargs=2, default=(0, 4), metavar=("MIN", "MAX"))
@@ -56,20 +66,56 @@ def main() -> None:
     )
     parser.add_argument("--workers", type=int, default=os.cpu_count() or 1)
     parser.add_argument("--out", default=None, help="JSON file to write (atomically)")
+    parser.add_argument(
+        "--results",
+        default=None,
+        help="results file for the docs (all layouts, the command and settings), written atomically",
+    )
     args = parser.parse_args()
+    scenes = (args.cars[1] - args.cars[0] + 1) * (args.peds[1] - args.peds[0] + 1)
+    minutes = 0.0008 * scenes * args.episodes * len(args.layout) / max(1, min(args.workers, 2))
+    print(f"expected run time: ~{max(1, round(minutes))} min on 2 cores", flush=True)
+    started = time.time()
+    reports = [_run_layout(args, layout) for layout in args.layout]
+    if args.results:
+        write_json_atomic(
+            args.results,
+            {
+                "command": "python scripts/quality/supervisor_quality.py "
+                + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+                "settings": {
+                    "cars": list(args.cars),
+                    "pedestrians": list(args.peds),
+                    "episodes_per_scene": args.episodes,
+                    "seeds": f"0..{args.episodes - 1} per scene",
+                    "max_steps": args.max_steps,
+                    "workers": args.workers,
+                },
+                "machine": {
+                    "processor": platform.processor() or platform.machine(),
+                    "cpu_count": os.cpu_count(),
+                },
+                "wall_seconds": round(time.time() - started, 1),
+                "layouts": reports,
+            },
+        )
+
+
+def _run_layout(args: argparse.Namespace, layout: str) -> dict:
     jobs = [
-        (args.layout, c, p, args.episodes, args.max_steps)
+        (layout, c, p, args.episodes, args.max_steps)
         for c in range(args.cars[0], args.cars[1] + 1)
         for p in range(args.peds[0], args.peds[1] + 1)
     ]
-    log = f"{args.out}.jsonl" if args.out else None
+    out = None
+    if args.out:
+        out = args.out if len(args.layout) == 1 else f"{args.out}.{layout}"
+    log = f"{out}.jsonl" if out else None
     done = {(r["layout"], r["cars"], r["pedestrians"], r["episodes"]): r for r in read_rows(log)}
     todo = [j for j in jobs if j[:4] not in done]
     with ProcessPoolExecutor(args.workers) as pool:
         futures = [pool.submit(_scene_result, job) for job in todo]
-        for future in tqdm(
-            as_completed(futures), total=len(futures), desc=args.layout, unit="scene"
-        ):
+        for future in tqdm(as_completed(futures), total=len(futures), desc=layout, unit="scene"):
             row = future.result()
             done[(row["layout"], row["cars"], row["pedestrians"], row["episodes"])] = row
             if log:
@@ -80,17 +126,19 @@ def main() -> None:
     rows = [done[j[:4]] for j in jobs]
     total = sum(r["episodes"] for r in rows)
     report = {
-        "layout": args.layout,
+        "layout": layout,
         "episodes": total,
+        "collision_episodes": sum(r["collision_episodes"] for r in rows),
+        "deadlocks": sum(r["deadlocks"] for r in rows),
         "success_rate": sum(r["success"] for r in rows) / total,
         "scenes": rows,
     }
     text = json.dumps(report, indent=2)
-    if args.out:
-        tmp = f"{args.out}.tmp"
+    if out:
+        tmp = f"{out}.tmp"
         with open(tmp, "w") as f:
             f.write(text)
-        os.replace(tmp, args.out)
+        os.replace(tmp, out)
     print(text)
     print(
         "\n| cars \\ peds | "
@@ -101,6 +149,7 @@ def main() -> None:
     for c in range(args.cars[0], args.cars[1] + 1):
         cells = [f"{r['success']}/{r['episodes']}" for r in rows if r["cars"] == c]
         print(f"| {c} | " + " | ".join(cells) + " |")
+    return report
 
 
 if __name__ == "__main__":

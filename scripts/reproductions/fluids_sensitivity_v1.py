@@ -16,7 +16,7 @@ rerunning this script after an interruption continues where it stopped):
 Then ``summary.json`` (success per point of every run; the main sweep's marginals over all
 configurations and over its sighted half, ε = 0) and a Markdown digest on stdout.
 
-    python scripts/fluids_sensitivity_v1.py --out out/sensitivity_v1 --workers 2
+    python scripts/reproductions/fluids_sensitivity_v1.py --out out/sensitivity_v1 --workers 2
 """
 
 from __future__ import annotations
@@ -117,6 +117,8 @@ def main() -> None:
     main_rows = rows(main_dir)
     sighted = [r for r in main_rows if float(r["lidar_dropout"]) == 0.0]
     summary = {
+        "command": "python scripts/reproductions/fluids_sensitivity_v1.py "
+        + " ".join(sys.argv[1:]),
         "env": ENV,
         "main": {
             "configurations": len(main_rows),
