@@ -19,8 +19,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -29,21 +27,12 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
+from fluids_bench.core.provenance import command_line, machine
+
 SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid": 9575.0}
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "locomotion_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = {"policy": 0.3, "mpc": 600.0, "guided_mpc": 300.0}  # 1,000 steps
-
-
-def command_line() -> str:
-    script = Path(__file__).resolve()
-    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def summarise(records: list[dict]) -> list[dict]:
@@ -97,7 +86,11 @@ def shipped() -> dict:
             "init": (
                 {
                     "iteration": recipe["init"]["iteration"],
-                    "recipe": {k: recipe["init"]["recipe"][k] for k in keep if k in recipe["init"]["recipe"]},
+                    "recipe": {
+                        k: recipe["init"]["recipe"][k]
+                        for k in keep
+                        if k in recipe["init"]["recipe"]
+                    },
                 }
                 if "init" in recipe
                 else None

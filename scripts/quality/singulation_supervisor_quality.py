@@ -20,9 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import math
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -37,22 +34,12 @@ from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.provenance import command_line, machine
 
 ENV_ID = "Singulation-v0"
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "singulation_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = 0.03  # measured: supervisor-driven episodes of ~20 steps, one replan
-
-
-def command_line() -> str:
-    script = Path(__file__).resolve()
-    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def episodes(noise: float, seeds: list[int]) -> list[dict[str, Any]]:

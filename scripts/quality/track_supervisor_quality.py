@@ -20,8 +20,6 @@ from __future__ import annotations
 import argparse
 import json
 import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -32,22 +30,12 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "track_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = 0.05  # measured: two laps (~180 steps) at depth 8, state observation
-
-
-def command_line() -> str:
-    script = Path(__file__).resolve()
-    shown = script.relative_to(ROOT).as_posix() if script.is_relative_to(ROOT) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def run_row(depth: int, noise: float, tracks: int) -> dict:

@@ -19,9 +19,6 @@ from __future__ import annotations
 
 import argparse
 import math
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -34,24 +31,13 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.dag.model import R
 from fluids_bench.tasks.dag.supervisor import expected_return
 
 REPO = Path(__file__).resolve().parents[2]
 RESULTS = REPO / "docs" / "results" / "reproduce_dag.json"
 CPU_SECONDS_PER_RUN = 0.004  # measured: one on- or off-policy run at 20 iterations
-
-
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 ROOT = np.zeros(2, dtype=np.float32)
@@ -190,7 +176,8 @@ def main() -> None:
 
     payload = {
         "figure": "dissertation Theorem 1 / Fig. 4.1 (DAG counter-example)",
-        "settings": {k: v for k, v in vars(args).items() if k != "results"} | {"out": str(args.out)},
+        "settings": {k: v for k, v in vars(args).items() if k != "results"}
+        | {"out": str(args.out)},
         "expected_returns": {p: expected_return(args.mu, p) for p in ("supervisor", "L", "R")},
         "c": c,
         "on_policy": on_rows,
@@ -199,7 +186,10 @@ def main() -> None:
     }
     args.out.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.out / "dag.json", payload)
-    results = {"command": command_line(), "seeds": "on-policy m * 1e6 + run, off-policy N * 1e6 + 5e5 + run"}
+    results = {
+        "command": command_line(),
+        "seeds": "on-policy m * 1e6 + run, off-policy N * 1e6 + 5e5 + run",
+    }
     results |= payload | {"machine": machine_at_start}
     args.results.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.results, results)

@@ -41,9 +41,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -51,6 +48,8 @@ from typing import Any
 
 import numpy as np
 from tqdm import tqdm
+
+from fluids_bench.core.provenance import command_line, machine
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")
 # an ablation, not in the source: DART's covariance rescaled to a fixed trace (--dart-fixed-trace)
@@ -62,18 +61,6 @@ LEARNERS = {
 
 REPO = Path(__file__).resolve().parents[2]
 CPU_SECONDS_PER_RUN = 90.0  # measured: a 20-iteration Hopper run, one learner, method and seed
-
-
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int, s: dict) -> dict:

@@ -31,9 +31,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -46,21 +43,11 @@ from fluids_bench.algos import bc, dagger, shiv
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import command_line, machine
 
 REPO = Path(__file__).resolve().parents[2]
 CPU_SECONDS_PER_RUN = 100.0  # measured: 24 runs took 14-28 min with 2 workers
 
-
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 ENV_ID = "GraspingInClutter-v0"
 ALGOS = ("dagger", "shiv", "bc")  # BC: the off-policy reference (supervisor demonstrations)
@@ -347,8 +334,13 @@ def main() -> None:
         "runs": ordered,
     }
     write_json_atomic(args.out / "grasping_shiv.json", payload)
-    results_file = {"command": command_line(), "seeds": "round r: layout_seed r; see the runs' seeds"}
-    results_file |= {k: v for k, v in payload.items() if k != "runs"} | {"machine": machine_at_start}
+    results_file = {
+        "command": command_line(),
+        "seeds": "round r: layout_seed r; see the runs' seeds",
+    }
+    results_file |= {k: v for k, v in payload.items() if k != "runs"} | {
+        "machine": machine_at_start
+    }
     args.results.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.results, results_file)
     print(f"wrote {args.results}")

@@ -26,9 +26,6 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
@@ -41,20 +38,11 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import command_line, machine
 
 REPO = Path(__file__).resolve().parents[2]
 RESULTS = REPO / "docs" / "results" / "reproduce_gridworld.json"
 CPU_SECONDS_PER_WORLD = 0.9  # measured: both classes, both methods, 20 iterations
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 CLASSES = {

@@ -31,9 +31,6 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
-import os
-import platform
-import sys
 import time
 from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
 from pathlib import Path
@@ -48,6 +45,7 @@ from fluids_bench.algos.harness import Harness
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import RunResult, write_json_atomic
+from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.singulation.label_noise import (
     SOURCE_CORRELATIONS,
     RetroactiveLabelModel,
@@ -57,16 +55,6 @@ from fluids_bench.tasks.singulation.label_noise import (
 
 REPO = Path(__file__).resolve().parents[2]
 CPU_SECONDS_PER_RUN_ARM = 34.0  # measured: 60 (run, arm) results took 2,052 CPU-s
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 
 ARMS = ("bc", "dagger", "dagger_retro", "dart")
@@ -297,7 +285,11 @@ def main() -> None:
     if min(args.runs, args.eval_episodes, args.workers) < 1:
         parser.error("--runs, --eval-episodes, --workers: >= 1")
     if args.results is None:
-        suffix = "" if (args.policy, args.eval_episodes) == ("mlp", 30) else f"_{args.policy}_e{args.eval_episodes}"
+        suffix = (
+            ""
+            if (args.policy, args.eval_episodes) == ("mlp", 30)
+            else f"_{args.policy}_e{args.eval_episodes}"
+        )
         args.results = REPO / "docs" / "results" / f"reproduce_singulation{suffix}.json"
 
     runs_dir = args.out / "runs"
@@ -361,7 +353,10 @@ def main() -> None:
         "results": results,
     }
     write_json_atomic(args.out / f"singulation_{tag}.json", payload)
-    results_file = {"command": command_line(), "seeds": "run r uses seed r; arms share each run's seed"}
+    results_file = {
+        "command": command_line(),
+        "seeds": "run r uses seed r; arms share each run's seed",
+    }
     results_file |= payload  # per-run results too: small, and the paired differences need them
     results_file["machine"] = machine_at_start
     args.results.parent.mkdir(parents=True, exist_ok=True)

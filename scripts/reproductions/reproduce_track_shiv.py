@@ -51,9 +51,6 @@ from __future__ import annotations
 import argparse
 import functools
 import json
-import os
-import platform
-import sys
 import time
 from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
@@ -77,22 +74,12 @@ from fluids_bench.algos.query import (
 )
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.track.bandwidth import median_state_distance, source_sigma
 
 REPO = Path(__file__).resolve().parents[2]
 CPU_SECONDS_PER_UNIT = 8.0  # measured: 322 units at the source's size took 2,578 CPU-s
 
-
-def command_line() -> str:
-    """The command line that ran this script, with the script's path from the repository root."""
-    script = Path(__file__).resolve()
-    shown = script.relative_to(REPO).as_posix() if script.is_relative_to(REPO) else sys.argv[0]
-    return " ".join(["python", shown, *sys.argv[1:]])
-
-
-def machine() -> str:
-    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
-    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
 
 ENV_ID = "DrivingTrack-Source-v0"
 POLICY = PolicySpec("linear_svm_span", {"C": 0.01, "max_iter": 10_000})

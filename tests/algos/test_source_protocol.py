@@ -322,7 +322,9 @@ def test_gridworld_reproduction_states_and_prints_the_sources_settings(tmp_path:
     assert "expected run time" in run.stdout
     assert (tmp_path / "worlds" / "world_000.json").exists()  # resumable per world
     written = json.loads(results.read_text())
-    assert written["command"].startswith("python scripts/reproductions/reproduce_gridworld.py --worlds 1")
+    assert written["command"].startswith(
+        "python scripts/reproductions/reproduce_gridworld.py --worlds 1"
+    )
     assert written["settings"]["on_policy"]["beta"] == 0.0 and "worlds" not in written
 
 

@@ -1,7 +1,6 @@
 from __future__ import annotations
 
 import pytest
-
 from site_build import build_site
 
 

@@ -1,0 +1,31 @@
+"""Where a result came from: the command line that produced it and the machine it ran on.
+
+Every script that writes a results file for the docs (``docs/results/*.json``) stores both, so a
+number on a page carries its command, seeds and machine.
+"""
+
+from __future__ import annotations
+
+import os
+import platform
+import shlex
+import sys
+from pathlib import Path
+
+
+def command_line() -> str:
+    """The running script's command line, its path shown from the repository's ``scripts/``."""
+    script = Path(sys.argv[0]).resolve()
+    parts = script.parts
+    shown = (
+        "/".join(parts[len(parts) - 1 - parts[::-1].index("scripts") :])
+        if "scripts" in parts
+        else sys.argv[0]
+    )
+    return " ".join(["python", shown, *map(shlex.quote, sys.argv[1:])])
+
+
+def machine() -> str:
+    """Cores, architecture and the load average now (results measured under load say so)."""
+    load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
+    return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
