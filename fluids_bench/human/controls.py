@@ -333,3 +333,34 @@ def scheme_for(env: Any) -> Scheme:
 
 
 TELEOP_FAMILIES = ("FLUIDS", "GridWorld", "DrivingTrack", "Singulation", "GraspingInClutter")
+TELEOP_CLASSES = (
+    "FluidsEnv",
+    "GridWorldEnv",
+    "DrivingTrackEnv",
+    "SingulationEnv",
+    "GraspingInClutterEnv",
+)
+
+
+def check_teleop_id(env_id: str) -> None:
+    """ValueError for an unknown id or one whose env class has no teleop scheme (checked from
+    the registration, before building the env)."""
+    import gymnasium as gym
+
+    import fluids_bench  # noqa: F401  (registers the ids)
+
+    if env_id not in gym.registry:
+        teleop_ids = sorted(
+            k
+            for k, spec in gym.registry.items()
+            if isinstance(spec.entry_point, str)
+            and spec.entry_point.rsplit(":", 1)[-1] in TELEOP_CLASSES
+        )
+        raise ValueError(f"unknown env id {env_id!r}; ids with a teleop mapping: {teleop_ids}")
+    entry = gym.registry[env_id].entry_point
+    name = entry.rsplit(":", 1)[-1] if isinstance(entry, str) else getattr(entry, "__name__", "")
+    if name not in TELEOP_CLASSES:
+        raise ValueError(
+            f"teleop: {env_id} has no teleop mapping; allowed: the ids of "
+            f"{', '.join(TELEOP_FAMILIES)}"
+        )

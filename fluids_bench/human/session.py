@@ -31,7 +31,7 @@ from gymnasium import spaces
 
 from fluids_bench.core import snapshot as snap
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY, supervisor_action
-from fluids_bench.human.controls import Scheme, scheme_for
+from fluids_bench.human.controls import Scheme, check_teleop_id, scheme_for
 from fluids_bench.human.recording import Episode, StateRebuilder
 from fluids_bench.human.simulated import NoiseInjector, SimulatedHuman
 
@@ -78,6 +78,7 @@ class Teleop:
         human: SimulatedHuman | None = None,
         script: Callable[[Teleop], None] | None = None,
     ) -> None:
+        check_teleop_id(env_id)
         self.env = gym.make(env_id, render_mode="rgb_array", **dict(env_kwargs or {}))
         self.scheme: Scheme = scheme_for(self.env)  # ValueError: no teleop mapping
         self.space = self.env.action_space
@@ -221,12 +222,9 @@ class Teleop:
                 first_input = window.last_input_time
             if "quit" in commands:
                 return "quit", steps
-            if "pause" in commands:
-                self.paused = not self.paused
-            if "slow" in commands:
-                self.slow = not self.slow
-            if "overlay" in commands:
-                self.show_label = not self.show_label
+            self.paused ^= commands.count("pause") % 2 == 1
+            self.slow ^= commands.count("slow") % 2 == 1
+            self.show_label ^= commands.count("overlay") % 2 == 1
             if "restart" in commands:
                 self.current = None  # dropped; the same seed starts again
                 continue
@@ -282,6 +280,8 @@ class Relabel:
         show_label: bool = False,
         script: Callable[[Relabel], None] | None = None,
     ) -> None:
+        if human is None:
+            check_teleop_id(spec.id)  # a person needs the env's controls and pictures
         self.rebuilder = StateRebuilder(
             spec, episodes, dataset_id, render_mode=None if human else "rgb_array"
         )
@@ -357,8 +357,7 @@ class Relabel:
             commands, pressed = window.poll()
             if "quit" in commands:
                 return "quit"
-            if "overlay" in commands:
-                self.show_label = not self.show_label
+            self.show_label ^= commands.count("overlay") % 2 == 1
             if "back" in commands:
                 self.index = max(0, self.index - 1)
                 continue
