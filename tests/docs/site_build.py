@@ -23,7 +23,11 @@ def build_site(base: Path) -> Path:
             env = {**os.environ, "NO_MKDOCS_2_WARNING": "1", "PYTHONPATH": str(ROOT)}
             run = subprocess.run(
                 [sys.executable, "-m", "mkdocs", "build", "--strict", "-d", str(site)],
-                cwd=ROOT, env=env, capture_output=True, text=True, check=False,
+                cwd=ROOT,
+                env=env,
+                capture_output=True,
+                text=True,
+                check=False,
             )
             (done if run.returncode == 0 else failed).write_text(run.stdout + run.stderr)
     if failed.exists():

@@ -76,7 +76,11 @@ RUN_BLOCKS = [b for b in ALL_BLOCKS if b.language in RUN_LANGUAGES and b.marker 
 
 
 def test_every_block_has_a_known_language():
-    unknown = [f"{b.name} ({b.language!r})" for b in ALL_BLOCKS if b.language not in RUN_LANGUAGES | NOT_RUN]
+    unknown = [
+        f"{b.name} ({b.language!r})"
+        for b in ALL_BLOCKS
+        if b.language not in RUN_LANGUAGES | NOT_RUN
+    ]
     assert not unknown, f"code blocks in a language the docs test does not know: {unknown}"
 
 
@@ -114,8 +118,12 @@ def test_code_block_runs(block, sandbox):
         cmd = [sys.executable, str(script)]
     else:
         cmd = ["bash", "-euo", "pipefail", "-c", block.code]
-    run = subprocess.run(cmd, cwd=folder, env=env, capture_output=True, text=True, timeout=TIMEOUT_S, check=False)
-    assert run.returncode == 0, f"{block.name} failed ({run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+    run = subprocess.run(
+        cmd, cwd=folder, env=env, capture_output=True, text=True, timeout=TIMEOUT_S, check=False
+    )
+    assert run.returncode == 0, (
+        f"{block.name} failed ({run.returncode}):\n{run.stdout[-3000:]}\n{run.stderr[-3000:]}"
+    )
 
 
 def _card_examples():

@@ -85,10 +85,14 @@ def test_no_missing_image_or_broken_internal_link(site):
 def test_every_results_file_is_shown_on_a_page():
     used = set()
     for md in (ROOT / "docs").rglob("*.md"):
-        used |= set(re.findall(r"(?<!')\{\{\s*table\(\s*\"([\w.-]+)\"", md.read_text(encoding="utf-8")))
+        used |= set(
+            re.findall(r"(?<!')\{\{\s*table\(\s*\"([\w.-]+)\"", md.read_text(encoding="utf-8"))
+        )
     files = {p.stem for p in (ROOT / "docs" / "results").glob("*.json")}
     assert files - used == set(), f"results files no page shows: {sorted(files - used)}"
-    assert used - files == set(), f"pages read results files that do not exist: {sorted(used - files)}"
+    assert used - files == set(), (
+        f"pages read results files that do not exist: {sorted(used - files)}"
+    )
 
 
 CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
@@ -105,12 +109,23 @@ def test_a_real_browser_renders_the_page(site, page, tmp_path):
     shot = tmp_path / "page.png"
     subprocess.run(
         [
-            CHROMIUM, "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-            "--disable-background-networking", "--disable-component-update", "--disable-sync",
-            f"--user-data-dir={tmp_path / 'profile'}", f"--screenshot={shot}",
-            "--window-size=1280,900", "--hide-scrollbars", (site / page).as_uri(),
+            CHROMIUM,
+            "--headless",
+            "--no-sandbox",
+            "--disable-gpu",
+            "--no-first-run",
+            "--disable-background-networking",
+            "--disable-component-update",
+            "--disable-sync",
+            f"--user-data-dir={tmp_path / 'profile'}",
+            f"--screenshot={shot}",
+            "--window-size=1280,900",
+            "--hide-scrollbars",
+            (site / page).as_uri(),
         ],
-        capture_output=True, timeout=120, check=False,
+        capture_output=True,
+        timeout=120,
+        check=False,
     )
     assert shot.is_file(), f"chromium wrote no screenshot of {page}"
     pixels = np.asarray(Image.open(shot).convert("L"), dtype=float)
