@@ -178,7 +178,6 @@ def test_replay_that_does_not_reproduce_is_refused(capsys):
         )
         == 0
     )
-    import shutil
 
     from fluids_bench.data.minari_export import dataset_path
 
