@@ -50,6 +50,19 @@ def fit(
     return fit_policy(policy, env.action_space, x, y, random_state=seed)
 
 
+def supervisor_return(
+    env: gym.Env, episodes: int, seed: int, max_steps: int | None = None
+) -> float:
+    """Mean return of the supervisor on the evaluation episodes (the reference)."""
+    from fluids_bench.algos.actors import SUPERVISOR
+
+    return float(
+        np.mean(
+            [rollout(env, SUPERVISOR, seed + i, max_steps).total_return for i in range(episodes)]
+        )
+    )
+
+
 def evaluate(
     policy: FittedPolicy, env: gym.Env, episodes: int, seed: int, max_steps: int | None = None
 ) -> dict[str, float]:
@@ -128,6 +141,8 @@ def retroactive_dagger(
             env_kwargs=kwargs,
             provenance="learner",
             overwrite=True,
+            algorithm_name="fluids-bench retroactive DAgger: learner rollouts",
+            description=f"iteration {k}: the learner's rollouts, labelled by the supervisor",
         )
         # 2. offline retroactive labels: states rebuilt from the dataset, labelled one by one
         source = minari.load_dataset(rollouts_id)
