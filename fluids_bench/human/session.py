@@ -207,6 +207,7 @@ class Teleop:
         steps = 0
         next_step = time.perf_counter()
         first_input: float | None = None
+        frame_for: tuple[int, int] | None = None
         while len(self.finished) < self.episodes_wanted:
             if self.current is None:
                 self._start()
@@ -232,7 +233,10 @@ class Teleop:
             if self.show_label:
                 label = describe_action(self.space, _label(self.env, self.info))
                 overlay = f"supervisor: {label}"
-            window.show(self.env.render(), self.status(), overlay)
+            where = (id(self.current), len(self.current.actions))
+            if where != frame_for:  # draw the env only when it changed
+                frame, frame_for = self.env.render(), where
+            window.show(frame, self.status(), overlay)
             now = time.perf_counter()
             if self.paused or now < next_step:
                 time.sleep(min(0.005, max(0.0, next_step - now)))
@@ -339,6 +343,8 @@ class Relabel:
 
         self.window = window = Window(f"fluids-bench relabel {self.env.spec.id}")
         shown: tuple[int, int] | None = None
+        shown_at_for: tuple[int, int] | None = None
+        shown_at, dirty = 0.0, False
         while self.index < len(self.items):
             e, t = self.items[self.index]
             if shown != (e, t):
@@ -349,7 +355,16 @@ class Relabel:
                         np.asarray(self.episodes[e].actions[t]).reshape(-1)[0]
                     )
                 frame = self.env.render()
-                shown, shown_at = (e, t), time.perf_counter()
+                shown, dirty = (e, t), True
+            if dirty:  # draw before reading input: a label is for what was on screen
+                overlay = None
+                if self.show_label:
+                    label = describe_action(self.space, supervisor_action(self.env))
+                    overlay = f"supervisor: {label}"
+                window.show(frame, self.status(), overlay)
+                dirty = False
+                shown_at = shown_at if shown_at_for == (e, t) else time.perf_counter()
+                shown_at_for = (e, t)
             if self.script is not None:
                 self.script(self)
             if self.stop:
@@ -357,7 +372,8 @@ class Relabel:
             commands, pressed = window.poll()
             if "quit" in commands:
                 return "quit"
-            self.show_label ^= commands.count("overlay") % 2 == 1
+            if commands.count("overlay") % 2 == 1:
+                self.show_label, dirty = not self.show_label, True
             if "back" in commands:
                 self.index = max(0, self.index - 1)
                 continue
@@ -379,9 +395,5 @@ class Relabel:
                 self.labels[(e, t)] = (label, time.perf_counter() - shown_at)
                 self.index += 1
                 continue
-            overlay = None
-            if self.show_label:
-                overlay = f"supervisor: {describe_action(self.space, supervisor_action(self.env))}"
-            window.show(frame, self.status(), overlay)
             time.sleep(0.002)
         return "done"
