@@ -190,7 +190,7 @@ class Scheme:
     help: tuple[str, ...]
     confirm_keys: frozenset[str] = frozenset()
     confirm_click: bool = False
-    idle: Any = None  # the action with no input, in teleop
+    action_names: tuple[str, ...] = ()  # Discrete actions' names, for the window
     memory: dict[str, Any] = field(default_factory=dict)
 
     def reset(self) -> None:
@@ -282,6 +282,7 @@ def scheme_for(env: Any) -> Scheme:
             4.0,
             ("arrows: move", "space: stay"),
             confirm_keys=ARROWS | {"space"},
+            action_names=("left", "right", "forward", "backward", "stay"),
         )
     if cls == "DrivingTrackEnv":
         return TrackScheme(
@@ -290,6 +291,7 @@ def scheme_for(env: Any) -> Scheme:
             5.0,
             ("left/right: turn 15 deg", "up: straight"),
             confirm_keys=frozenset({"left", "right", "up"}),
+            action_names=("right", "straight", "left"),
         )
     if cls == "FluidsEnv":
         level = base.action_level

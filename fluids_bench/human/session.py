@@ -44,9 +44,10 @@ def _label(env: gym.Env, info: dict[str, Any]) -> Any:
     return supervisor_action(env)
 
 
-def describe_action(space: spaces.Space, action: Any) -> str:
+def describe_action(space: spaces.Space, action: Any, names: tuple[str, ...] = ()) -> str:
     if isinstance(space, spaces.Discrete):
-        return str(int(action))
+        a = int(action)
+        return f"{a} ({names[a]})" if a < len(names) else str(a)
     return "[" + ", ".join(f"{v:+.2f}" for v in np.asarray(action).reshape(-1)) + "]"
 
 
@@ -231,7 +232,9 @@ class Teleop:
                 continue
             overlay = None
             if self.show_label:
-                label = describe_action(self.space, _label(self.env, self.info))
+                label = describe_action(
+                    self.space, _label(self.env, self.info), self.scheme.action_names
+                )
                 overlay = f"supervisor: {label}"
             where = (id(self.current), len(self.current.actions))
             if where != frame_for:  # draw the env only when it changed
@@ -328,9 +331,12 @@ class Relabel:
 
     def status(self) -> list[str]:
         e, t = self.items[self.index]
-        original = describe_action(self.space, self.episodes[e].actions[t])
+        names = self.scheme.action_names
+        original = describe_action(self.space, self.episodes[e].actions[t], names)
         mine = self.labels.get((e, t))
-        given = "" if mine is None else f"  your label {describe_action(self.space, mine[0])}"
+        given = (
+            "" if mine is None else f"  your label {describe_action(self.space, mine[0], names)}"
+        )
         return [
             f"state {self.index + 1}/{len(self.items)}: episode {e} step {t}  "
             f"recorded {original}{given}",
@@ -359,7 +365,9 @@ class Relabel:
             if dirty:  # draw before reading input: a label is for what was on screen
                 overlay = None
                 if self.show_label:
-                    label = describe_action(self.space, supervisor_action(self.env))
+                    label = describe_action(
+                        self.space, supervisor_action(self.env), self.scheme.action_names
+                    )
                     overlay = f"supervisor: {label}"
                 window.show(frame, self.status(), overlay)
                 dirty = False

@@ -143,7 +143,7 @@ class Window:
         self.screen.blit(surface, (0, 0))
         if overlay:
             text = self.font.render(overlay, True, (255, 255, 255), (20, 90, 160))
-            self.screen.blit(text, (6, 6))
+            self.screen.blit(text, (w * self.scale - text.get_width() - 6, 6))  # top right
         for i, line in enumerate(lines[:3]):
             text = self.font.render(line, True, (230, 230, 230))
             self.screen.blit(text, (6, h * self.scale + 4 + 20 * i))
