@@ -266,3 +266,17 @@ def test_simulated_human_without_a_window(capsys):
     assert ep.actions[1:].tolist() == labels[:-1].tolist()  # one step late
     assert set(ep.infos["provenance"][1:]) == {"simulated_human"}
     assert not math.isnan(ep.infos["reaction_time"][1])
+
+
+def test_a_real_sigint_keeps_finished_episodes(monkeypatch, capsys):
+    import os
+    import signal
+
+    def sigint(episode, t):
+        if (episode, t) == (1, 2):
+            os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the terminal
+        return []
+
+    argv = ["--env", "GridWorld-v0", "--dataset", "tt/s-v0", "--episodes", "2", "--max-steps", "4"]
+    assert run_teleop(monkeypatch, [*argv, *FAST], sigint) == 130
+    assert minari.load_dataset("tt/s-v0").total_episodes == 1
