@@ -72,7 +72,7 @@ class Teleop:
         seed: int = 0,
         max_steps: int | None = None,
         fps: float | None = None,
-        snapshot_every: int = 1,
+        snapshot_every: int = 10,
         show_label: bool = False,
         noise: float | str | None = None,
         dart_alpha: float | None = None,

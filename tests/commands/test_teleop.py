@@ -68,6 +68,7 @@ def arrows(episode, t):
 
 def test_gridworld_session_records_a_dataset_minari_loads_and_bc_learns(monkeypatch, capsys):
     argv = ["--env", "GridWorld-v0", "--dataset", "tt/grid-v0", "--episodes", "2", *FAST]
+    argv += ["--snapshot-every", "1"]
     assert run_teleop(monkeypatch, argv, arrows) == 0
     summary = json.loads(capsys.readouterr().out)
     assert summary == {**summary, "episodes": 2, "steps": 60, "ended": "done"}
