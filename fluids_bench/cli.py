@@ -21,6 +21,8 @@ COMMAND_MODULES = (
     "fluids_bench.commands.train",
     "fluids_bench.commands.collect",
     "fluids_bench.commands.sweep",
+    "fluids_bench.commands.teleop",
+    "fluids_bench.commands.relabel",
 )
 
 
