@@ -299,7 +299,14 @@ def write_dataset(
         if namespace is not None and namespace not in list_local_namespaces():
             create_namespace(namespace)
         final.parent.mkdir(parents=True, exist_ok=True)
-        _move_into_place(staging / dataset_id, final, staging.with_name(staging.name + "-old"))
+        # an append or an asked-for overwrite replaces the old version; otherwise a dataset that
+        # appeared meanwhile (another run's) is kept and this write refused
+        _move_into_place(
+            staging / dataset_id,
+            final,
+            staging.with_name(staging.name + "-old"),
+            overwrite=overwrite or (append and exists),
+        )
     finally:
         shutil.rmtree(staging, ignore_errors=True)
         with contextlib.suppress(OSError):
