@@ -67,7 +67,10 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--env", default="FLUIDS-v1")
     parser.add_argument(
-        "--env-kwarg", action="append", default=None, help="default for FLUIDS: action_level=velocity"
+        "--env-kwarg",
+        action="append",
+        default=None,
+        help="default for FLUIDS: action_level=velocity",
     )
     parser.add_argument("--algo", default="dagger")
     parser.add_argument("--demos-per-iteration", type=int, default=4)

@@ -3,6 +3,7 @@ execution settings refused, resuming an interrupted run, and Ctrl-C with workers
 
 from __future__ import annotations
 
+import dataclasses
 import json
 import os
 import signal
@@ -34,8 +35,17 @@ FLUIDS_ARGS = [
 GRID_ARGS = ["--env", "GridWorld-v0", "--env-kwarg", "world_seed=3"]
 ALGO_ARGS = {
     "dagger": ["--algo", "dagger", "--initial-demos", "2"],
-    "dart": ["--algo", "dart", "--initial-demos", "2", "--update-at", "1", "2",
-             "--heldout-fraction", "0.2"],
+    "dart": [
+        "--algo",
+        "dart",
+        "--initial-demos",
+        "2",
+        "--update-at",
+        "1",
+        "2",
+        "--heldout-fraction",
+        "0.2",
+    ],
 }
 
 
@@ -97,14 +107,14 @@ def test_the_python_api_takes_the_execution_settings(ray_instance: Any) -> None:
     settings = {"env_id": "GridWorld-v0", "iterations": 2, "demos_per_iteration": 2}
     one = DAggerConfig(**settings)
     results = [
-        harness_module_run(DAggerConfig(**settings, workers=workers, backend=backend))
+        dagger_records(DAggerConfig(**settings, workers=workers, backend=backend))
         for workers, backend in [(1, "process"), (2, "process"), (1, "ray")]
     ]
-    assert results[0] == results[1] == results[2] == harness_module_run(one)
+    assert results[0] == results[1] == results[2] == dagger_records(one)
     assert set(EXECUTION_FIELDS).isdisjoint(one.to_dict())  # not part of the records
 
 
-def harness_module_run(config: DAggerConfig) -> dict[str, Any]:
+def dagger_records(config: DAggerConfig) -> dict[str, Any]:
     from fluids_bench.algos import dagger
 
     return dagger.run(config).to_dict(include_timing=False)
@@ -221,9 +231,7 @@ def test_resume_continues_an_interrupted_run_with_the_same_records(
     assert "holds a run with other settings (iterations differ)" in capsys.readouterr().err
 
 
-def test_without_resume_a_run_starts_again(
-    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_without_resume_a_run_starts_again(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
     config = DAggerConfig(env_id="GridWorld-v0", iterations=2, checkpoint=str(tmp_path / "c"))
     from fluids_bench.algos import dagger
 
@@ -231,6 +239,9 @@ def test_without_resume_a_run_starts_again(
     seeds = count_rollouts(monkeypatch)
     assert dagger.run(config).to_dict(include_timing=False) == first  # all from the folder
     assert seeds == []
+    # the execution settings are not part of the run: another number of workers continues it
+    two = dataclasses.replace(config, workers=2)
+    assert dagger.run(two).to_dict(include_timing=False) == first
     other = DAggerConfig(env_id="GridWorld-v0", iterations=3, checkpoint=str(tmp_path / "c"))
     with pytest.raises(ValueError, match=r"holds a run with other settings \(config.iterations"):
         dagger.run(other)
