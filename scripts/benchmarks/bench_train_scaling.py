@@ -55,12 +55,50 @@ def records(out: Path) -> dict[str, Any]:
     return payload
 
 
-def run(command: list[str]) -> float:
+def _family(pid: int) -> list[int]:
+    """``pid`` and its descendants (Linux /proc)."""
+    children: dict[int, list[int]] = {}
+    for entry in os.listdir("/proc"):
+        if entry.isdigit():
+            try:
+                stat = Path(f"/proc/{entry}/stat").read_text()
+            except OSError:
+                continue
+            children.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
+    out, todo = [], [pid]
+    while todo:
+        out.append(todo.pop())
+        todo += children.get(out[-1], [])
+    return out
+
+
+def _cpu_seconds(pid: int) -> float | None:
+    try:
+        fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
+    except OSError:
+        return None
+    return (int(fields[11]) + int(fields[12])) / os.sysconf("SC_CLK_TCK")  # utime + stime
+
+
+def run(command: list[str]) -> tuple[float, float]:
+    """Wall seconds of the command, and the CPU seconds of it and every process it started
+    (workers, fork server, Ray's processes), sampled every 0.25 s: a process's last 0.25 s
+    can be missed."""
     env = {**os.environ, "RAY_AUTH_MODE": "disabled"}
     argv = [sys.executable, "-m", "fluids_bench.cli", *command[1:]]
     start = time.perf_counter()
-    subprocess.run(argv, check=True, env=env, stdout=subprocess.DEVNULL)
-    return time.perf_counter() - start
+    process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL)
+    cpu: dict[int, float] = {}
+    while process.poll() is None:
+        for pid in _family(process.pid):
+            seconds = _cpu_seconds(pid)
+            if seconds is not None:
+                cpu[pid] = seconds
+        time.sleep(0.25)
+    wall = time.perf_counter() - start
+    if process.returncode != 0:
+        raise subprocess.CalledProcessError(process.returncode, argv)
+    return wall, sum(cpu.values())
 
 
 def main() -> None:
@@ -93,6 +131,7 @@ def main() -> None:
     started = time.perf_counter()
     load_before = os.getloadavg()
     times: dict[tuple[int, str], list[float]] = {s: [] for s in settings}
+    cpu: dict[tuple[int, str], list[float]] = {s: [] for s in settings}
     outputs: list[dict[str, Any]] = []
     with tempfile.TemporaryDirectory(prefix="train-scaling-") as tmp:
         # warm-up, untimed: compiled kernels cached, files in the page cache
@@ -103,10 +142,11 @@ def main() -> None:
         for repeat in range(args.repeats):
             for workers, backend in settings:
                 out = Path(tmp) / f"{backend}{workers}-{repeat}"
-                seconds = run(train_command(args, out, workers, backend))
+                seconds, cpu_seconds = run(train_command(args, out, workers, backend))
                 times[(workers, backend)].append(seconds)
+                cpu[(workers, backend)].append(cpu_seconds)
                 outputs.append(records(out))
-                print(f"{backend} x{workers}: {seconds:.1f} s", flush=True)
+                print(f"{backend} x{workers}: {seconds:.1f} s, {cpu_seconds:.1f} CPU s", flush=True)
     identical = all(o == outputs[0] for o in outputs)
     if not identical:
         raise SystemExit("the records differ between runs: a determinism defect")
@@ -120,6 +160,8 @@ def main() -> None:
                 "backend": backend,
                 "seconds": [round(s, 2) for s in seconds],
                 "median_seconds": round(median, 2),
+                "cpu_seconds": [round(c, 1) for c in cpu[(workers, backend)]],
+                "median_cpu_seconds": round(statistics.median(cpu[(workers, backend)]), 1),
                 "speedup": None if base is None else round(base / median, 3),
                 "command": shlex.join(train_command(args, Path("out/train"), workers, backend)),
             }
