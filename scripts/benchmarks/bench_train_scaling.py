@@ -124,8 +124,8 @@ def main() -> None:
     if args.ray:
         settings.append((max(args.workers), "ray"))
     print(
-        f"expected run time: ~{2 * args.repeats * len(settings)} min on 2 cores "
-        "(FLUIDS-v1 defaults)",
+        f"expected run time: ~{1 + args.repeats * len(settings) * 2 // 3} min on 2 cores "
+        "(FLUIDS-v1 defaults: ~40 s a run on a loaded machine)",
         flush=True,
     )
     started = time.perf_counter()
