@@ -27,7 +27,7 @@ class BCConfig(RunConfig):
 def run(config: BCConfig, progress: ProgressCallback | None = None) -> RunResult:
     with Harness("bc", config, progress) as harness:
         for iteration in range(1, config.iterations + 1):
-            demos = [harness.collect(SUPERVISOR) for _ in range(config.demos_per_iteration)]
+            demos = harness.collect_many(SUPERVISOR, config.demos_per_iteration)
             for demo in demos:
                 harness.aggregate(demo)
             harness.record(iteration, demos)

@@ -2,12 +2,20 @@
 
 from __future__ import annotations
 
+import os
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
 
 from fluids_bench.algos.policies import PolicySpec
-from fluids_bench.core.validation import check_float, check_int, fail
+from fluids_bench.core.validation import check_choice, check_float, check_int, fail
+
+# where a run's rollouts execute (the same as fluids_bench.data.collect.BACKENDS, which cannot be
+# imported here: it imports the algorithms)
+BACKENDS = ("process", "ray")
+# settings of how a run executes, not of what it computes: left out of to_dict (and so of the
+# records), since the result is the same bit for bit whatever they are
+EXECUTION_FIELDS = ("workers", "backend", "address", "checkpoint")
 
 
 @dataclass(frozen=True, kw_only=True)
@@ -21,6 +29,16 @@ class RunConfig:
     counting the initial demonstrations as iteration 0) and always at the last one, over
     ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
     normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
+
+    Execution (the result does not depend on it): the rollouts of an iteration and the
+    evaluation episodes run on ``workers`` processes (``backend="process"``; 1: in this
+    process) or as Ray tasks, at most ``workers`` at a time (``backend="ray"``: on the Ray
+    instance already initialised, else the cluster at ``address``, else a local one with
+    ``workers`` CPUs); the learner is fitted in this process. Every rollout's seed is drawn in
+    order from the run's seed, so any ``workers`` and either backend give the same records.
+    ``checkpoint``: a folder where every finished rollout, evaluation and record is kept; a run
+    of the same config with the same folder reuses them and continues where the last one
+    stopped (:mod:`fluids_bench.algos.checkpoint`).
     """
 
     env_id: str = "GridWorld-v0"
@@ -35,6 +53,10 @@ class RunConfig:
     max_steps: int | None = None
     return_floor: float = 0.0
     seed: int = 0
+    workers: int = 1
+    backend: str = "process"
+    address: str | None = None
+    checkpoint: str | os.PathLike[str] | None = None
 
     def __post_init__(self) -> None:
         where = type(self).__name__
@@ -56,6 +78,15 @@ class RunConfig:
             check_int(where, "max_steps", self.max_steps, 1)
         check_float(where, "return_floor", self.return_floor)
         check_int(where, "seed", self.seed, 0, 2**32 - 1)
+        check_int(where, "workers", self.workers, 1)
+        check_choice(where, "backend", self.backend, BACKENDS)
+        if self.address is not None:
+            if not isinstance(self.address, str) or not self.address:
+                fail(where, "address", self.address, "a Ray address such as 'auto' or None")
+            if self.backend != "ray":
+                fail(where, "address", self.address, "None unless backend is 'ray'")
+        if self.checkpoint is not None and not isinstance(self.checkpoint, str | os.PathLike):
+            fail(where, "checkpoint", self.checkpoint, "a folder path or None")
 
     def evaluates_at(self, iteration: int) -> bool:
         """Whether the learner is evaluated after ``iteration``."""
@@ -68,6 +99,8 @@ class RunConfig:
     def to_dict(self) -> dict[str, Any]:
         """JSON-friendly copy (tuples become lists when serialised)."""
         data = asdict(self)
+        for name in EXECUTION_FIELDS:
+            del data[name]
         data["env_kwargs"] = dict(self.env_kwargs)
         if self.policy.standardize:  # the default is left out: records stay as they were
             del data["policy"]["standardize"]

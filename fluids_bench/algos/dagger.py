@@ -80,7 +80,7 @@ def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunRe
     algo = "dagger_b" if config.batched else "dagger"
     with Harness(algo, config, progress) as harness:
         # iteration 0: supervisor demonstrations initialise the aggregate dataset
-        demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
+        demos = harness.collect_many(SUPERVISOR, config.initial_demos)
         for demo in demos:
             harness.aggregate(demo)
         policy = harness.fit()
@@ -89,7 +89,7 @@ def run(config: DAggerConfig, progress: ProgressCallback | None = None) -> RunRe
         for iteration in range(1, config.iterations + 1):
             beta = beta_at(config, iteration)
             actor = MixtureActor(beta, LearnerActor(policy))
-            rollouts = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
+            rollouts = harness.collect_many(actor, config.demos_per_iteration)
             for trajectory in rollouts:
                 harness.aggregate(trajectory)  # the supervisor labels every visited state
             if refits_at(config, iteration):

@@ -164,7 +164,7 @@ def run(config: DARTConfig, progress: ProgressCallback | None = None) -> RunResu
             heldout_start = len(harness.heldout)
 
         def collect(count: int) -> list[Trajectory]:
-            demos = [harness.collect(actor) for _ in range(count)]
+            demos = harness.collect_many(actor, count)
             for demo in demos:
                 harness.aggregate(demo, heldout_fraction=config.heldout_fraction, keep_heldout=True)
             return demos

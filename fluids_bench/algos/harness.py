@@ -12,14 +12,25 @@ timer and the evaluation protocol of one run:
   success and collisions are summarised too where the env reports them
   (:mod:`~fluids_bench.algos.evaluation`);
 - compute: ``fit_seconds`` (fitting) and the wall clock of everything but evaluation
-  (collection, labelling, fitting), see :class:`~fluids_bench.algos.results.IterationRecord`.
+  (collection, labelling, fitting), see :class:`~fluids_bench.algos.results.IterationRecord`;
+- execution: the rollouts an algorithm asks for together (:meth:`Harness.collect_many`, an
+  iteration's demonstrations) and the evaluation episodes run on ``config.workers`` processes
+  or Ray tasks (:class:`~fluids_bench.sweep.backends.TaskSession`, opened once per run); their
+  seeds are drawn in order in this process before they start and the results are put back in
+  that order, so the records are the same whatever the workers and the backend. The learner is
+  fitted here, once per iteration;
+- resuming: with ``config.checkpoint``, every finished rollout, evaluation and record is kept
+  on disk and a rerun takes them from there (:mod:`~fluids_bench.algos.checkpoint`).
 """
 
 from __future__ import annotations
 
+import contextlib
+import dataclasses
 import time
 from collections.abc import Callable, Iterator, Sequence
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
@@ -28,6 +39,7 @@ from gymnasium import spaces
 
 import fluids_bench  # noqa: F401  (registers the suite's env ids)
 from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
+from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
 from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
@@ -39,6 +51,26 @@ from fluids_bench.registration import ENV_SPECS
 
 SEED_BOUND = 2**31 - 1
 ProgressCallback = Callable[[IterationRecord], None]
+TIMING_FIELDS = ("train_seconds", "wall_seconds")  # the only fields that differ between reruns
+
+
+@dataclass(frozen=True)
+class RolloutTask:
+    """One rollout as a worker receives it; the actor is the batch's shared payload."""
+
+    index: int  # position in the batch
+    env_id: str
+    env_kwargs: dict[str, Any]
+    seed: int
+    max_steps: int | None
+
+
+def run_rollout(task: RolloutTask, actor: Actor) -> Trajectory:
+    """A rollout in a worker process, on that worker's env for the id and kwargs (kept across
+    tasks: every rollout starts from a full reset)."""
+    from fluids_bench.data.collect import _env  # imported here: data.collect imports the algos
+
+    return rollout(_env(task.env_id, task.env_kwargs), actor, task.seed, task.max_steps)
 
 
 def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
@@ -77,7 +109,30 @@ class Harness:
         self.algo = algo
         self.config = config
         self.progress = progress
+        self._resources = contextlib.ExitStack()
+        try:
+            self._setup()
+        except BaseException as exc:
+            self._resources.__exit__(type(exc), exc, exc.__traceback__)
+            raise
+
+    def _setup(self) -> None:
+        from fluids_bench.sweep.backends import TaskSession  # it imports data.collect, which
+        # imports the algorithms
+
+        config = self.config
         self.env = make_env(config.env_id, dict(config.env_kwargs))
+        self._resources.callback(self.env.close)
+        self.store = (
+            None if config.checkpoint is None else Checkpoint(config.checkpoint, self.algo, config)
+        )
+        # the fork server imports the rollout's modules once, before starting the workers
+        preload = (__name__, "fluids_bench.data.collect")
+        self._session = self._resources.enter_context(
+            TaskSession(config.backend, config.workers, config.address, preload=preload)
+        )
+        self._evaluations = 0  # evaluations so far (0: the supervisor's)
+        self._timing_offset = {name: 0.0 for name in TIMING_FIELDS}  # saved minus recomputed
         self.action_space = self.env.action_space
         self.discrete = check_action_space(self.action_space)
         streams = np.random.SeedSequence(config.seed).spawn(5)
@@ -113,9 +168,53 @@ class Harness:
 
     def collect(self, actor: Actor) -> Trajectory:
         """Roll out ``actor`` on the next episode seed."""
-        self.demonstrations += 1
-        seed = int(self._episode_rng.integers(SEED_BOUND))
-        return rollout(self.env, actor, seed, self.config.max_steps)
+        return self.collect_many(actor, 1)[0]
+
+    def collect_many(self, actor: Actor, count: int) -> list[Trajectory]:
+        """Roll out ``actor`` on the next ``count`` episode seeds, in parallel where the run
+        has workers; the trajectories come back in seed order."""
+        seeds = [int(self._episode_rng.integers(SEED_BOUND)) for _ in range(count)]
+        first = self.demonstrations
+        self.demonstrations += count
+        names = [f"rollout-{first + i:06d}" for i in range(count)]
+        return self._rollouts(actor, seeds, names)
+
+    def _rollouts(
+        self, actor: Actor, seeds: list[int], names: list[str] | None = None
+    ) -> list[Trajectory]:
+        """``actor`` on each of ``seeds``; with ``names``, each finished rollout is kept in the
+        checkpoint under its name (and taken from there when it is already)."""
+        results: list[Trajectory | None] = [None] * len(seeds)
+        store = self.store if names is not None else None
+        if store is not None:
+            for i, name in enumerate(names):
+                saved = store.load(name)
+                if saved is not None and saved.seed != seeds[i]:
+                    raise ValueError(
+                        f"checkpoint {store.folder}: {name} was rolled out with seed "
+                        f"{saved.seed}, this run draws {seeds[i]}; the folder belongs to "
+                        "another run: delete it or choose another"
+                    )
+                results[i] = saved
+
+        def done(task: RolloutTask, trajectory: Trajectory) -> None:
+            results[task.index] = trajectory
+            if store is not None:
+                store.save(names[task.index], trajectory)
+
+        tasks = [
+            RolloutTask(
+                i, self.config.env_id, dict(self.config.env_kwargs), s, self.config.max_steps
+            )
+            for i, s in enumerate(seeds)
+            if results[i] is None
+        ]
+        if self._session.local:  # in this process, on the harness's own env
+            for task in tasks:
+                done(task, rollout(self.env, actor, task.seed, task.max_steps))
+        else:
+            self._session.run(run_rollout, tasks, actor, done)
+        return results  # type: ignore[return-value]  # every slot is filled
 
     def aggregate(
         self,
@@ -184,8 +283,14 @@ class Harness:
 
     def evaluate(self, actor: Actor) -> Evaluation:
         """``actor`` over the evaluation seeds: return, success, collisions."""
-        episodes = [rollout(self.env, actor, s, self.config.max_steps) for s in self.eval_seeds]
-        summary = evaluate_trajectories(episodes, self._reports_success)
+        name = f"eval-{self._evaluations:04d}"
+        self._evaluations += 1
+        summary = None if self.store is None else self.store.load(name)
+        if summary is None:
+            episodes = self._rollouts(actor, self.eval_seeds)
+            summary = evaluate_trajectories(episodes, self._reports_success)
+            if self.store is not None:
+                self.store.save(name, summary)
         self._reports_success = summary.success_rate is not None
         return summary
 
@@ -242,10 +347,36 @@ class Harness:
             record.eval_success_rate = evaluation.success_rate
             record.eval_success_se = evaluation.success_se
             record.eval_collisions = evaluation.collisions
+        if self.store is not None:
+            self._keep(record)
         self.records.append(record)
         if self.progress is not None:
             self.progress(record)
         return record
+
+    def _keep(self, record: IterationRecord) -> None:
+        """Save ``record`` in the checkpoint, or, when a finished run saved this iteration,
+        check that it is the same and keep the saved timing (the work it measured was done
+        then); later records' cumulative times continue from it."""
+        assert self.store is not None
+        name = f"record-{record.iteration:04d}"
+        for field in TIMING_FIELDS:
+            setattr(record, field, getattr(record, field) + self._timing_offset[field])
+        saved = self.store.load(name)
+        if saved is None:
+            self.store.save(name, record)
+            return
+        now, then = dataclasses.asdict(record), dataclasses.asdict(saved)
+        for field in TIMING_FIELDS:
+            self._timing_offset[field] += then.pop(field) - now.pop(field)
+            setattr(record, field, getattr(saved, field))
+        if now != then:
+            different = sorted(k for k in now if now[k] != then[k])
+            raise ValueError(
+                f"checkpoint {self.store.folder}: iteration {record.iteration} computes "
+                f"{', '.join(different)} other than the saved run did; it cannot be continued "
+                "(another install or machine?): delete the folder to start again"
+            )
 
     def result(self) -> RunResult:
         """The run's result; ``policy`` is the learner fit on all training data."""
@@ -263,10 +394,12 @@ class Harness:
         )
 
     def close(self) -> None:
-        self.env.close()
+        self._resources.close()
 
     def __enter__(self) -> Harness:
         return self
 
-    def __exit__(self, *exc_info: object) -> None:
-        self.close()
+    def __exit__(self, *exc_info: Any) -> None:
+        # the exception, if any, reaches the workers' pool: it stops them at once (Ctrl-C)
+        # instead of waiting for what is queued
+        self._resources.__exit__(*exc_info)

@@ -51,7 +51,7 @@ def run(config: NoiseConfig, progress: ProgressCallback | None = None) -> RunRes
     with Harness("noise", config, progress) as harness:
         actor = isotropic_actor(harness.action_space, config.noise_std, config.epsilon)
         for iteration in range(1, config.iterations + 1):
-            demos = [harness.collect(actor) for _ in range(config.demos_per_iteration)]
+            demos = harness.collect_many(actor, config.demos_per_iteration)
             for demo in demos:
                 harness.aggregate(demo)  # labels are the supervisor's, not the noisy actions
             harness.record(iteration, demos)

@@ -119,7 +119,7 @@ def descend(
 
 def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResult:
     with Harness("ogd", config, progress) as harness:
-        demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
+        demos = harness.collect_many(SUPERVISOR, config.initial_demos)
         pairs = [harness.aggregate(demo) for demo in demos]
         observations = np.concatenate([p[0] for p in pairs])
         labels = np.concatenate([p[1] for p in pairs])
@@ -131,9 +131,7 @@ def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResul
         harness.record(0, demos)
 
         for iteration in range(1, config.iterations + 1):
-            rollouts = [
-                harness.collect(LearnerActor(policy)) for _ in range(config.demos_per_iteration)
-            ]
+            rollouts = harness.collect_many(LearnerActor(policy), config.demos_per_iteration)
             pairs = [harness.aggregate(trajectory) for trajectory in rollouts]
             # f_k is the loss on this iteration's on-policy data only
             observations = np.concatenate([p[0] for p in pairs])

@@ -110,7 +110,7 @@ def make_selector(
 def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResult:
     with Harness("shiv", config, progress) as harness:
         selector = make_selector(config, harness.action_space, harness.rng)
-        demos = [harness.collect(SUPERVISOR) for _ in range(config.initial_demos)]
+        demos = harness.collect_many(SUPERVISOR, config.initial_demos)
         for demo in demos:
             harness.aggregate(demo)
         policy = harness.fit()
@@ -119,9 +119,7 @@ def run(config: SHIVConfig, progress: ProgressCallback | None = None) -> RunResu
         for iteration in range(1, config.iterations + 1):
             with harness.training():  # the risk model is part of SHIV's compute
                 selector.fit(*harness.train.arrays(), policy)
-            rollouts = [
-                harness.collect(LearnerActor(policy)) for _ in range(config.demos_per_iteration)
-            ]
+            rollouts = harness.collect_many(LearnerActor(policy), config.demos_per_iteration)
             visited = queried = 0
             for trajectory in rollouts:
                 risky = np.flatnonzero(selector.risky(trajectory.states))
@@ -185,6 +183,7 @@ def grid_search_bandwidths(
                 sigma_r=float(sigma_r),
                 iterations=iterations,
                 eval_at=(),
+                checkpoint=None,  # trials are short, and each is a run of its own
             )
             result = run(trial)
             visited = [

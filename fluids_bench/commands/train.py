@@ -2,10 +2,16 @@
 
 The JSON is rewritten (atomically) as each iteration finishes, marked ``"complete": false``
 until the run ends: an interrupted run (Ctrl-C) keeps the records of its finished iterations
-and says where. Example::
+and says where. Every finished rollout and evaluation is kept in OUT/<run>.checkpoint/ until
+the run completes; the same command with ``--resume`` continues from there (without it, a run
+starts again from the beginning).
+
+The rollouts of an iteration and the evaluation episodes run on ``--workers`` processes, or
+as Ray tasks with ``--backend ray``; the learner is fitted in this process. The records are
+the same whatever the workers and the backend. Example::
 
     fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
-        --env-kwarg world_seed=3 --iterations 20 --out out/train
+        --env-kwarg world_seed=3 --iterations 20 --out out/train --workers 2
 """
 
 from __future__ import annotations
@@ -13,6 +19,7 @@ from __future__ import annotations
 import argparse
 import dataclasses
 import json
+import shutil
 import sys
 from pathlib import Path
 from typing import Any
@@ -107,6 +114,21 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--out", type=Path, default=Path("out/train"), help="output folder")
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     parser.add_argument(
+        "--workers",
+        type=int,
+        default=1,
+        help="rollouts run in parallel: processes, or Ray tasks at a time (default 1: here)",
+    )
+    parser.add_argument("--backend", choices=["process", "ray"], default="process")
+    parser.add_argument(
+        "--ray-address", default=None, help="Ray cluster address (default: start a local Ray)"
+    )
+    parser.add_argument(
+        "--resume",
+        action="store_true",
+        help="continue an interrupted run of the same command from OUT/<run>.checkpoint/",
+    )
+    parser.add_argument(
         "--x-axis",
         choices=("training_labels", "demonstrations", "labels_requested"),
         default="training_labels",
@@ -156,6 +178,9 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
         max_steps=args.max_steps,
         return_floor=args.return_floor,
         seed=args.seed,
+        workers=args.workers,
+        backend=args.backend,
+        address=args.ray_address,
     )
     return args.algo, config
 
@@ -170,6 +195,23 @@ def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
         "records": [dataclasses.asdict(r) for r in records],
         "complete": False,
     }
+
+
+def _saved_run_is_complete(path: Path, name: str, config: Any) -> bool:
+    """Whether ``path`` holds the complete result of this run; a run with other settings there
+    is refused (``--resume`` continues a run, it does not replace one)."""
+    if not path.is_file():
+        return False
+    saved = json.loads(path.read_text())
+    settings = json.loads(json.dumps(config.to_dict()))
+    if saved.get("algo") != name or saved.get("config") != settings:
+        old = saved.get("config", {})
+        different = sorted(k for k in set(old) | set(settings) if old.get(k) != settings.get(k))
+        raise ValueError(
+            f"--resume: {path} holds a run with other settings ({', '.join(different) or 'algo'}"
+            " differ); allowed: the command that wrote it, or another --out"
+        )
+    return bool(saved.get("complete"))
 
 
 def _number(value: float | None) -> str:
@@ -187,8 +229,32 @@ def main(args: argparse.Namespace) -> int:
 
     name, config = build_config(args)
     make_env(config.env_id, dict(config.env_kwargs)).close()  # fail before the progress bar
+    if config.backend == "ray":
+        from fluids_bench.data.collect import import_ray
+
+        try:
+            import_ray()
+        except ImportError as exc:  # the ray extra is missing
+            print(f"fluids-bench train: error: {exc}", file=sys.stderr)
+            return 2
     stem = f"{name}_{config.env_id}_seed{config.seed}"
     json_path, png_path = args.out / f"{stem}.json", args.out / f"{stem}.png"
+    checkpoint = args.out / f"{stem}.checkpoint"
+    if args.resume:
+        if _saved_run_is_complete(json_path, name, config):
+            print(f"{json_path} holds this run, complete; nothing to resume")
+            return 0
+        from fluids_bench.algos.checkpoint import Checkpoint
+
+        if checkpoint.is_dir():
+            Checkpoint(checkpoint, name, config)  # refuses a folder of another run, now
+            done = len(list(checkpoint.glob("record-*.pkl")))
+            print(f"resuming: {done} finished iterations in {checkpoint}")
+        else:
+            print(f"resuming: nothing saved in {checkpoint}; starting from the beginning")
+    elif checkpoint.exists():
+        shutil.rmtree(checkpoint)  # a new run: what an earlier one left is not reused
+    config = dataclasses.replace(config, checkpoint=str(checkpoint))
     # iteration 0 exists when the algorithm starts with initial demonstrations
     total = config.iterations + (1 if getattr(config, "initial_demos", 0) else 0)
     finished: list[Any] = []
@@ -211,13 +277,20 @@ def main(args: argparse.Namespace) -> int:
         if not interrupted(exc):
             raise
         if finished:
-            kept = f"the {len(finished)} finished iterations are in {json_path} (complete: false)"
+            kept = (
+                f"the {len(finished)} finished iterations are in {json_path} (complete: false); "
+                "the same command with --resume continues the run"
+            )
         else:
-            kept = "no iteration had finished; nothing written"
+            kept = (
+                "no iteration had finished; the same command with --resume continues from the "
+                f"finished rollouts in {checkpoint}"
+            )
         print(f"fluids-bench train: interrupted; {kept}", file=sys.stderr)
         return 130
     write_json_atomic(json_path, {**result.to_dict(), "complete": True})
     plot_learning_curves([result], png_path, args.x_axis)
+    shutil.rmtree(checkpoint, ignore_errors=True)  # the complete JSON is the result now
     final = result.final
     success = (
         ""

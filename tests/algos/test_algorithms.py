@@ -27,14 +27,14 @@ TREE = PolicySpec("tree", {"max_depth": 100})
 def collected(monkeypatch: pytest.MonkeyPatch) -> list[Trajectory]:
     """Every trajectory any harness collects during the test, in order."""
     trajectories: list[Trajectory] = []
-    original = Harness.collect
+    original = Harness.collect_many
 
-    def spy(self: Harness, actor: Any) -> Trajectory:
-        trajectory = original(self, actor)
-        trajectories.append(trajectory)
-        return trajectory
+    def spy(self: Harness, actor: Any, count: int) -> list[Trajectory]:
+        batch = original(self, actor, count)
+        trajectories.extend(batch)
+        return batch
 
-    monkeypatch.setattr(Harness, "collect", spy)
+    monkeypatch.setattr(Harness, "collect_many", spy)
     return trajectories
 
 

@@ -119,15 +119,15 @@ def test_interrupted_train_keeps_the_finished_iterations(
 ) -> None:
     from fluids_bench.algos.harness import Harness
 
-    collect, calls = Harness.collect, []
+    collect, calls = Harness.collect_many, []
 
-    def collect_then_ctrl_c(self, actor):
+    def collect_then_ctrl_c(self, actor, count):
         calls.append(actor)
         if len(calls) == 3:  # Ctrl-C during the third iteration's demonstration
             raise KeyboardInterrupt
-        return collect(self, actor)
+        return collect(self, actor, count)
 
-    monkeypatch.setattr(Harness, "collect", collect_then_ctrl_c)
+    monkeypatch.setattr(Harness, "collect_many", collect_then_ctrl_c)
     code = train(
         "--env", "GridWorld-v0", "--algo", "dagger", "--iterations", "5",
         "--eval-episodes", "1", "--out", str(tmp_path),
