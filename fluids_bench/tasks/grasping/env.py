@@ -121,6 +121,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     | `foresight`       | int         | 7        | corridors the supervisor simulates per plan, [1, 7] |
     | `layout_seed`     | int or None | None     | fixed obstacle layout (see Starting State), >= 0 |
     | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
+    | `obstacle_size_scale` | float   | 1.0      | obstacle box sides, drawn in [4.0, 5.5] cm, × this, [0.5, 1.25] (the target stays 4.5 cm; larger ones do not fit around it)  |
+    | `friction`        | float       | 0.5      | friction coefficient of the boxes and the arm, [0, 2] |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
 
     ```python
@@ -150,6 +152,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         foresight: int = 7,
         layout_seed: int | None = None,
         render_size: int = 480,
+        obstacle_size_scale: float = 1.0,
+        friction: float = 0.5,
         render_mode: str | None = None,
     ) -> None:
         types = [obs_type] if isinstance(obs_type, str) else obs_type
@@ -168,7 +172,13 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         self.render_size = check_int(WHERE, "render_size", render_size, 64, 2048)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
 
-        self.cfg = GraspConfig(target_std_frac=std)
+        perturbed: dict[str, Any] = {}  # the defaults build GraspConfig's own values
+        scale = check_float(WHERE, "obstacle_size_scale", obstacle_size_scale, 0.5, 1.25)
+        if scale != 1.0:
+            lo, hi = GraspConfig.object_size
+            perturbed["object_size"] = (lo * scale, hi * scale)
+        perturbed["friction"] = check_float(WHERE, "friction", friction, 0.0, 2.0)
+        self.cfg = GraspConfig(target_std_frac=std, **perturbed)
         self.action_space = spaces.Box(
             np.array([-1.0, -1.0, 0.0], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
         )
