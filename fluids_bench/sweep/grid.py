@@ -309,16 +309,14 @@ class KwargGrid:
 # The FLUIDS-Sensitivity ids sweep the source's six parameters (DEFAULT_VALUES above).
 SENSITIVITY: dict[str, dict[str, tuple[Any, ...]]] = {
     "FLUIDS-v0": {
-        "num_cars": (1, 3, 5),
-        "num_pedestrians": (0, 2, 4),
         "layout": ("four_way", "t_junction", "roundabout"),
-        "lights": (False, True),
+        "light_cycle_scale": (0.5, 1.0, 2.0),
+        "pedestrian_speed": (0.7, 1.4, 2.8),
     },
     "FLUIDS-v1": {
-        "num_cars": (1, 3, 5),
-        "num_pedestrians": (0, 4, 8),
         "lanes": (1, 2),
-        "lidar_noise": (0.0, 0.5, 1.0),
+        "light_cycle_scale": (0.5, 1.0, 2.0),
+        "pedestrian_speed": (0.7, 1.4, 2.8),
     },
     "GridWorld-v0": {
         "size": (10, 15, 20),

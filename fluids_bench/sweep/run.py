@@ -179,7 +179,15 @@ def probe_env(
             env.reset(seed=0)
             env.close()
         except (ValueError, TypeError) as exc:
-            raise ValueError(f"grid configuration {configuration} is not valid: {exc}") from exc
+            hint = ""
+            if not grid.legacy and set(names) & {"cars", "pedestrians"}:
+                hint = (
+                    f"; the source's six parameters {list(Grid.default().names)} belong to "
+                    f"the 'env' ids {list(ENV_IDS)}"
+                )
+            raise ValueError(
+                f"grid configuration {configuration} is not valid: {exc}{hint}"
+            ) from exc
 
 
 # -- the policy under evaluation ----------------------------------------------------------------
