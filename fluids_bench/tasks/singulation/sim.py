@@ -100,13 +100,15 @@ class SceneConfig:
     cluster_clip: float = 3.0
     cluster_rotation: float = math.radians(15.0)
     # perturbations (a sensitivity sweep's factors): 1.0 is the nominal world, bit for bit
-    mass_scale: float = 1.0  # multiplies the objects' areal density (their mass and inertia)
+    # heaviest object's mass over the lightest's: object i's density × mass_ratio^(i/3 - 1/2)
+    # (scaling every mass alike changes nothing here: no gravity, no table friction)
+    mass_ratio: float = 1.0
     friction_scale: float = 1.0  # multiplies the objects' and the fingertip's friction
 
     def __post_init__(self) -> None:
         where = "SceneConfig"
         check_float(where, "cluster_std", self.cluster_std, 0.0, 0.2)
-        check_float(where, "mass_scale", self.mass_scale, 0.1, 10.0)
+        check_float(where, "mass_ratio", self.mass_ratio, 1.0, 100.0)
         check_float(where, "friction_scale", self.friction_scale, 0.0, 4.0)
         check_float(where, "cluster_rotation", self.cluster_rotation, 0.0, math.pi)
         check_float(where, "r_min", self.r_min, 0.0, self.r_max, hi_open=True)
@@ -328,7 +330,7 @@ class SingulationWorld:
             body = pymunk.Body()
             shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
             # the body gets its mass when the shape is added
-            shape.density = AREAL_DENSITY * config.mass_scale
+            shape.density = AREAL_DENSITY * config.mass_ratio ** (index / 3 - 0.5)
             shape.friction = FRICTION_OBJECTS * config.friction_scale
             self.bodies.append(body)
             self._shapes.append(shape)
