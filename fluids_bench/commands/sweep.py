@@ -184,6 +184,11 @@ def run(args: argparse.Namespace) -> int:
     if max_steps is not None:
         check_int("sweep", "max_episode_steps", max_steps, 1)
     fixed = dict(args.env_kwarg)
+    both = sorted(set(fixed) & set(grid.names))
+    if both:
+        raise ValueError(
+            f"sweep: field 'env_kwarg' is {both}, which the grid varies; allowed: other kwargs"
+        )
     from fluids_bench.algos.registry import get_algorithm
 
     get_algorithm(args.algo)  # an unknown algorithm fails now

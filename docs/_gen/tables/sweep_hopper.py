@@ -1,50 +1,50 @@
 """docs/results/sweep_hopper.json (scripts/reproductions/sensitivity_study.py --tasks hopper)."""
 
+import math
 
-def _cell(entry, metric):
-    text = f"{entry['metric']:.2f} ± {entry['stderr']:.2f}"
-    if metric == "return":
-        text += f" ({entry['mean_return']:,.0f})"
-    return text
+NOMINAL = {"body_mass_scale": 1.0, "friction_scale": 1.0, "actuator_gain_scale": 1.0}
+
+
+def _level(rows, factor, value):
+    returns = [r["mean_return"] for r in rows if float(r[factor]) == float(value)]
+    mean = sum(returns) / len(returns)
+    var = sum((x - mean) ** 2 for x in returns) / max(len(returns) - 1, 1)
+    return mean, math.sqrt(var / len(returns))
 
 
 def render(data, **_):
-    metric = data["metric"]
     policies = data["policies"]
     names = list(policies)
-    what = "success rate" if metric == "success" else "normalised return (mean return)"
+    nominal = [
+        r
+        for r in policies["supervisor"]["rows"]
+        if all(float(r[k]) == v for k, v in NOMINAL.items())
+    ][0]["mean_return"]
     rows = [
-        "| factor | value | " + " | ".join(f"{p} {what}" for p in names) + " |",
+        "| factor | value | " + " | ".join(f"{p} mean return (÷ nominal)" for p in names) + " |",
         "|---|---|" + "---|" * len(names),
     ]
-    for factor in data["grid"]:
-        levels = {p: policies[p]["summary"]["factors"][factor] for p in names}
-        for i, value in enumerate(data["grid"][factor]):
-            cells = [_cell(levels[p][i], metric) for p in names]
+    for factor, values in data["grid"].items():
+        for value in values:
+            cells = []
+            for p in names:
+                mean, se = _level(policies[p]["rows"], factor, value)
+                cells.append(f"{mean:,.0f} ± {se:,.0f} ({mean / nominal:.2f})")
             rows.append(f"| `{factor}` | {value} | " + " | ".join(cells) + " |")
-    overall = " | ".join(f"{policies[p]['summary']['overall']:.2f}" for p in names)
-    rows.append(f"| all | | {overall} |")
-    bc = policies.get("bc", {})
-    fixed = ", ".join(f"`{k}={v}`" for k, v in data["fixed_kwargs"].items()) or "none"
-    size = 1
-    for values in data["grid"].values():
-        size *= len(values)
+    overall = []
+    for p in names:
+        returns = [r["mean_return"] for r in policies[p]["rows"]]
+        overall.append(f"{sum(returns) / len(returns):,.0f} ({sum(returns) / len(returns) / nominal:.2f})")
+    rows.append("| all | | " + " | ".join(overall) + " |")
+    bc = policies["bc"]
+    size = math.prod(len(v) for v in data["grid"].values())
     note = (
-        f"`{data['env_id']}` (fixed kwargs: {fixed}); {size} configurations × "
-        f"{data['episodes']} episodes (sweep seed {data['seed']}); each level pools the "
-        f"configurations with that value (± standard error"
+        f"`{data['env_id']}`: {size} configurations × {data['episodes']} episodes of up to 1,000 "
+        f"steps (sweep seed {data['seed']}). Each level: the mean over the configurations with "
+        "that value of their mean return ± its standard error over those configurations; in "
+        "brackets, divided by the supervisor's mean return at the nominal configuration (every "
+        f"scale 1: {nominal:,.0f}). BC: a decision tree on {bc['demonstrations']} supervisor "
+        f"demonstrations of the nominal configuration. Run time {data['seconds']:.0f} s on a "
+        f"{data['machine']}."
     )
-    if metric == "success":
-        note += " of the pooled episodes)."
-    else:
-        note += (
-            " over configurations); a configuration's mean return is divided by the largest "
-            "absolute mean return of that policy's sweep."
-        )
-    if bc:
-        note += (
-            f" BC: a decision tree on {bc['demonstrations']} supervisor demonstrations of the "
-            "nominal configuration (the registered defaults)."
-        )
-    note += f" Run time {data['seconds']:.0f} s on a {data['machine']}."
     return "\n".join(rows) + "\n\n" + note
