@@ -330,6 +330,7 @@ SENSITIVITY: dict[str, dict[str, tuple[Any, ...]]] = {
         "cluster_std": (0.0, 0.0447, 0.09),
     },
     "GraspingInClutter-v0": {
+        "obstacles": (1, 3, 5),
         "obstacle_size_scale": (0.75, 1.0, 1.25),
         "friction": (0.25, 0.5, 1.0),
         "target_std_frac": (0.0, 0.03, 0.06),

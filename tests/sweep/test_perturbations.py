@@ -17,10 +17,11 @@ CASES = [
     ("Singulation-v0", {"mass_ratio": 1.0, "friction_scale": 1.0}, {"friction_scale": 0.2}, 40),
     (
         "GraspingInClutter-v0",
-        {"obstacle_size_scale": 1.0, "friction": 0.5},
+        {"obstacle_size_scale": 1.0, "friction": 0.5, "obstacles": 5},
         {"obstacle_size_scale": 1.25},
         20,
     ),
+    ("GraspingInClutter-v0", {"obstacles": 5}, {"obstacles": 2}, 20),
     (
         "DrivingTrack-v0",
         {"edges": None, "obs_noise": 0.0, "obs_type": "state"},
@@ -72,6 +73,7 @@ def test_defaults_are_the_nominal_env_and_perturbations_change_it(
         ("Singulation-v0", {"friction_scale": -1.0}, "friction_scale"),
         ("GraspingInClutter-v0", {"obstacle_size_scale": 2.0}, "obstacle_size_scale"),
         ("GraspingInClutter-v0", {"friction": "high"}, "friction"),
+        ("GraspingInClutter-v0", {"obstacles": 6}, "obstacles"),
         ("DrivingTrack-v0", {"edges": 12}, "edges"),
         ("DrivingTrack-v0", {"obs_noise": float("nan")}, "obs_noise"),
         ("Hopper-IL-v0", {"gravity": -9.81}, "gravity"),
