@@ -214,8 +214,8 @@ def run(args: argparse.Namespace) -> int:
                         args.out, grid, args.episodes, args.seed, max_steps, env_id, fixed
                     )
                 print(
-                    f"training the default policy: {args.algo}, {args.iterations} iteration(s) "
-                    f"of {args.demos} supervisor demonstrations"
+                    f"training the default policy: {args.algo} (--demos {args.demos}, "
+                    f"--iterations {args.iterations})"
                 )
 
             path = train_default_policy(

@@ -1,10 +1,12 @@
 """Sensitivity studies beyond FLUIDS: the supervisor and Behavior Cloning over a 3 x 3 x 3 grid
 of each task's perturbation kwargs (the question of the source's Fig. 7.6, asked of other tasks).
 
-For each task, two resumable ``fluids-bench sweep`` runs in ``--out/<task>/``: ``supervisor``
-(the reference) and ``bc`` (a decision tree trained on ``--demos`` supervisor demonstrations of
-the nominal configuration, the registered defaults plus the study's fixed kwargs, then tested on
-every configuration). Writes ``docs/results/sweep_<task>.json`` (``--results-dir``): the
+For each task, three resumable ``fluids-bench sweep`` runs in ``--out/<task>/``: ``supervisor``
+(the reference), ``bc`` (a decision tree trained on the task's number of supervisor
+demonstrations of the nominal configuration: the registered defaults plus the study's fixed
+kwargs) and ``dagger`` (a decision tree, one demonstration then 4 iterations of a quarter of that
+number of on-policy rollouts, labelled by the supervisor, on the same configuration), each then
+tested on every configuration. Writes ``docs/results/sweep_<task>.json`` (``--results-dir``): the
 settings, the command, every row, and per-factor summaries (success rate, or the return
 normalised by the best configuration's where the env reports no success) with standard errors.
 
@@ -54,7 +56,7 @@ STUDIES = {
         10,
     ),
 }
-EXPECTED_MINUTES = {"singulation": 0.7, "track": 0.3, "hopper": 1.2}  # 10 episodes, 2 workers
+EXPECTED_MINUTES = {"singulation": 1.0, "track": 0.5, "hopper": 1.8}  # 10 episodes, 2 workers
 
 
 def run_task(task: str, args: argparse.Namespace) -> dict:
@@ -74,9 +76,14 @@ def run_task(task: str, args: argparse.Namespace) -> dict:
         "seed": args.seed,
         "policies": {},
     }
-    for policy in ("supervisor", "bc"):
+    trained = {
+        "supervisor": ["--policy", "supervisor"],
+        "bc": ["--demos", str(demos)],
+        "dagger": ["--algo", "dagger", "--iterations", "4", "--demos", str(demos // 4)],
+    }
+    for policy, extra in trained.items():
+        started = time.perf_counter()
         folder = args.out / task / policy
-        extra = ["--policy", "supervisor"] if policy == "supervisor" else ["--demos", str(demos)]
         if cli([*base, "--out", str(folder), *extra]) != 0:
             raise SystemExit(f"the {task} {policy} sweep failed")
         rows = load_rows(folder)
@@ -85,7 +92,13 @@ def run_task(task: str, args: argparse.Namespace) -> dict:
         out["policies"][policy] = {
             "summary": summary(rows, grid, metric),
             "rows": rows,
+            "seconds": round(time.perf_counter() - started, 1),
             **({"demonstrations": demos, "learner": "tree"} if policy == "bc" else {}),
+            **(
+                {"initial_demos": 1, "iterations": 4, "rollouts_per_iteration": demos // 4}
+                if policy == "dagger"
+                else {}
+            ),
         }
     return out
 

@@ -44,7 +44,14 @@ def render(data, **_):
         "that value of their mean return ± its standard error over those configurations; in "
         "brackets, divided by the supervisor's mean return at the nominal configuration (every "
         f"scale 1: {nominal:,.0f}). BC: a decision tree on {bc['demonstrations']} supervisor "
-        f"demonstrations of the nominal configuration. Run time {data['seconds']:.0f} s on a "
-        f"{data['machine']}."
+        "demonstrations of the nominal configuration."
     )
+    dagger = policies.get("dagger")
+    if dagger:
+        note += (
+            f" DAgger: a decision tree, {dagger['initial_demos']} demonstration then "
+            f"{dagger['iterations']} iterations of {dagger['rollouts_per_iteration']} on-policy "
+            "rollouts labelled by the supervisor, on the same configuration."
+        )
+    note += f" Run time {data['seconds']:.0f} s on a {data['machine']}."
     return "\n".join(rows) + "\n\n" + note

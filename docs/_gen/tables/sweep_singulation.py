@@ -46,5 +46,12 @@ def render(data, **_):
             f" BC: a decision tree on {bc['demonstrations']} supervisor demonstrations of the "
             "nominal configuration (the registered defaults)."
         )
+    dagger = policies.get("dagger")
+    if dagger:
+        note += (
+            f" DAgger: a decision tree, {dagger['initial_demos']} demonstration then "
+            f"{dagger['iterations']} iterations of {dagger['rollouts_per_iteration']} on-policy "
+            "rollouts labelled by the supervisor, on the same configuration."
+        )
     note += f" Run time {data['seconds']:.0f} s on a {data['machine']}."
     return "\n".join(rows) + "\n\n" + note
