@@ -119,6 +119,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "default: the env's own defaults)",
     )
     parser.add_argument(
+        "--train-values",
+        action="append",
+        type=_values,
+        default=[],
+        metavar="NAME=V1,V2",
+        help="train-on-grid / test-on-grid: train one policy per configuration of these env "
+        "kwargs (repeatable), sweep each over the test grid in OUT/train_<k>/, and write "
+        "OUT/matrix.json and OUT/matrix.md",
+    )
+    parser.add_argument(
         "--check-episodes",
         type=int,
         default=0,
@@ -146,21 +156,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def run(args: argparse.Namespace) -> int:
-    from tqdm.auto import tqdm
-
     from fluids_bench.core.validation import check_int
     from fluids_bench.sweep.grid import make_grid
-    from fluids_bench.sweep.plot import metric_for, plot_sensitivity, write_kwarg_outputs
-    from fluids_bench.sweep.run import (
-        MAX_EPISODE_STEPS,
-        SUPERVISOR_POLICY,
-        check_env_id,
-        check_folder_for_new_policy,
-        load_policy,
-        probe_env,
-        run_sweep,
-        train_default_policy,
-    )
+    from fluids_bench.sweep.run import MAX_EPISODE_STEPS, check_env_id, probe_env
 
     check_int("sweep", "episodes", args.episodes, 1)
     check_int("sweep", "seed", args.seed, 0, 2**32 - 1)
@@ -201,9 +199,116 @@ def run(args: argparse.Namespace) -> int:
         except ImportError as exc:  # the ray extra is missing
             print(f"fluids-bench sweep: error: {exc}", file=sys.stderr)
             return 2
+    if args.train_values:
+        return _run_matrix(args, grid, env_id, fixed, max_steps, workers)
+    if (args.out / MATRIX).exists() or any(args.out.glob("train_*/manifest.json")):
+        raise FileExistsError(f"{args.out} holds a train-on-grid matrix; use another --out folder")
+    _run_one(args, grid, env_id, fixed, max_steps, workers)
+    return 0
+
+
+MATRIX = "matrix.json"
+
+
+def _run_matrix(args, grid, env_id, fixed, max_steps, workers) -> int:
+    """Train one policy per configuration of the ``--train-values`` grid and sweep each over the
+    test grid, in OUT/train_<k>/; then OUT/matrix.json and OUT/matrix.md."""
+    import copy
+    import json
+
+    from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
+    from fluids_bench.sweep.grid import KwargGrid
+    from fluids_bench.sweep.plot import metric_for, summary
+    from fluids_bench.sweep.run import probe_env
+
+    if grid.legacy:
+        raise ValueError(
+            "sweep: field 'train_values' is given with the FLUIDS-Sensitivity grid; allowed: "
+            "only with --values over env keyword arguments"
+        )
+    if args.policy is not None:
+        raise ValueError(
+            f"sweep: field 'train_values' is given with --policy {args.policy}; allowed: only "
+            "with a policy the sweep trains (--algo)"
+        )
+    if (args.out / "manifest.json").exists():
+        raise FileExistsError(f"{args.out} holds a single sweep; use another --out folder")
+    train_grid = KwargGrid(dict(args.train_values))
+    base = {**fixed, **dict(args.train_kwarg)}
+    probe_env(train_grid, env_id, base)  # every training value checked by the env first
+    entries = []
+    for k, config in train_grid.configurations():
+        print(f"training configuration {k + 1} of {len(train_grid)}: {config}")
+        one = copy.copy(args)
+        one.out = args.out / f"train_{k}"
+        one.plot = None
+        one.train_kwarg = [*args.train_kwarg, *config.items()]
+        rows = _run_one(one, grid, env_id, fixed, max_steps, workers)
+        data = summary(rows, grid, metric_for(one.out, env_id))
+        entries.append({"train": config, "folder": one.out.name, "summary": data})
+    matrix = {
+        "env_id": env_id,
+        "train_grid": train_grid.to_dict(),
+        "test_grid": grid.to_dict(),
+        "train_kwargs": base,
+        "entries": entries,
+    }
+    write_json_atomic(args.out / MATRIX, json.loads(json.dumps(matrix)))
+    write_bytes_atomic(args.out / "matrix.md", _matrix_markdown(matrix).encode())
+    print(f"wrote {args.out / MATRIX} and {args.out / 'matrix.md'}")
+    return 0
+
+
+def _matrix_markdown(matrix) -> str:
+    """One table per factor both grids vary: training value(s) × test level; and the overall
+    metric of every training configuration."""
+    entries = matrix["entries"]
+    metric = entries[0]["summary"]["metric"] if entries else "success"
+    name = "success rate" if metric == "success" else "normalised return"
+    lines = [f"Overall {name} of each training configuration over the whole test grid:", ""]
+    lines += ["| trained on | overall |", "|---|---|"]
+    for e in entries:
+        lines.append(f"| {_kwargs_text(e['train'])} | {e['summary']['overall']:.3f} |")
+    for factor, levels in matrix["test_grid"].items():
+        if factor not in matrix["train_grid"]:
+            continue
+        lines += ["", f"{name} by the test value of `{factor}` (rows: trained on):", ""]
+        lines.append("| trained on | " + " | ".join(str(v) for v in levels) + " |")
+        lines.append("|---|" + "---|" * len(levels))
+        for e in entries:
+            by_level = {str(x["value"]): x for x in e["summary"]["factors"][factor]}
+            cells = [
+                f"{by_level[str(v)]['metric']:.3f} ± {by_level[str(v)]['stderr']:.3f}"
+                if str(v) in by_level
+                else ""
+                for v in levels
+            ]
+            lines.append(f"| {_kwargs_text(e['train'])} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _kwargs_text(kwargs) -> str:
+    return ", ".join(f"{k}={v}" for k, v in kwargs.items())
+
+
+def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
+    """Train (or load) the policy, sweep it over ``grid`` into ``args.out``, write the plots;
+    the rows."""
+    from tqdm.auto import tqdm
+
+    from fluids_bench.sweep.plot import metric_for, plot_sensitivity, write_kwarg_outputs
+    from fluids_bench.sweep.run import (
+        SUPERVISOR_POLICY,
+        check_folder_for_new_policy,
+        load_policy,
+        run_sweep,
+        train_default_policy,
+    )
+
     args.out.mkdir(parents=True, exist_ok=True)
     if args.policy == SUPERVISOR_POLICY:
         policy = policy_bytes = None
+
     else:
         path = Path(args.policy) if args.policy else None
         if path is None:
@@ -293,7 +398,7 @@ def run(args: argparse.Namespace) -> int:
         f"{counts['cpu']:.1f} s CPU in the workers ({workers} {args.backend} workers)"
     )
     print(f"wrote {', '.join(str(p) for p in [args.out / 'results.csv', plot_path, *extra])}")
-    return 0
+    return rows
 
 
 def _print_check(folder: Path) -> None:

@@ -206,7 +206,7 @@ def parse_values(text: str) -> tuple[str, list[Any]]:
 # -- any registered id: a grid over its keyword arguments ------------------------------------
 
 KINDS = ("bool", "int", "float", "str")
-_BAD_TEXT = set(',"\'\n\r')
+_BAD_TEXT = set(",\"'\n\r")
 
 
 def _kind(name: str, raw: Sequence[Any]) -> str:

@@ -139,9 +139,7 @@ def pair_table(
     for va in grid.values[a]:
         line = []
         for vb in grid.values[b]:
-            chosen = [
-                i for i, r in enumerate(rows) if _matches(r, a, va) and _matches(r, b, vb)
-            ]
+            chosen = [i for i, r in enumerate(rows) if _matches(r, a, va) and _matches(r, b, vb)]
             line.append(sum(per_row[i] for i in chosen) / len(chosen) if chosen else math.nan)
         table.append(line)
     return table

@@ -36,9 +36,7 @@ def test_kwarg_grid_order_kinds_and_normalisation():
 
 
 def test_make_grid_keeps_the_source_grid_for_its_ids_and_defaults_elsewhere():
-    assert make_grid("FLUIDS-Sensitivity-v0", [("cars", [2])]) == Grid.with_overrides(
-        {"cars": [2]}
-    )
+    assert make_grid("FLUIDS-Sensitivity-v0", [("cars", [2])]) == Grid.with_overrides({"cars": [2]})
     assert make_grid("FLUIDS-Sensitivity-v1", [("lanes", [1, 2])]).names == ("lanes",)
     assert make_grid("Singulation-v0", []).names == tuple(SENSITIVITY["Singulation-v0"])
     assert make_grid("Singulation-v0", [parse_values("mass_ratio=1,2")]).names == ("mass_ratio",)
@@ -133,3 +131,24 @@ def test_store_layout_round_trips_strings_and_summaries(tmp_path):
     assert pair_table(rows, grid, "layout", "lights", "success") == [[0.0, 0.5], [1.0, 0.0]]
     data = summary(rows, grid, "success")
     assert [e["episodes"] for e in data["factors"]["layout"]] == [4, 4]
+
+
+def test_train_on_grid_test_on_grid_matrix(tmp_path, capsys):
+    out = tmp_path / "m"
+    args = ["sweep", "--out", str(out), "--env", "GridWorld-v0", "--demos", "2"]
+    args += ["--values", "slip_probability=0,0.3", "--train-values", "slip_probability=0,0.3"]
+    args += ["--episodes", "2", "--no-progress", "--workers", "1"]
+    assert main(args) == 0
+    matrix = json.loads((out / "matrix.json").read_text())
+    trained = [e["train"] for e in matrix["entries"]]
+    assert trained == [{"slip_probability": 0}, {"slip_probability": 0.3}]
+    for k, entry in enumerate(matrix["entries"]):
+        info = json.loads((out / f"train_{k}" / "policy.json").read_text())
+        assert info["settings"]["config"]["env_kwargs"] == entry["train"]
+        assert len(load_rows(out / f"train_{k}")) == 2
+    assert "trained on" in (out / "matrix.md").read_text()
+    assert main(args) == 0  # resumes: nothing retrained, nothing rerun
+    assert "resuming: 2 of 2" in capsys.readouterr().out
+    # a plain sweep is not written into a matrix folder, nor the supervisor into a matrix
+    assert main(["sweep", "--out", str(out), *GRIDWORLD]) == 2
+    assert main([*args, "--policy", "supervisor"]) == 2

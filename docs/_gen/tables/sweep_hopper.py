@@ -34,7 +34,9 @@ def render(data, **_):
     overall = []
     for p in names:
         returns = [r["mean_return"] for r in policies[p]["rows"]]
-        overall.append(f"{sum(returns) / len(returns):,.0f} ({sum(returns) / len(returns) / nominal:.2f})")
+        overall.append(
+            f"{sum(returns) / len(returns):,.0f} ({sum(returns) / len(returns) / nominal:.2f})"
+        )
     rows.append("| all | | " + " | ".join(overall) + " |")
     bc = policies["bc"]
     size = math.prod(len(v) for v in data["grid"].values())
