@@ -206,6 +206,10 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
             self._supervisor = make_supervisor(
                 self.task, kind, self._sim, weights, weights_sha256, mpc
             )
+            # Humanoid's planner compiles its own copy of the model (with a sensor): perturb it
+            planner = getattr(getattr(self._supervisor, "mpc", None), "model", None)
+            if planner is not None and planner is not self._sim.model:
+                perturb_model(planner, **physics)
         self.render_mode = render_mode
         self.observation_space = self._sim.observation_space
         self.action_space = self._sim.action_space
