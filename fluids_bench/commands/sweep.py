@@ -1,4 +1,5 @@
-"""``fluids-bench sweep``: the sensitivity analysis of ch. 7 (Fig. 7.6) over a parameter grid.
+"""``fluids-bench sweep``: a sensitivity sweep of a policy over a grid of env configurations
+(for FLUIDS the analysis of ch. 7, Fig. 7.6).
 
 Evaluates a policy on every configuration of the grid (default: cars 2–5, pedestrians 0–4,
 quasi-LIDAR noise and omission, lights, car mass; 256 configurations) with ``--episodes``
@@ -11,10 +12,21 @@ same command again after an interruption and it resumes. Example::
     fluids-bench sweep --env FLUIDS-Sensitivity-v1 --out out/sweep_v1 \
         --values car_mass=750,1500,3000 --check-episodes 100
 
-The default policy is Behavior Cloning on ``--demos`` supervisor demonstrations (trained once,
-cached in the output folder); ``--policy PATH`` evaluates a pickled policy instead (anything
-with ``act(observation)``; pickles run code, load only your own), ``--policy supervisor`` the
-supervisor itself.
+Any registered id: ``--env ID --values NAME=V1,V2`` (repeatable) sweeps those keyword
+arguments of the env (checked by the env itself before any work); without ``--values`` the id's
+default sensitivity grid (``fluids_bench.sweep.grid.SENSITIVITY``). ``--env-kwarg K=V`` fixes a
+kwarg for training and every test configuration; ``--train-kwarg K=V`` for training only::
+
+    fluids-bench sweep --env Singulation-v0 --policy supervisor --out out/sing --episodes 10
+    fluids-bench sweep --env DrivingTrack-v0 --env-kwarg obs_type=state --algo dagger \
+        --iterations 3 --demos 5 --values edges=3,5,7 --values speed=7.5,10,12.5
+
+The default policy is ``--algo`` (Behavior Cloning unless told) trained on ``--demos``
+supervisor demonstrations per iteration (trained once, cached in the output folder);
+``--policy PATH`` evaluates a pickled policy instead (anything with ``act(observation)``;
+pickles run code, load only your own), ``--policy supervisor`` the supervisor itself.
+Besides the sensitivity PNG, a kwarg grid writes heatmaps for every pair of factors
+(OUT/heatmaps.png) and a summary table (OUT/summary.md).
 """
 
 from __future__ import annotations
@@ -50,8 +62,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--env",
         default="FLUIDS-Sensitivity-v0",
-        help="FLUIDS-Sensitivity-v0 (default, the source's setting) or FLUIDS-Sensitivity-v1 "
-        "(defensive drivers, quasi-LIDAR v1, success obeys lights)",
+        help="a registered id (default FLUIDS-Sensitivity-v0, the source's setting; "
+        "FLUIDS-Sensitivity-v1: defensive drivers, quasi-LIDAR v1, success obeys lights)",
     )
     parser.add_argument("--episodes", type=int, default=20, help="episodes per configuration")
     parser.add_argument(
@@ -63,7 +75,25 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         type=_values,
         default=[],
         metavar="NAME=V1,V2",
-        help=f"replace one parameter's values; NAME in {', '.join(ORDER)}",
+        help=f"one factor's values: FLUIDS-Sensitivity ids replace one of {', '.join(ORDER)}; "
+        "otherwise NAME is an env keyword argument and the --values given are the whole grid",
+    )
+    parser.add_argument(
+        "--env-kwarg",
+        action="append",
+        type=_key_value,
+        default=[],
+        metavar="K=V",
+        help="env keyword argument fixed for training and every test configuration "
+        "(kwarg grids only), e.g. obs_type=state",
+    )
+    parser.add_argument(
+        "--algo",
+        default="bc",
+        help="algorithm of the default policy (bc, dagger, dart, shiv, ...; default bc)",
+    )
+    parser.add_argument(
+        "--iterations", type=int, default=1, help="training iterations (default policy)"
     )
     parser.add_argument(
         "--policy",
@@ -71,7 +101,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         metavar="PATH",
         help="pickled policy to evaluate, or 'supervisor' (default: train BC, cached in --out)",
     )
-    parser.add_argument("--demos", type=int, default=100, help="BC demonstrations (default policy)")
+    parser.add_argument(
+        "--demos",
+        type=int,
+        default=100,
+        help="supervisor demonstrations (per iteration) of the default policy",
+    )
     parser.add_argument("--learner", default="tree", help="BC model family (default policy)")
     parser.add_argument("--train-seed", type=int, default=0, help="BC seed (default policy)")
     parser.add_argument(
@@ -84,6 +119,16 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "default: the env's own defaults)",
     )
     parser.add_argument(
+        "--train-values",
+        action="append",
+        type=_values,
+        default=[],
+        metavar="NAME=V1,V2",
+        help="train-on-grid / test-on-grid: train one policy per configuration of these env "
+        "kwargs (repeatable), sweep each over the test grid in OUT/train_<k>/, and write "
+        "OUT/matrix.json and OUT/matrix.md",
+    )
+    parser.add_argument(
         "--check-episodes",
         type=int,
         default=0,
@@ -94,7 +139,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--max-episode-steps",
         type=int,
         default=None,
-        help="episode time limit in steps of 0.1 s (default 400)",
+        help="episode time limit in steps (default: 400 on the FLUIDS-Sensitivity ids, "
+        "the registered limit elsewhere)",
     )
     parser.add_argument(
         "--workers", type=int, default=None, help="parallel workers (default: CPU count)"
@@ -110,32 +156,41 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def run(args: argparse.Namespace) -> int:
-    from tqdm.auto import tqdm
-
     from fluids_bench.core.validation import check_int
-    from fluids_bench.sweep.grid import Grid
-    from fluids_bench.sweep.plot import plot_sensitivity
-    from fluids_bench.sweep.run import (
-        MAX_EPISODE_STEPS,
-        SUPERVISOR_POLICY,
-        check_env_id,
-        check_folder_for_new_policy,
-        load_policy,
-        probe_env,
-        run_sweep,
-        train_default_policy,
-    )
+    from fluids_bench.sweep.grid import make_grid
+    from fluids_bench.sweep.run import MAX_EPISODE_STEPS, check_env_id, probe_env
 
     check_int("sweep", "episodes", args.episodes, 1)
     check_int("sweep", "seed", args.seed, 0, 2**32 - 1)
     workers = args.workers or os.cpu_count() or 1
     check_int("sweep", "workers", workers, 1)
-    max_steps = args.max_episode_steps or MAX_EPISODE_STEPS
-    check_int("sweep", "max_episode_steps", max_steps, 1)
     check_int("sweep", "check_episodes", args.check_episodes, 0)
-    env_id = check_env_id(args.env)
-    grid = Grid.with_overrides(dict(args.values))
-    probe_env(grid, env_id)  # a bad grid fails now, not in a worker
+    check_int("sweep", "iterations", args.iterations, 1)
+    import fluids_bench  # noqa: F401  (registers the ids)
+
+    grid = make_grid(args.env, args.values)
+    env_id = check_env_id(args.env, grid)
+    if grid.legacy:
+        max_steps = args.max_episode_steps or MAX_EPISODE_STEPS
+        if args.env_kwarg:
+            raise ValueError(
+                "sweep: field 'env_kwarg' is given with the FLUIDS-Sensitivity grid; allowed: "
+                "only with --values over env keyword arguments"
+            )
+    else:
+        max_steps = args.max_episode_steps
+    if max_steps is not None:
+        check_int("sweep", "max_episode_steps", max_steps, 1)
+    fixed = dict(args.env_kwarg)
+    both = sorted(set(fixed) & set(grid.names))
+    if both:
+        raise ValueError(
+            f"sweep: field 'env_kwarg' is {both}, which the grid varies; allowed: other kwargs"
+        )
+    from fluids_bench.algos.registry import get_algorithm
+
+    get_algorithm(args.algo)  # an unknown algorithm fails now
+    probe_env(grid, env_id, fixed)  # a bad grid fails now, not in a worker
     if args.backend == "ray":
         try:
             from fluids_bench.data.collect import import_ray
@@ -144,9 +199,116 @@ def run(args: argparse.Namespace) -> int:
         except ImportError as exc:  # the ray extra is missing
             print(f"fluids-bench sweep: error: {exc}", file=sys.stderr)
             return 2
+    if args.train_values:
+        return _run_matrix(args, grid, env_id, fixed, max_steps, workers)
+    if (args.out / MATRIX).exists() or any(args.out.glob("train_*/manifest.json")):
+        raise FileExistsError(f"{args.out} holds a train-on-grid matrix; use another --out folder")
+    _run_one(args, grid, env_id, fixed, max_steps, workers)
+    return 0
+
+
+MATRIX = "matrix.json"
+
+
+def _run_matrix(args, grid, env_id, fixed, max_steps, workers) -> int:
+    """Train one policy per configuration of the ``--train-values`` grid and sweep each over the
+    test grid, in OUT/train_<k>/; then OUT/matrix.json and OUT/matrix.md."""
+    import copy
+    import json
+
+    from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
+    from fluids_bench.sweep.grid import KwargGrid
+    from fluids_bench.sweep.plot import metric_for, summary
+    from fluids_bench.sweep.run import probe_env
+
+    if grid.legacy:
+        raise ValueError(
+            "sweep: field 'train_values' is given with the FLUIDS-Sensitivity grid; allowed: "
+            "only with --values over env keyword arguments"
+        )
+    if args.policy is not None:
+        raise ValueError(
+            f"sweep: field 'train_values' is given with --policy {args.policy}; allowed: only "
+            "with a policy the sweep trains (--algo)"
+        )
+    if (args.out / "manifest.json").exists():
+        raise FileExistsError(f"{args.out} holds a single sweep; use another --out folder")
+    train_grid = KwargGrid(dict(args.train_values))
+    base = {**fixed, **dict(args.train_kwarg)}
+    probe_env(train_grid, env_id, base)  # every training value checked by the env first
+    entries = []
+    for k, config in train_grid.configurations():
+        print(f"training configuration {k + 1} of {len(train_grid)}: {config}")
+        one = copy.copy(args)
+        one.out = args.out / f"train_{k}"
+        one.plot = None
+        one.train_kwarg = [*args.train_kwarg, *config.items()]
+        rows = _run_one(one, grid, env_id, fixed, max_steps, workers)
+        data = summary(rows, grid, metric_for(one.out, env_id))
+        entries.append({"train": config, "folder": one.out.name, "summary": data})
+    matrix = {
+        "env_id": env_id,
+        "train_grid": train_grid.to_dict(),
+        "test_grid": grid.to_dict(),
+        "train_kwargs": base,
+        "entries": entries,
+    }
+    write_json_atomic(args.out / MATRIX, json.loads(json.dumps(matrix)))
+    write_bytes_atomic(args.out / "matrix.md", _matrix_markdown(matrix).encode())
+    print(f"wrote {args.out / MATRIX} and {args.out / 'matrix.md'}")
+    return 0
+
+
+def _matrix_markdown(matrix) -> str:
+    """One table per factor both grids vary: training value(s) × test level; and the overall
+    metric of every training configuration."""
+    entries = matrix["entries"]
+    metric = entries[0]["summary"]["metric"] if entries else "success"
+    name = "success rate" if metric == "success" else "normalised return"
+    lines = [f"Overall {name} of each training configuration over the whole test grid:", ""]
+    lines += ["| trained on | overall |", "|---|---|"]
+    for e in entries:
+        lines.append(f"| {_kwargs_text(e['train'])} | {e['summary']['overall']:.3f} |")
+    for factor, levels in matrix["test_grid"].items():
+        if factor not in matrix["train_grid"]:
+            continue
+        lines += ["", f"{name} by the test value of `{factor}` (rows: trained on):", ""]
+        lines.append("| trained on | " + " | ".join(str(v) for v in levels) + " |")
+        lines.append("|---|" + "---|" * len(levels))
+        for e in entries:
+            by_level = {str(x["value"]): x for x in e["summary"]["factors"][factor]}
+            cells = [
+                f"{by_level[str(v)]['metric']:.3f} ± {by_level[str(v)]['stderr']:.3f}"
+                if str(v) in by_level
+                else ""
+                for v in levels
+            ]
+            lines.append(f"| {_kwargs_text(e['train'])} | " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _kwargs_text(kwargs) -> str:
+    return ", ".join(f"{k}={v}" for k, v in kwargs.items())
+
+
+def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
+    """Train (or load) the policy, sweep it over ``grid`` into ``args.out``, write the plots;
+    the rows."""
+    from tqdm.auto import tqdm
+
+    from fluids_bench.sweep.plot import metric_for, plot_sensitivity, write_kwarg_outputs
+    from fluids_bench.sweep.run import (
+        SUPERVISOR_POLICY,
+        check_folder_for_new_policy,
+        load_policy,
+        run_sweep,
+        train_default_policy,
+    )
+
     args.out.mkdir(parents=True, exist_ok=True)
     if args.policy == SUPERVISOR_POLICY:
         policy = policy_bytes = None
+
     else:
         path = Path(args.policy) if args.policy else None
         if path is None:
@@ -154,9 +316,12 @@ def run(args: argparse.Namespace) -> int:
             def before_training() -> None:  # refuse a folder of another sweep before training
                 if not args.overwrite:
                     check_folder_for_new_policy(
-                        args.out, grid, args.episodes, args.seed, max_steps, env_id
+                        args.out, grid, args.episodes, args.seed, max_steps, env_id, fixed
                     )
-                print(f"training the default policy: BC on {args.demos} supervisor demonstrations")
+                print(
+                    f"training the default policy: {args.algo} (--demos {args.demos}, "
+                    f"--iterations {args.iterations})"
+                )
 
             path = train_default_policy(
                 args.out,
@@ -167,7 +332,9 @@ def run(args: argparse.Namespace) -> int:
                 before_training=before_training,
                 env_id=env_id,
                 check_episodes=args.check_episodes,
-                train_kwargs=dict(args.train_kwarg),
+                train_kwargs={**fixed, **dict(args.train_kwarg)},
+                algo=args.algo,
+                iterations=args.iterations,
             )
             _print_check(args.out)
         policy, policy_bytes = load_policy(path)
@@ -208,21 +375,30 @@ def run(args: argparse.Namespace) -> int:
             on_start=on_start,
             on_row=on_row,
             env_id=env_id,
+            fixed=fixed,
         )
     finally:
         for bar in bars:
             bar.close()
     seconds = time.perf_counter() - started
-    plot_sensitivity(rows, grid, plot_path)
+    metric = metric_for(args.out, env_id)
+    plot_sensitivity(rows, grid, plot_path, metric=metric)
+    extra = write_kwarg_outputs(rows, grid, args.out, env_id) if not grid.legacy else []
     episodes = sum(r["episodes"] for r in rows)
     successes = sum(r["successes"] for r in rows)
+    returns = (
+        ""
+        if grid.legacy
+        else f", mean return {sum(r['mean_return'] for r in rows) / len(rows):.3f}"
+    )
     print(
-        f"{len(rows)} configurations, {episodes} episodes, success rate {successes / episodes:.3f}; "
+        f"{len(rows)} configurations, {episodes} episodes, success rate {successes / episodes:.3f}"
+        f"{returns}; "
         f"this run: {counts['episodes']} episodes in {seconds:.1f} s wall, "
         f"{counts['cpu']:.1f} s CPU in the workers ({workers} {args.backend} workers)"
     )
-    print(f"wrote {args.out / 'results.csv'} and {plot_path}")
-    return 0
+    print(f"wrote {', '.join(str(p) for p in [args.out / 'results.csv', plot_path, *extra])}")
+    return rows
 
 
 def _print_check(folder: Path) -> None:

@@ -32,11 +32,11 @@ from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
 from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.sweep.backends import run_tasks
-from fluids_bench.sweep.grid import Grid, env_kwargs
-from fluids_bench.sweep.store import ResultStore
+from fluids_bench.sweep.grid import LEGACY_IDS, Grid, KwargGrid, env_kwargs
+from fluids_bench.sweep.store import Layout, ResultStore
 
 ENV_ID = "FLUIDS-Sensitivity-v0"  # the default (the source's setting)
-ENV_IDS = ("FLUIDS-Sensitivity-v0", "FLUIDS-Sensitivity-v1")
+ENV_IDS = LEGACY_IDS  # the ids of the source's six-parameter grid (Grid)
 CHECK_SEED = 900_000  # seeds of the in-distribution check of a trained policy (not training's)
 # 40 s of simulated time instead of the registered 600 steps. With the supervisor acting, every
 # (cars, pedestrians, lights, mass) cell of the default grid, 5 episodes each, gave the same
@@ -55,8 +55,10 @@ class ConfigTask:
     index: int
     configuration: dict[str, Any]
     env_id: str
-    max_episode_steps: int
+    max_episode_steps: int | None
     seeds: tuple[int, ...]
+    # a KwargGrid's configuration: the env kwargs (fixed ones included); None: the legacy grid
+    kwargs: dict[str, Any] | None = None
 
 
 def episode_seeds(seed: int, index: int, episodes: int) -> tuple[int, ...]:
@@ -68,6 +70,8 @@ def episode_seeds(seed: int, index: int, episodes: int) -> tuple[int, ...]:
 def evaluate_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
     """Run one configuration's episodes; its result row. ``cpu_seconds`` (this process's CPU
     time for it) is reported but not stored: stored rows must reproduce exactly."""
+    if task.kwargs is not None:
+        return evaluate_kwarg_config(task, policy)
     cpu_start = time.process_time()
     env = gym.make(
         task.env_id, max_episode_steps=task.max_episode_steps, **env_kwargs(task.configuration)
@@ -98,23 +102,92 @@ def evaluate_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
     }
 
 
-def check_env_id(env_id: str) -> str:
+def evaluate_kwarg_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
+    """A KwargGrid configuration's row: successes (``info["is_success"]`` at the end, where the
+    env reports it), terminations, truncations and the episode returns."""
+    cpu_start = time.process_time()
+    assert task.kwargs is not None
+    limit = {} if task.max_episode_steps is None else {"max_episode_steps": task.max_episode_steps}
+    env = gym.make(task.env_id, **limit, **task.kwargs)
+    actor: Actor = SUPERVISOR if policy is None else LearnerActor(policy)
+    returns, successes, terminations, truncations, steps = [], 0, 0, 0, 0
+    try:
+        for seed in task.seeds:
+            trajectory = rollout(env, actor, seed)
+            successes += bool(trajectory.infos[-1].get("is_success", False))
+            terminations += trajectory.terminated
+            truncations += trajectory.truncated
+            steps += len(trajectory)
+            returns.append(float(trajectory.rewards.sum()))
+    finally:
+        env.close()
+    episodes = len(task.seeds)
+    values = np.asarray(returns, dtype=np.float64)
+    return {
+        "index": task.index,
+        **task.configuration,
+        "episodes": episodes,
+        "successes": successes,
+        "terminations": terminations,
+        "truncations": truncations,
+        "success_rate": successes / episodes,
+        "mean_return": float(values.mean()),
+        "std_return": float(values.std(ddof=1)) if episodes > 1 else 0.0,
+        "mean_steps": steps / episodes,
+        "cpu_seconds": time.process_time() - cpu_start,
+    }
+
+
+def check_env_id(env_id: str, grid: Grid | KwargGrid | None = None) -> str:
+    """The source's six-parameter grid runs on the FLUIDS-Sensitivity ids only; a kwarg grid
+    (and a policy trained for one) on any registered Gymnasium id."""
+    if grid is not None and not grid.legacy:
+        if not isinstance(env_id, str) or env_id not in gym.registry:
+            raise ValueError(f"sweep: field 'env' is {env_id!r}; allowed: a registered id")
+        return env_id
     if env_id not in ENV_IDS:
-        raise ValueError(f"sweep: field 'env' is {env_id!r}; allowed: {list(ENV_IDS)}")
+        raise ValueError(
+            f"sweep: field 'env' is {env_id!r}; allowed: {list(ENV_IDS)} for the parameters "
+            f"{list(Grid.default().names)}, or any registered id with --values NAME=V1,V2 over "
+            "its keyword arguments"
+        )
     return env_id
 
 
-def probe_env(grid: Grid, env_id: str = ENV_ID) -> None:
-    """Build and reset the env at the grid's largest and smallest configurations (fail early)."""
-    check_env_id(env_id)
-    for pick in (0, -1):
-        configuration = {name: values[pick] for name, values in grid.values.items()}
+def configuration_kwargs(
+    grid: Grid | KwargGrid, configuration: dict[str, Any], fixed: Mapping[str, Any] | None
+) -> dict[str, Any]:
+    """The env kwargs of one configuration: ``fixed`` ones, then the grid's."""
+    return {**dict(fixed or {}), **grid.env_kwargs(configuration)}
+
+
+def probe_env(
+    grid: Grid | KwargGrid, env_id: str = ENV_ID, fixed: Mapping[str, Any] | None = None
+) -> None:
+    """Check every value of the grid with the env's own argument checks before any work: build
+    the env (and reset it) at the grid's first and last configurations and, for a kwarg grid,
+    at every single value of each parameter (the others at their first)."""
+    check_env_id(env_id, grid)
+    names = list(grid.values)
+    picks = [{n: grid.values[n][0] for n in names}, {n: grid.values[n][-1] for n in names}]
+    if not grid.legacy:
+        for name in names:
+            picks += [{**picks[0], name: value} for value in grid.values[name][1:-1]]
+    for configuration in picks:
         try:
-            env = gym.make(env_id, **env_kwargs(configuration))
+            env = gym.make(env_id, **configuration_kwargs(grid, configuration, fixed))
             env.reset(seed=0)
             env.close()
-        except ValueError as exc:
-            raise ValueError(f"grid configuration {configuration} is not valid: {exc}") from exc
+        except (ValueError, TypeError) as exc:
+            hint = ""
+            if not grid.legacy and set(names) & {"cars", "pedestrians"}:
+                hint = (
+                    f"; the source's six parameters {list(Grid.default().names)} belong to "
+                    f"the 'env' ids {list(ENV_IDS)}"
+                )
+            raise ValueError(
+                f"grid configuration {configuration} is not valid: {exc}{hint}"
+            ) from exc
 
 
 # -- the policy under evaluation ----------------------------------------------------------------
@@ -148,6 +221,8 @@ def train_default_policy(
     env_id: str = ENV_ID,
     check_episodes: int = 0,
     train_kwargs: Mapping[str, Any] | None = None,
+    algo: str = "bc",
+    iterations: int = 1,
 ) -> Path:
     """Behavior Cloning on ``demos`` supervisor demonstrations of ``env_id`` (its defaults: 4
     cars, 2 pedestrians, lights on, no sensor noise, 1500 kg), quasi-LIDAR to target velocity,
@@ -161,22 +236,29 @@ def train_default_policy(
     in-distribution success rate in ``policy.json`` (``in_distribution``). ``train_kwargs``:
     env keyword arguments for the demonstrations (e.g. ``{"lidar_noise": 1.0}``, an ablation:
     BC trained on what it will be tested on); the check then runs under them too."""
-    from fluids_bench.algos.bc import BCConfig, run
     from fluids_bench.algos.policies import PolicySpec
+    from fluids_bench.algos.registry import get_algorithm
 
     path, info_path = folder / POLICY_FILE, folder / "policy.json"
     train_kwargs = dict(train_kwargs or {})
-    config = BCConfig(
-        env_id=check_env_id(env_id),
-        env_kwargs=train_kwargs,
-        policy=PolicySpec(learner),
-        iterations=1,
-        demos_per_iteration=demos,
-        samples_per_demo=None,
-        eval_episodes=1,
-        seed=seed,
+    if env_id not in gym.registry:
+        raise ValueError(f"sweep: field 'env' is {env_id!r}; allowed: a registered id")
+    algorithm = get_algorithm(algo)
+    config = algorithm.config_class(
+        **{
+            **algorithm.presets,
+            "env_id": env_id,
+            "env_kwargs": train_kwargs,
+            "policy": PolicySpec(learner),
+            "iterations": iterations,
+            "demos_per_iteration": demos,
+            "samples_per_demo": None,
+            "eval_episodes": 1,
+            "seed": seed,
+        }
     )
-    settings = json.loads(json.dumps({"algo": "bc", "config": config.to_dict()}))
+    run = algorithm.run
+    settings = json.loads(json.dumps({"algo": algo, "config": config.to_dict()}))
     if path.exists() and info_path.exists():
         info = json.loads(info_path.read_text())
         if info.get("settings") == settings:
@@ -218,7 +300,8 @@ def in_distribution_check(
 ) -> dict[str, Any]:
     """Success of ``policy`` (None: the supervisor) on ``episodes`` seeded episodes of
     ``env_id`` with its registered defaults and ``env_kwargs`` (the distribution BC trains on)."""
-    env = gym.make(env_id, max_episode_steps=MAX_EPISODE_STEPS, **dict(env_kwargs or {}))
+    limit = {"max_episode_steps": MAX_EPISODE_STEPS} if env_id in ENV_IDS else {}
+    env = gym.make(env_id, **limit, **dict(env_kwargs or {}))
     actor: Actor = SUPERVISOR if policy is None else LearnerActor(policy)
     successes = collisions = timeouts = 0
     try:
@@ -243,14 +326,29 @@ def in_distribution_check(
 
 
 def manifest(
-    grid: Grid,
+    grid: Grid | KwargGrid,
     episodes: int,
     seed: int,
-    max_episode_steps: int,
+    max_episode_steps: int | None,
     policy_bytes: bytes | None,
     env_id: str = ENV_ID,
+    fixed: Mapping[str, Any] | None = None,
 ) -> dict[str, Any]:
-    """What a sweep's rows depend on (the store refuses to resume under another manifest)."""
+    """What a sweep's rows depend on (the store refuses to resume under another manifest).
+    Format 1: the FLUIDS-Sensitivity six-parameter grid; format 2: a kwarg grid (its value
+    kinds, the fixed env kwargs; ``max_episode_steps`` None is the registered limit)."""
+    if not grid.legacy:
+        return {
+            "format": 2,
+            "env_id": env_id,
+            "grid": grid.to_dict(),
+            "kinds": grid.kinds,
+            "env_kwargs": dict(fixed or {}),
+            "episodes": episodes,
+            "seed": seed,
+            "max_episode_steps": max_episode_steps,
+            "policy_sha256": policy_digest(policy_bytes),
+        }
     return {
         "format": 1,
         "env_id": env_id,
@@ -264,11 +362,12 @@ def manifest(
 
 def check_folder_for_new_policy(
     folder: str | Path,
-    grid: Grid,
+    grid: Grid | KwargGrid,
     episodes: int,
     seed: int,
-    max_episode_steps: int,
+    max_episode_steps: int | None,
     env_id: str = ENV_ID,
+    fixed: Mapping[str, Any] | None = None,
 ) -> None:
     """Refuse, before a new policy is trained, a folder that already holds a sweep: its rows were
     made with another policy (a cached default policy would have been reused), and maybe with
@@ -276,7 +375,7 @@ def check_folder_for_new_policy(
     existing = ResultStore(folder).read_manifest()
     if existing is None:
         return
-    wanted = manifest(grid, episodes, seed, max_episode_steps, None, env_id)
+    wanted = manifest(grid, episodes, seed, max_episode_steps, None, env_id, fixed)
     changed = sorted(
         k
         for k in wanted.keys() | existing.keys()
@@ -290,13 +389,13 @@ def check_folder_for_new_policy(
 
 def run_sweep(
     folder: str | Path,
-    grid: Grid,
+    grid: Grid | KwargGrid,
     policy: Any,
     policy_bytes: bytes | None,
     *,
     episodes: int = 20,
     seed: int = 0,
-    max_episode_steps: int = MAX_EPISODE_STEPS,
+    max_episode_steps: int | None = MAX_EPISODE_STEPS,
     backend: str = "process",
     workers: int = 1,
     address: str | None = None,
@@ -304,6 +403,7 @@ def run_sweep(
     on_start: Callable[[int, int], None] | None = None,
     on_row: Callable[[Mapping[str, Any]], None] | None = None,
     env_id: str = ENV_ID,
+    fixed: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
     """Evaluate ``policy`` (None: the supervisor) on every configuration of ``env_id`` not yet
     in ``folder``.
@@ -311,16 +411,30 @@ def run_sweep(
     ``on_start(done, total)`` is called once the finished rows are known, ``on_row(row)`` after
     each new row is stored. Returns all rows, sorted by configuration index.
     """
-    with ResultStore(folder) as store:
+    generic = not grid.legacy
+    with ResultStore(folder, Layout.of(grid)) as store:
         done = store.open(
-            manifest(grid, episodes, seed, max_episode_steps, policy_bytes, check_env_id(env_id)),
+            manifest(
+                grid,
+                episodes,
+                seed,
+                max_episode_steps,
+                policy_bytes,
+                check_env_id(env_id, grid),
+                fixed,
+            ),
             overwrite,
         )
         if on_start is not None:
             on_start(len(done), len(grid))
         tasks = (
             ConfigTask(
-                index, config, env_id, max_episode_steps, episode_seeds(seed, index, episodes)
+                index,
+                config,
+                env_id,
+                max_episode_steps,
+                episode_seeds(seed, index, episodes),
+                configuration_kwargs(grid, config, fixed) if generic else None,
             )
             for index, config in grid.configurations()
             if index not in done

@@ -48,33 +48,93 @@ INT_COLUMNS = {
 }
 
 
+# the rows of a sweep over any id's kwargs (manifest format 2): returns as well as successes
+KWARG_OUTCOMES = (
+    "episodes",
+    "successes",
+    "terminations",
+    "truncations",
+    "success_rate",
+    "mean_return",
+    "std_return",
+    "mean_steps",
+)
+KWARG_INT_OUTCOMES = {"episodes", "successes", "terminations", "truncations"}
+
+
+class Layout:
+    """The columns of a results file and how each cell is written and read: the FLUIDS
+    Sensitivity sweep's (``Layout()``, unchanged) or a kwarg grid's (``Layout.of(grid)``)."""
+
+    def __init__(
+        self,
+        columns: tuple[str, ...] = COLUMNS,
+        ints: set[str] | frozenset[str] = frozenset(INT_COLUMNS),
+        strings: set[str] | frozenset[str] = frozenset(),
+    ) -> None:
+        self.columns, self.ints, self.strings = tuple(columns), frozenset(ints), frozenset(strings)
+
+    @classmethod
+    def of(cls, grid: Any) -> Layout:
+        if getattr(grid, "legacy", True):
+            return cls()
+        kinds = grid.kinds
+        return cls.from_kinds(tuple(grid.names), kinds)
+
+    @classmethod
+    def from_kinds(cls, names: tuple[str, ...], kinds: Mapping[str, str]) -> Layout:
+        ints = {"index", *KWARG_INT_OUTCOMES, *(n for n in names if kinds[n] in ("int", "bool"))}
+        strings = {n for n in names if kinds[n] == "str"}
+        return cls(("index", *names, *KWARG_OUTCOMES), ints, strings)
+
+    @classmethod
+    def of_manifest(cls, manifest: Mapping[str, Any] | None) -> Layout:
+        if manifest is None or manifest.get("format", 1) == 1:
+            return cls()
+        names = tuple(manifest["grid"])
+        return cls.from_kinds(names, manifest["kinds"])
+
+    def format_row(self, row: Mapping[str, Any]) -> str:
+        missing = [c for c in self.columns if c not in row]
+        if missing:
+            raise ValueError(f"ResultStore: row lacks columns {missing}")
+        cells = []
+        for column in self.columns:
+            value = row[column]
+            if column in self.strings:
+                cells.append(str(value))
+            elif column in self.ints:
+                cells.append(str(int(value)))
+            else:
+                cells.append(repr(float(value)))
+        return ",".join(cells) + "\n"
+
+    def parse_row(self, cells: list[str], where: str) -> dict[str, Any]:
+        if len(cells) != len(self.columns):
+            raise ValueError(f"{where}: {len(cells)} cells, expected {len(self.columns)}")
+        try:
+            return {
+                c: v if c in self.strings else int(v) if c in self.ints else float(v)
+                for c, v in zip(self.columns, cells, strict=True)
+            }
+        except ValueError as exc:
+            raise ValueError(f"{where}: {exc}") from None
+
+
 def format_row(row: Mapping[str, Any]) -> str:
     """One CSV line (with its newline); floats as ``repr`` so they read back bit-identical."""
-    missing = [c for c in COLUMNS if c not in row]
-    if missing:
-        raise ValueError(f"ResultStore: row lacks columns {missing}")
-    cells = []
-    for column in COLUMNS:
-        value = row[column]
-        cells.append(str(int(value)) if column in INT_COLUMNS else repr(float(value)))
-    return ",".join(cells) + "\n"
+    return Layout().format_row(row)
 
 
 def _parse_row(cells: list[str], where: str) -> dict[str, Any]:
-    if len(cells) != len(COLUMNS):
-        raise ValueError(f"{where}: {len(cells)} cells, expected {len(COLUMNS)}")
-    try:
-        return {
-            c: int(v) if c in INT_COLUMNS else float(v) for c, v in zip(COLUMNS, cells, strict=True)
-        }
-    except ValueError as exc:
-        raise ValueError(f"{where}: {exc}") from None
+    return Layout().parse_row(cells, where)
 
 
 class ResultStore:
     """The rows of one sweep folder; :meth:`open` it before appending."""
 
-    def __init__(self, folder: str | os.PathLike[str]) -> None:
+    def __init__(self, folder: str | os.PathLike[str], layout: Layout | None = None) -> None:
+        self.layout = layout or Layout()
         self.folder = Path(folder)
         self.manifest_path = self.folder / MANIFEST
         self.results_path = self.folder / RESULTS
@@ -164,7 +224,7 @@ class ResultStore:
         if len(complete) != len(data):
             os.ftruncate(self._fd, len(complete))
             os.fsync(self._fd)
-        header = ",".join(COLUMNS) + "\n"
+        header = ",".join(self.layout.columns) + "\n"
         if not complete:
             os.write(self._fd, header.encode())
             os.fsync(self._fd)
@@ -174,7 +234,7 @@ class ResultStore:
             raise ValueError(f"{self.results_path}: unexpected header {lines[0].strip()!r}")
         rows: dict[int, dict[str, Any]] = {}
         for number, cells in enumerate(csv.reader(io.StringIO("".join(lines[1:]))), start=2):
-            row = _parse_row(cells, f"{self.results_path}:{number}")
+            row = self.layout.parse_row(cells, f"{self.results_path}:{number}")
             previous = rows.setdefault(row["index"], row)
             if previous != row:
                 raise ValueError(
@@ -187,10 +247,10 @@ class ResultStore:
         """Record one finished configuration durably (one write, then fsync)."""
         if self._fd is None:
             raise RuntimeError("ResultStore.append: open() the store first")
-        line = format_row(row)
+        line = self.layout.format_row(row)
         os.write(self._fd, line.encode())
         os.fsync(self._fd)
-        self.rows[int(row["index"])] = _parse_row(line.strip().split(","), "ResultStore")
+        self.rows[int(row["index"])] = self.layout.parse_row(line.strip().split(","), "ResultStore")
 
     def sorted_rows(self) -> list[dict[str, Any]]:
         return [self.rows[i] for i in sorted(self.rows)]
@@ -211,7 +271,8 @@ class ResultStore:
 def load_rows(folder: str | os.PathLike[str]) -> list[dict[str, Any]]:
     """The finished rows of a sweep folder, sorted by index, without locking or repairing it."""
     path = Path(folder) / RESULTS
+    layout = Layout.of_manifest(ResultStore(folder).read_manifest())
     data = path.read_text()
     lines = data[: data.rfind("\n") + 1].splitlines()
-    rows = [_parse_row(c, str(path)) for c in csv.reader(lines[1:])]
+    rows = [layout.parse_row(c, str(path)) for c in csv.reader(lines[1:])]
     return sorted({r["index"]: r for r in rows}.values(), key=lambda r: r["index"])

@@ -101,7 +101,10 @@ def test_parse_values():
         0.0,
         0.5,
     )
-    for bad in ("cars", "speed=1", "cars=two"):
+    # any env keyword argument, strings for names (a layout); the env checks the values
+    assert parse_values("speed=1") == ("speed", [1])
+    assert parse_values("layout=four_way,roundabout") == ("layout", ["four_way", "roundabout"])
+    for bad in ("cars", "cars=two", "9x=1", "layout=a b"):
         with pytest.raises(ValueError, match="--values"):
             parse_values(bad)
     assert set(Grid.default().to_dict()) == set(ORDER)

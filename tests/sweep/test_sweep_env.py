@@ -34,11 +34,13 @@ def test_env_option_runs_v1_and_records_it(tmp_path):
     assert main(args) == 2
 
 
-def test_env_option_rejects_other_ids(tmp_path, capsys):
+def test_the_source_parameters_belong_to_the_sensitivity_ids(tmp_path, capsys):
+    # on another id, --values name that env's kwargs: cars, pedestrians, ... are not FLUIDS-v1's
     args = ["sweep", "--out", str(tmp_path), "--policy", "supervisor", *TINY]
     assert main([*args, "--env", "FLUIDS-v1"]) == 2
     err = capsys.readouterr().err
-    assert "'env'" in err and "FLUIDS-v1" in err and "FLUIDS-Sensitivity-v1" in err
+    assert "'cars'" in err and "'env'" in err and "FLUIDS-Sensitivity-v1" in err
+    assert not (tmp_path / "results.csv").exists()  # refused before any work
     with pytest.raises(ValueError, match="'env'"):
         probe_env(Grid.default(), "CartPole-v1")
 

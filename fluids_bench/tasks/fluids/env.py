@@ -166,6 +166,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``car_mass``: the cars' true mass in kg, 500 to 5000 (default 1500); the supervisor's
       controller assumes 1500, and far from it (1 kg, 1e5 kg) it oscillates into collisions or
       never arrives, so the range stops at 1/3x and 10/3x of it.
+    * ``pedestrian_speed``: pedestrians' top walking speed in m/s, 0.1 to 5 (default 1.4).
+    * ``light_cycle_scale``: every traffic and crosswalk light phase lasts this many times its
+      layout's duration (offsets too), 0.25 to 4 (default 1: the layout's timing).
     * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
       waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
     * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
@@ -240,6 +243,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         lidar_version: int = 0,
         obey_lights: bool = False,
         yield_to_pedestrians: bool = False,
+        pedestrian_speed: float = 1.4,
+        light_cycle_scale: float = 1.0,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -287,6 +292,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             dt=dt,
             defensive=self.defensive,
             yield_to_pedestrians=self.yield_to_pedestrians,
+            pedestrian_speed=pedestrian_speed,
+            light_cycle_scale=light_cycle_scale,
         )
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor

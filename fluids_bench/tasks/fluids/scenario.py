@@ -102,6 +102,8 @@ def build_scenario(
     dt: Any,
     defensive: bool = False,
     yield_to_pedestrians: bool = False,
+    pedestrian_speed: Any = 1.4,
+    light_cycle_scale: Any = 1.0,
 ) -> Scenario:
     """Check the env's arguments (``where`` names the env in errors) and build its scenario.
 
@@ -124,6 +126,8 @@ def build_scenario(
     num_cars = check_int(where, "num_cars", num_cars, 0, MAX_CARS - controlled)
     num_pedestrians = check_int(where, "num_pedestrians", num_pedestrians, 0, 32)
     dt = check_float(where, "dt", dt, 0.01, 0.5)
+    pedestrian_speed = check_float(where, "pedestrian_speed", pedestrian_speed, 0.1, 5.0)
+    light_cycle_scale = check_float(where, "light_cycle_scale", light_cycle_scale, 0.25, 4.0)
     lo, hi = CAR_MASS_RANGE
     if not (is_real(car_mass) and math.isfinite(car_mass) and lo <= car_mass <= hi):
         fail(where, "car_mass", car_mass, CAR_MASS_ALLOWED)
@@ -154,7 +158,8 @@ def build_scenario(
         num_pedestrians=num_pedestrians,
         dt=dt,
         car=car,
-        pedestrian=PedestrianConfig(),
+        pedestrian=PedestrianConfig(max_speed=pedestrian_speed),
+        light_cycle_scale=light_cycle_scale,
     )
     supervisor = SupervisorConfig(
         velocity=VelocityPlannerConfig(

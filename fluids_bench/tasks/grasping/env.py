@@ -35,6 +35,8 @@ OBS_TYPES = ("state", "pixels")
 STATE_DIM = 3 * N_OBJECTS + 3 + 1
 GRASP_REWARD = 10.0  # the source's weight of the grasp in its cost
 POSITION_BOUND = 2.0  # m: |x|, |y| of any object in the state observation (the table is < 1 m)
+# where an obstacle left out by ``obstacles < 5`` lies: off the table, behind the arm's base
+ABSENT_POSE = (0.0, -0.5, 0.0)
 
 
 class GraspingInClutterEnv(SnapshotMixin, gym.Env):
@@ -121,6 +123,9 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     | `foresight`       | int         | 7        | corridors the supervisor simulates per plan, [1, 7] |
     | `layout_seed`     | int or None | None     | fixed obstacle layout (see Starting State), >= 0 |
     | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
+    | `obstacle_size_scale` | float   | 1.0      | obstacle box sides, drawn in [4.0, 5.5] cm, × this, [0.5, 1.25] (the target stays 4.5 cm; larger ones do not fit around it)  |
+    | `friction`        | float       | 0.5      | friction coefficient of the boxes and the arm, [0, 2] |
+    | `obstacles`       | int         | 5        | obstacles on the table, [0, 5]: the scene is drawn as with five and the last ones are left out, lying off the table at (0, -0.5) m (as a knocked-off box lies where it left); never counted as knocked off |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
 
     ```python
@@ -150,6 +155,9 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         foresight: int = 7,
         layout_seed: int | None = None,
         render_size: int = 480,
+        obstacle_size_scale: float = 1.0,
+        friction: float = 0.5,
+        obstacles: int = N_OBJECTS - 1,
         render_mode: str | None = None,
     ) -> None:
         types = [obs_type] if isinstance(obs_type, str) else obs_type
@@ -168,7 +176,14 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         self.render_size = check_int(WHERE, "render_size", render_size, 64, 2048)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
 
-        self.cfg = GraspConfig(target_std_frac=std)
+        self.obstacles = check_int(WHERE, "obstacles", obstacles, 0, N_OBJECTS - 1)
+        perturbed: dict[str, Any] = {}  # the defaults build GraspConfig's own values
+        scale = check_float(WHERE, "obstacle_size_scale", obstacle_size_scale, 0.5, 1.25)
+        if scale != 1.0:
+            lo, hi = GraspConfig.object_size
+            perturbed["object_size"] = (lo * scale, hi * scale)
+        perturbed["friction"] = check_float(WHERE, "friction", friction, 0.0, 2.0)
+        self.cfg = GraspConfig(target_std_frac=std, **perturbed)
         self.action_space = spaces.Box(
             np.array([-1.0, -1.0, 0.0], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
         )
@@ -201,6 +216,9 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         scene = sample_scene(self.cfg, self.np_random, self.layout_seed)
+        if self.obstacles < N_OBJECTS - 1:  # the same draws; the last obstacles left out
+            scene.on_table[1 + self.obstacles :] = False
+            scene.poses[1 + self.obstacles :] = ABSENT_POSE
         self.world = GraspWorld(self.cfg, scene)
         self.supervisor.reset()
         self._label = None

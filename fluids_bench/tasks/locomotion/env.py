@@ -27,7 +27,13 @@ from gymnasium.envs.mujoco.walker2d_v5 import Walker2dEnv
 from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import as_seed, check_choice, check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import (
+    as_seed,
+    check_choice,
+    check_float,
+    check_int,
+    reject_unknown_kwargs,
+)
 from fluids_bench.tasks.locomotion.mpc import MPCConfig
 from fluids_bench.tasks.locomotion.supervisors import KINDS, make_supervisor
 
@@ -89,6 +95,29 @@ def _mujoco_warnings_to_python():
 
 
 _MPC_KEYS = tuple(f.name for f in dataclasses.fields(MPCConfig) if f.name != "task")
+GRAVITY = 9.81  # m/s², Gymnasium's models (MuJoCo's default)
+
+
+def perturb_model(
+    model: mujoco.MjModel,
+    body_mass_scale: float = 1.0,
+    friction_scale: float = 1.0,
+    actuator_gain_scale: float = 1.0,
+    gravity: float = GRAVITY,
+) -> None:
+    """Change a compiled model in place (a sensitivity sweep's factors): every body's mass and
+    inertia × ``body_mass_scale``, every geom's sliding friction × ``friction_scale``, every
+    actuator's gear × ``actuator_gain_scale``, gravity ``-gravity`` along z. The defaults leave
+    the model untouched."""
+    if body_mass_scale != 1.0:
+        model.body_mass[:] *= body_mass_scale
+        model.body_inertia[:] *= body_mass_scale
+    if friction_scale != 1.0:
+        model.geom_friction[:, 0] *= friction_scale
+    if actuator_gain_scale != 1.0:
+        model.actuator_gear[:, 0] *= actuator_gain_scale
+    if gravity != GRAVITY:
+        model.opt.gravity[:] = (0.0, 0.0, -gravity)
 
 
 class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
@@ -107,8 +136,24 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
         render_mode: str | None = None,
         width: int = 480,
         height: int = 480,
+        body_mass_scale: float = 1.0,
+        friction_scale: float = 1.0,
+        actuator_gain_scale: float = 1.0,
+        gravity: float = GRAVITY,
+        obs_noise: float = 0.0,
+        action_noise: float = 0.0,
     ) -> None:
         where = f"{self.task}-IL-v0"
+        physics = {
+            "body_mass_scale": check_float(where, "body_mass_scale", body_mass_scale, 0.1, 10.0),
+            "friction_scale": check_float(where, "friction_scale", friction_scale, 0.0, 10.0),
+            "actuator_gain_scale": check_float(
+                where, "actuator_gain_scale", actuator_gain_scale, 0.0, 10.0
+            ),
+            "gravity": check_float(where, "gravity", gravity, 0.0, 100.0),
+        }
+        self.obs_noise = check_float(where, "obs_noise", obs_noise, 0.0, 10.0)
+        self.action_noise = check_float(where, "action_noise", action_noise, 0.0, 10.0)
         kind = DEFAULT_SUPERVISOR[self.task] if supervisor is None else supervisor
         check_choice(where, "supervisor", kind, KINDS)
         check_choice(where, "render_mode", render_mode, [None, "rgb_array"])
@@ -150,12 +195,21 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
             render_mode=render_mode,
             width=width,
             height=height,
+            **physics,
+            obs_noise=obs_noise,
+            action_noise=action_noise,
         )
         with _mujoco_warnings_to_python():  # models are compiled here (the planner's too)
             self._sim = _GYM_ENVS[self.task](render_mode=render_mode, width=width, height=height)
+            # before the supervisor is built: a planner copies the model the env runs
+            perturb_model(self._sim.model, **physics)
             self._supervisor = make_supervisor(
                 self.task, kind, self._sim, weights, weights_sha256, mpc
             )
+            # Humanoid's planner compiles its own copy of the model (with a sensor): perturb it
+            planner = getattr(getattr(self._supervisor, "mpc", None), "model", None)
+            if planner is not None and planner is not self._sim.model:
+                perturb_model(planner, **physics)
         self.render_mode = render_mode
         self.observation_space = self._sim.observation_space
         self.action_space = self._sim.action_space
@@ -191,14 +245,25 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
         seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
         obs, info = self._sim.reset(seed=seed, options=options)
-        info[SUPERVISOR_ACTION_KEY] = self._label(obs)
-        return obs, info
+        info[SUPERVISOR_ACTION_KEY] = self._label(obs)  # the oracle sees the noiseless state
+        return self._observe(obs), info
 
     def step(self, action):
         action = check_action(f"{self.task}-IL-v0", self.action_space, action)
+        if self.action_noise > 0.0:  # actuation noise, from this env's np_random
+            noise = self.np_random.normal(0.0, self.action_noise, action.shape)
+            space = self.action_space
+            action = np.clip(action + noise, space.low, space.high).astype(space.dtype)
         obs, reward, terminated, truncated, info = self._sim.step(action)
         info[SUPERVISOR_ACTION_KEY] = self._label(obs)
-        return obs, float(reward), terminated, truncated, info
+        return self._observe(obs), float(reward), terminated, truncated, info
+
+    def _observe(self, obs: np.ndarray) -> np.ndarray:
+        """What the learner sees: Gymnasium's observation plus N(0, obs_noise²) per element."""
+        if self.obs_noise > 0.0:
+            noise = self.np_random.normal(0.0, self.obs_noise, obs.shape)
+            obs = (obs + noise).astype(obs.dtype)
+        return obs
 
     def render(self):
         if self.render_mode == "rgb_array":
@@ -278,6 +343,17 @@ _CARD_COMMON = """
     - `mpc`: overrides of the planner settings (`samples`, `horizon`, `iterations`, `sigma`,
       `upright_weight`, `velocity_cap`, `termination_penalty`, `seed`, `nthread`).
     - `render_mode`: `None` or `"rgb_array"`; `width`, `height`: frame size in pixels.
+    - Perturbations (a sensitivity sweep's factors; the defaults leave Gymnasium's env as it
+      is, bit for bit), applied to the compiled model before the supervisor is built (a
+      planner plans on the perturbed model; the shipped policy was trained on the nominal one):
+      `body_mass_scale` (every body's mass and inertia × it, [0.1, 10], default 1),
+      `friction_scale` (every geom's sliding friction × it, [0, 10], default 1),
+      `actuator_gain_scale` (every actuator's gear × it, [0, 10], default 1), `gravity`
+      (m/s² downward, [0, 100], default 9.81), `obs_noise` (N(0, σ²) added to each
+      observation element the learner sees, [0, 10], default 0; the supervisor labels from the
+      noiseless state) and `action_noise` (N(0, σ²) added to each action before it is
+      applied, clipped to the action space, [0, 10], default 0); noise is drawn from the env's
+      `np_random`.
 
     ## Version History
 

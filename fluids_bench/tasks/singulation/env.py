@@ -161,6 +161,8 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     | `cluster_std`          | float       | 0.0447    | cluster translation std (m); ch. 5's "variance of 20 cm" read as 20 cm², [0, 0.2] |
     | `cluster_rotation_deg` | float       | 15        | cluster rotation half-range (deg), [0, 180]        |
     | `terminate_on_success` | bool        | True      | end the episode when singulated                    |
+    | `mass_ratio`           | float       | 1.0       | heaviest object's mass over the lightest's, [1, 100]: object i's density × ratio^(i/3 − 1/2) (one common scale would change nothing: no gravity, no table friction); the supervisor's foresight simulates the same world |
+    | `friction_scale`       | float       | 1.0       | objects' and fingertip's friction (0.5) × this, [0, 4] |
     | `render_mode`          | str         | None      | None or "rgb_array" (400×400)                      |
 
     ## Version History
@@ -183,6 +185,8 @@ class SingulationEnv(SnapshotMixin, gym.Env):
         cluster_std: float = math.sqrt(0.002),
         cluster_rotation_deg: float = 15.0,
         terminate_on_success: bool = True,
+        mass_ratio: float = 1.0,
+        friction_scale: float = 1.0,
         render_mode: str | None = None,
     ) -> None:
         kinds = [obs_type] if isinstance(obs_type, str) else obs_type
@@ -198,6 +202,8 @@ class SingulationEnv(SnapshotMixin, gym.Env):
             cluster_rotation=math.radians(
                 check_float(WHERE, "cluster_rotation_deg", cluster_rotation_deg, 0.0, 180.0)
             ),
+            mass_ratio=check_float(WHERE, "mass_ratio", mass_ratio, 1.0, 100.0),
+            friction_scale=check_float(WHERE, "friction_scale", friction_scale, 0.0, 4.0),
         )
         if not isinstance(terminate_on_success, bool | np.bool_):
             fail(WHERE, "terminate_on_success", terminate_on_success, "True or False")

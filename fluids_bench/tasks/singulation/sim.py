@@ -99,10 +99,17 @@ class SceneConfig:
     cluster_std: float = math.sqrt(0.002)
     cluster_clip: float = 3.0
     cluster_rotation: float = math.radians(15.0)
+    # perturbations (a sensitivity sweep's factors): 1.0 is the nominal world, bit for bit
+    # heaviest object's mass over the lightest's: object i's density × mass_ratio^(i/3 - 1/2)
+    # (scaling every mass alike changes nothing here: no gravity, no table friction)
+    mass_ratio: float = 1.0
+    friction_scale: float = 1.0  # multiplies the objects' and the fingertip's friction
 
     def __post_init__(self) -> None:
         where = "SceneConfig"
         check_float(where, "cluster_std", self.cluster_std, 0.0, 0.2)
+        check_float(where, "mass_ratio", self.mass_ratio, 1.0, 100.0)
+        check_float(where, "friction_scale", self.friction_scale, 0.0, 4.0)
         check_float(where, "cluster_rotation", self.cluster_rotation, 0.0, math.pi)
         check_float(where, "r_min", self.r_min, 0.0, self.r_max, hi_open=True)
         check_float(where, "theta_min", self.theta_min, 0.0, self.theta_max, hi_open=True)
@@ -322,13 +329,14 @@ class SingulationWorld:
         for index in range(len(poses)):
             body = pymunk.Body()
             shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
-            shape.density = AREAL_DENSITY  # the body gets its mass when the shape is added
-            shape.friction = FRICTION_OBJECTS
+            # the body gets its mass when the shape is added
+            shape.density = AREAL_DENSITY * config.mass_ratio ** (index / 3 - 0.5)
+            shape.friction = FRICTION_OBJECTS * config.friction_scale
             self.bodies.append(body)
             self._shapes.append(shape)
         self.tip = pymunk.Body(body_type=pymunk.Body.KINEMATIC)
         self._tip_shape = pymunk.Circle(self.tip, TIP_RADIUS)
-        self._tip_shape.friction = FRICTION_TIP
+        self._tip_shape.friction = FRICTION_TIP * config.friction_scale
         self._place(theta, r, poses)
 
     def restart(self, theta: float, r: float, poses: np.ndarray) -> None:

@@ -84,6 +84,7 @@ class SceneConfig:
     dt: float = 0.1  # s
     car: CarConfig = field(default_factory=CarConfig)
     pedestrian: PedestrianConfig = field(default_factory=PedestrianConfig)
+    light_cycle_scale: float = 1.0  # every light phase's duration (and offset) × this
 
     def __post_init__(self) -> None:
         if self.layout not in LAYOUTS:
@@ -98,6 +99,7 @@ class SceneConfig:
         check_range("SceneConfig", "num_cars", self.num_cars, 1, 64, integer=True)
         check_range("SceneConfig", "num_pedestrians", self.num_pedestrians, 0, 32, integer=True)
         check_range("SceneConfig", "dt", self.dt, 0.01, 0.5)
+        check_range("SceneConfig", "light_cycle_scale", self.light_cycle_scale, 0.25, 4.0)
 
     def layout_spec(self):
         """The layout this scene runs on (built, not compiled)."""

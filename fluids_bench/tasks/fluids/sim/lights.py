@@ -22,7 +22,8 @@ STATE_NAMES = {
 class LightProgram:
     """The programs of a layout's lights as arrays: ``states(t)`` is one vectorised lookup."""
 
-    def __init__(self, lights) -> None:
+    def __init__(self, lights, scale: float = 1.0) -> None:
+        """``scale`` multiplies every phase's duration and every offset (light timing)."""
         self.names = tuple(light.name for light in lights)
         self.kinds = tuple(light.kind for light in lights)
         width = max((len(light.phases) for light in lights), default=1)
@@ -35,10 +36,12 @@ class LightProgram:
         self._last = np.zeros(0, dtype=np.int8)
         for i, light in enumerate(lights):
             durations = [d for _, d in light.phases]
+            if scale != 1.0:
+                durations = [d * scale for d in durations]
             self.ends[i, : len(durations)] = np.cumsum(durations)
             self.codes[i, : len(durations)] = [_CODE[s] for s, _ in light.phases]
             self.cycle[i] = sum(durations)
-            self.offset[i] = light.offset
+            self.offset[i] = light.offset if scale == 1.0 else light.offset * scale
 
     def __len__(self) -> int:
         return len(self.names)

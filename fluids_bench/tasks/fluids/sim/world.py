@@ -65,7 +65,7 @@ class World:
                 self.max_speed,
             ]
         )
-        self.lights = LightProgram(self.layout.spec.lights)
+        self.lights = LightProgram(self.layout.spec.lights, scene.light_cycle_scale)
         width = self.layout.routes.path.shape[1] + RECOVERY_ROOM
         # paths as complex numbers x + iy (the ``path`` property shows them as (n, width, 2))
         self.path_z = np.zeros((n, width), dtype=np.complex128)

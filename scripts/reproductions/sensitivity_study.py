@@ -1,0 +1,129 @@
+"""Sensitivity studies beyond FLUIDS: the supervisor and Behavior Cloning over a 3 x 3 x 3 grid
+of each task's perturbation kwargs (the question of the source's Fig. 7.6, asked of other tasks).
+
+For each task, three resumable ``fluids-bench sweep`` runs in ``--out/<task>/``: ``supervisor``
+(the reference), ``bc`` (a decision tree trained on the task's number of supervisor
+demonstrations of the nominal configuration: the registered defaults plus the study's fixed
+kwargs) and ``dagger`` (a decision tree, one demonstration then 4 iterations of a quarter of that
+number of on-policy rollouts, labelled by the supervisor, on the same configuration), each then
+tested on every configuration. Writes ``docs/results/sweep_<task>.json`` (``--results-dir``): the
+settings, the command, every row, and per-factor summaries (success rate, or the return
+normalised by the best configuration's where the env reports no success) with standard errors.
+
+    python scripts/reproductions/sensitivity_study.py --tasks singulation track hopper --workers 2
+"""
+
+from __future__ import annotations
+
+import argparse
+import shlex
+import sys
+import time
+from pathlib import Path
+
+from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.cli import main as cli
+from fluids_bench.sweep.grid import KwargGrid
+from fluids_bench.sweep.plot import metric_for, summary
+from fluids_bench.sweep.store import load_rows
+
+# task -> (id, fixed env kwargs, grid, BC demonstrations)
+STUDIES = {
+    "singulation": (
+        "Singulation-v0",
+        {},
+        {
+            "mass_ratio": (1.0, 4.0, 16.0),
+            "friction_scale": (0.5, 1.0, 2.0),
+            "cluster_std": (0.0, 0.0447, 0.09),
+        },
+        20,
+    ),
+    "track": (
+        "DrivingTrack-v0",
+        {"obs_type": "state"},
+        {"edges": (3, 5, 7), "half_width": (10.0, 15.0, 20.0), "speed": (7.5, 10.0, 12.5)},
+        20,
+    ),
+    "hopper": (
+        "Hopper-IL-v0",
+        {},
+        {
+            "body_mass_scale": (0.75, 1.0, 1.25),
+            "friction_scale": (0.5, 1.0, 2.0),
+            "actuator_gain_scale": (0.75, 1.0, 1.25),
+        },
+        10,
+    ),
+}
+EXPECTED_MINUTES = {"singulation": 1.0, "track": 0.5, "hopper": 1.8}  # 10 episodes, 2 workers
+
+
+def run_task(task: str, args: argparse.Namespace) -> dict:
+    env_id, fixed, grid_values, demos = STUDIES[task]
+    base = ["sweep", "--env", env_id, "--episodes", str(args.episodes), "--seed", str(args.seed)]
+    base += ["--workers", str(args.workers), "--no-progress"]
+    for name, values in grid_values.items():
+        base += ["--values", f"{name}={','.join(str(v) for v in values)}"]
+    for key, value in fixed.items():
+        base += ["--env-kwarg", f"{key}={value}"]
+    grid = KwargGrid(grid_values)
+    out: dict = {
+        "env_id": env_id,
+        "fixed_kwargs": fixed,
+        "grid": grid.to_dict(),
+        "episodes": args.episodes,
+        "seed": args.seed,
+        "policies": {},
+    }
+    trained = {
+        "supervisor": ["--policy", "supervisor"],
+        "bc": ["--demos", str(demos)],
+        "dagger": ["--algo", "dagger", "--iterations", "4", "--demos", str(demos // 4)],
+    }
+    for policy, extra in trained.items():
+        started = time.perf_counter()
+        folder = args.out / task / policy
+        if cli([*base, "--out", str(folder), *extra]) != 0:
+            raise SystemExit(f"the {task} {policy} sweep failed")
+        rows = load_rows(folder)
+        metric = metric_for(folder, env_id)
+        out["metric"] = metric
+        out["policies"][policy] = {
+            "summary": summary(rows, grid, metric),
+            "rows": rows,
+            "seconds": round(time.perf_counter() - started, 1),
+            **({"demonstrations": demos, "learner": "tree"} if policy == "bc" else {}),
+            **(
+                {"initial_demos": 1, "iterations": 4, "rollouts_per_iteration": demos // 4}
+                if policy == "dagger"
+                else {}
+            ),
+        }
+    return out
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--tasks", nargs="+", choices=sorted(STUDIES), default=sorted(STUDIES))
+    parser.add_argument("--episodes", type=int, default=10, help="episodes per configuration")
+    parser.add_argument("--seed", type=int, default=0)
+    parser.add_argument("--workers", type=int, default=2)
+    parser.add_argument("--out", type=Path, default=Path("out/sensitivity_study"))
+    parser.add_argument("--results-dir", type=Path, default=Path("docs/results"))
+    args = parser.parse_args()
+    minutes = sum(EXPECTED_MINUTES[t] for t in args.tasks) * args.episodes / 10
+    print(f"expected run time: ~{max(minutes, 1):.0f} min on 2 cores", flush=True)
+    command = "python " + shlex.join(["scripts/reproductions/sensitivity_study.py", *sys.argv[1:]])
+    for task in args.tasks:
+        started = time.perf_counter()
+        data = run_task(task, args)
+        data["command"] = command
+        data["seconds"] = round(time.perf_counter() - started, 1)
+        data["machine"] = "2-core CI-class machine, shared"
+        write_json_atomic(args.results_dir / f"sweep_{task}.json", data)
+        print(f"wrote {args.results_dir / f'sweep_{task}.json'} ({data['seconds']} s)", flush=True)
+
+
+if __name__ == "__main__":
+    main()
