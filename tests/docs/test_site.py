@@ -133,3 +133,36 @@ def test_a_real_browser_renders_the_page(site, page, tmp_path):
     # a rendered page has text and a coloured header, not one flat colour
     assert pixels.std() > 10, f"{page} rendered blank"
     assert (pixels < 100).mean() > 0.01, f"{page} shows almost no dark pixels (no text?)"
+
+
+HISTORY = re.compile(r"\bissue #?\d+|\(#\d+\)|\b(?=[0-9a-f]*[a-f])(?=[0-9a-f]*\d)[0-9a-f]{7,40}\b")
+
+
+def test_the_readme_is_a_front_page():
+    text = (ROOT / "README.md").read_text(encoding="utf-8")
+    assert len(text.splitlines()) <= 250
+    assert not HISTORY.findall(text), HISTORY.findall(text)
+
+
+def test_pages_hold_no_history():
+    """Pages describe the project as it is: no commit hashes, no issue numbers (git and the
+    changelog hold the history)."""
+    found = []
+    for md in (ROOT / "docs").rglob("*.md"):
+        found += [
+            f"{md.relative_to(ROOT)}: {m}" for m in HISTORY.findall(md.read_text(encoding="utf-8"))
+        ]
+    assert not found, found
+
+
+def test_env_cards_hold_no_history():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "_gen"))
+    import reference
+
+    found = []
+    for f in reference.FAMILIES:
+        for env_id in f.ids + f.parallel_ids:
+            found += [f"{env_id}: {m}" for m in HISTORY.findall(reference._card_text(env_id))]  # noqa: SLF001
+    assert not found, found
