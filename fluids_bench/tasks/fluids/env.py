@@ -202,9 +202,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
       ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
       ``FLUIDS-v1`` also runs 8 pedestrians and 600 steps (60 s), the busier scene that
-      separates a random policy from the supervisor (README); collisions carry fault labels
-      (in every version). ``yield_to_pedestrians`` joined v1
-      before its issue (#14) closed, so no v1 results were published without it.
+      separates a random policy from the supervisor; collisions carry fault labels (in every
+      version).
     * v0: initial release.
     """
 
