@@ -101,6 +101,12 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
     "GraspingInClutter-v0": ("fluids_bench.tasks.grasping.env:GraspingInClutterEnv", 100, {}),
+    # v1: the same task with a symmetric [-1, 1] action box (RL libraries' convention)
+    "GraspingInClutter-v1": (
+        "fluids_bench.tasks.grasping.env:GraspingInClutterEnv",
+        100,
+        {"action_scale": "normalized"},
+    ),
     # Gymnasium's MuJoCo v5 locomotion envs with supervisors (ch. 3); 1,000 steps as in v5.
     "Hopper-IL-v0": ("fluids_bench.tasks.locomotion.env:HopperILEnv", 1000, {}),
     "Walker2d-IL-v0": ("fluids_bench.tasks.locomotion.env:Walker2dILEnv", 1000, {}),

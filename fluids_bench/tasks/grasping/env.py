@@ -67,6 +67,10 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     - 2: gripper command: >= 0.5 closes the jaws, < 0.5 opens them (0.4 s from open to closed);
       closing jaws stop on whatever lies between them.
 
+    `action_scale="normalized"` (`GraspingInClutter-v1`): `Box(-1, 1, (3,), float32)`, the same
+    velocities; the gripper command is `2g - 1` (>= 0 closes the jaws). The supervisor's label
+    is given in the same units.
+
     ## Observation Space
 
     `obs_type="state"` (default): `Box((22,), float32)`, as the source: for each box, target
@@ -122,6 +126,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     | `layout_seed`     | int or None | None     | fixed obstacle layout (see Starting State), >= 0 |
     | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
+    | `action_scale`    | str         | "physical" | "physical" or "normalized" (see Action Space) |
 
     ```python
     >>> import gymnasium as gym, fluids_bench
@@ -132,6 +137,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
 
     ## Version History
 
+    * v1: `action_scale="normalized"`: a symmetric `[-1, 1]` action box (the gripper command
+      shifted), what RL libraries expect; dynamics, rewards and success as v0.
     * v0: Initial version.
     """
 
@@ -151,6 +158,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         layout_seed: int | None = None,
         render_size: int = 480,
         render_mode: str | None = None,
+        action_scale: str = "physical",
     ) -> None:
         types = [obs_type] if isinstance(obs_type, str) else obs_type
         if not isinstance(types, list | tuple) or not types or len(set(types)) != len(types):
@@ -169,8 +177,12 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
 
         self.cfg = GraspConfig(target_std_frac=std)
+        self.action_scale = check_choice(
+            WHERE, "action_scale", action_scale, ["physical", "normalized"]
+        )
+        self.grip_low = 0.0 if self.action_scale == "physical" else -1.0
         self.action_space = spaces.Box(
-            np.array([-1.0, -1.0, 0.0], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
+            np.array([-1.0, -1.0, self.grip_low], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
         )
         subspaces = {t: self._space(t) for t in self.obs_types}
         self.observation_space = (
@@ -212,7 +224,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         a = check_action(WHERE, self.action_space, action)
         vx = min(1.0, max(-1.0, float(a[0]))) * self.cfg.max_speed
         vy = min(1.0, max(-1.0, float(a[1]))) * self.cfg.max_speed
-        events = self.world.step(vx, vy, bool(a[2] >= 0.5))
+        close = a[2] >= 0.5 if self.action_scale == "physical" else a[2] >= 0.0
+        events = self.world.step(vx, vy, bool(close))
         self._label = None
         reward = GRASP_REWARD * events.grasped - float(events.newly_knocked)
         st = self.world.state
@@ -237,7 +250,10 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
             raise RuntimeError(f"{WHERE}: call reset() before supervisor_action()")
         if self._label is None:
             self._label = self.supervisor.action(self.world).astype(np.float32)
-        return self._label.copy()
+        label = self._label.copy()
+        if self.action_scale == "normalized":  # the gripper command g in [0, 1] as 2g - 1
+            label[2] = 2.0 * label[2] - 1.0
+        return label
 
     def supervisor_stats(self) -> dict[str, float]:
         """Behaviour-level replans since the last reset and the CPU time they took (s)."""
