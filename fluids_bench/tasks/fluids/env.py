@@ -96,9 +96,10 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     ``obs_scale="normalized"`` (the v2 ids): the explicit and quasi-LIDAR observations become
     flat float32 vectors in ``Box(-1, 1)`` that an MLP policy can take as they are. Explicit
     (same length, same order): the ego's position relative to the layout's centre over half
-    the layout's extent (86 m on the four-way), every other length over the extent, speeds over
-    the car's ``max_speed``, cosines, sines, masks and one-hots unchanged, then clipped to
-    ±1. Quasi-LIDAR: each row becomes ``[d / lidar_range, ψ_r / π, v_r / (2 v_max)]`` followed
+    the layout's extent (86 m on the four-way), the goal's offset and the path left over the
+    extent, the other agents' offsets and the distance to the stop line over 30 m (farther
+    reads as ±1), speeds over the car's ``max_speed``, cosines, sines, masks and one-hots
+    unchanged, then clipped to ±1. Quasi-LIDAR: each row becomes ``[d / lidar_range, ψ_r / π, v_r / (2 v_max)]`` followed
     by a one-hot of its label (labels 1 … L−1; nothing hit is all zeros), rows concatenated:
     ``(m + 1) · 9`` values with ``lidar_version=1`` (585 for 64 rays). Noise is added before
     scaling. The bird's-eye image is unchanged (uint8, what image policies expect).

@@ -129,11 +129,15 @@ class _Normalizer:
         return np.clip(x.reshape(-1), -1.0, 1.0).astype(np.float32)
 
 
+NEAR = 30.0  # m: the scale of the explicit vector's nearby lengths (the quasi-LIDAR's range)
+
+
 def explicit_normalizer(k_nearest: int, world: World) -> _Normalizer:
     """The explicit vector's scales: the ego's world position relative to the layout's centre
-    over half its extent; every other length (goal offset, path left, other agents' offsets,
-    distance to the stop line) over the layout's extent; speeds over the car's ``max_speed``;
-    cosines, sines, masks and one-hots as they are."""
+    over half its extent; the goal's offset and the path left over the layout's extent; the
+    other agents' offsets and the distance to the stop line over :data:`NEAR` (30 m: what the
+    ego must react to keeps its resolution; farther reads as ±1); speeds over the car's
+    ``max_speed``; cosines, sines, masks and one-hots as they are."""
     x0, y0, x1, y1 = world.layout.bounds
     extent = max(x1 - x0, y1 - y0)
     v_max = world.scene.car.max_speed
@@ -147,9 +151,9 @@ def explicit_normalizer(k_nearest: int, world: World) -> _Normalizer:
     gain[EGO : EGO + GOAL] = 1.0 / extent
     for k in range(k_nearest):
         base = EGO + GOAL + PER_AGENT * k
-        gain[base : base + 2] = 1.0 / extent
+        gain[base : base + 2] = 1.0 / NEAR
         gain[base + 4] = 1.0 / v_max
-    gain[-1] = 1.0 / extent
+    gain[-1] = 1.0 / NEAR
     return _Normalizer(offset, gain)
 
 
