@@ -405,7 +405,8 @@ def run_ablation(args, command: str) -> None:
         f"expected run time: ~{len(ABLATION_ARMS) * (args.steps / 1000 * 1.2 + 60) / 60:.0f} min "
         "of CPU on 2 cores"
     )
-    log = Path(f"{args.out}.jsonl")
+    log = Path(args.work) / "ablation.jsonl"  # finished arms (resumable)
+    log.parent.mkdir(parents=True, exist_ok=True)
     done = {}
     if log.is_file():
         for line in log.read_text().splitlines():
