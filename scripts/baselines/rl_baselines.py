@@ -251,14 +251,25 @@ def plot(result: dict, path: Path) -> None:
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(figsize=(6, 3.6), dpi=100)
+    fig, ax = plt.subplots(figsize=(6.4, 3.8), dpi=100)
     colours = {"ppo": "tab:blue", "sac": "tab:orange", "dqn": "tab:green"}
-    for run in result["runs"]:
+    s = result["settings"]
+    for k, run in enumerate(result["runs"]):
+        c = colours[run["algo"]]
         xs = [p["steps"] for p in run["curve"]]
         ys = [p["success_rate"] for p in run["curve"]]
-        label = run["algo"].upper() if run["seed"] == result["seeds"][0] else None
-        ax.plot(xs, ys, color=colours[run["algo"]], alpha=0.8, marker="o", ms=3, label=label)
-    ax.axhline(result["random"]["success_rate"], color="grey", ls="--", label="random")
+        first = run["seed"] == result["seeds"][0]
+        label = f"{run['algo'].upper()} curve ({s['eval_episodes']} episodes)" if first else None
+        ax.plot(xs, ys, color=c, alpha=0.35, marker="o", ms=3, label=label)
+        f = run["final"]
+        se = (f["success_rate"] * (1 - f["success_rate"]) / f["episodes"]) ** 0.5
+        label = f"{run['algo'].upper()} final ({f['episodes']} episodes, ± s.e.)" if first else None
+        ax.errorbar(xs[-1] + 3000 * k, f["success_rate"], yerr=se, color=c, marker="s", ms=5,
+                    capsize=3, ls="none", label=label)  # fmt: skip
+    r = result["random"]
+    se = (r["success_rate"] * (1 - r["success_rate"]) / r["episodes"]) ** 0.5
+    ax.axhline(r["success_rate"], color="grey", ls="--", label=f"random ({r['episodes']} episodes)")
+    ax.axhspan(r["success_rate"] - se, r["success_rate"] + se, color="grey", alpha=0.15)
     kw = json.dumps(result["env_kwargs"]) if result["env_kwargs"] else ""
     ax.set_title(f"{result['env_id']} {kw}", fontsize=9)
     ax.set_xlabel("env steps")

@@ -47,7 +47,7 @@ def render(data, part=None, **_):
     s = data["settings"]
     n = s["final_episodes"]
     rows = [
-        "| PPO on `FLUIDS-v1`, velocity level, with | success | collisions | red-light runs | "
+        "| PPO on `FLUIDS-v1`, velocity level, with | success | episodes with a collision | red-light runs | "
         "failed to yield | timeouts | mean target speed (m/s) | mean length (steps) |",
         "|---|---|---|---|---|---|---|---|",
         _row("random target speed (no training)", data["random"]),

@@ -1,10 +1,15 @@
 """docs/results/rl_fluids_v2.json (scripts/baselines/rl_baselines.py)."""
 
 
+def _se(r):
+    p = r["success_rate"]
+    return (p * (1 - p) / r["episodes"]) ** 0.5
+
+
 def _row(name, r):
     cpu = f"{r['train_cpu_s']:.0f}" if "train_cpu_s" in r else "0"
     return (
-        f"| {name} | {r['success_rate']:.3f} | {r.get('collision', '')} | "
+        f"| {name} | {r['success_rate']:.3f} ± {_se(r):.3f} | {r.get('collision', '')} | "
         f"{r.get('red_light_runs', '')} | {r.get('failed_to_yield', '')} | "
         f"{r.get('timeouts', '')} | {r['mean_return']:.2f} | {cpu} |"
     )
@@ -13,7 +18,7 @@ def _row(name, r):
 def render(data, **_):
     s = data["settings"]
     rows = [
-        "| policy | success | collisions | red-light runs | failed to yield | timeouts | "
+        "| policy | success ± s.e. | episodes with a collision | red-light runs | failed to yield | timeouts | "
         "mean return | training CPU (s) |",
         "|---|---|---|---|---|---|---|---|",
         _row("random", data["random"]),
