@@ -11,7 +11,8 @@ torch, the policy's sampling and the envs (``s``, ``s + 1``, ...; SB3's ``make_v
 Evaluation: the deterministic policy (the Gaussian's mean, DQN's greedy action) on episodes
 seeded ``EVAL_SEED + i`` (100000 + i, never used in training): every ``--eval-every`` steps on
 ``--eval-episodes`` episodes (the curve), and at the end on ``--final-episodes``. The random
-policy (``action_space.sample()``, seeded per episode) is evaluated on the same final episodes.
+policy (``action_space.sample()``, seeded per episode) and the supervisor are evaluated on the
+same final episodes.
 
 Resumable: each (algo, seed) run checkpoints its model and curve under ``--work`` at every
 evaluation; a rerun continues from the last checkpoint (SB3 restores the step count; a resumed
@@ -72,6 +73,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
     env = gym.make(env_id, **kwargs)
     out = {"episodes": episodes, "success": 0, "returns": [], "lengths": [], "actions": []}
     fluids = {"collision": 0, "red_light_runs": 0, "failed_to_yield": 0, "timeouts": 0}
+    has_success = False  # tasks without is_success (GridWorld) are compared by return
     for i in range(episodes):
         seed = EVAL_SEED + i
         env.action_space.seed(seed)
@@ -87,6 +89,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
             if term or trunc:
                 break
         out["success"] += bool(info.get("is_success", False))
+        has_success = has_success or "is_success" in info
         out["returns"].append(ret)
         out["lengths"].append(steps)
         if "ego_ran_red_light" in info:
@@ -102,6 +105,7 @@ def evaluate(env_id: str, kwargs: dict, act, episodes: int) -> dict:
         mean_return=round(float(np.mean(returns)), 4),
         mean_length=round(float(np.mean(lengths)), 1),
         mean_first_action=round(float(actions.mean()), 4),
+        metric="success_rate" if has_success else "mean_return",
     )
     if "ego_ran_red_light" in info:
         out.update(fluids)
@@ -135,6 +139,10 @@ def _policy(model):
 
 def _random(obs, env):
     return env.action_space.sample()
+
+
+def _supervisor(obs, env):
+    return env.unwrapped.supervisor_action()
 
 
 def train_run(
@@ -206,6 +214,7 @@ def run_curves(args, command: str) -> None:
         "runs": [],
     }
     result["random"] = evaluate(args.env, kwargs, _random, args.final_episodes)
+    result["supervisor"] = evaluate(args.env, kwargs, _supervisor, args.final_episodes)
     total = len(algos) * len(args.seeds) * args.steps
     with tqdm(total=total, unit="step", desc=args.env) as bar:
         for algo in algos:
@@ -231,18 +240,20 @@ def run_curves(args, command: str) -> None:
                 result["runs"].append(run)
                 write_json_atomic(Path(args.out), result)
     summary = {}
+    metric = result["random"]["metric"]
     for algo in algos:
-        rates = [r["final"]["success_rate"] for r in result["runs"] if r["algo"] == algo]
+        values = [r["final"][metric] for r in result["runs"] if r["algo"] == algo]
         summary[algo] = {
-            "success_rate_mean": round(float(np.mean(rates)), 4),
-            "success_rate_seeds": rates,
-            "beats_random_every_seed": all(r > result["random"]["success_rate"] for r in rates),
+            "metric": metric,
+            f"{metric}_mean": round(float(np.mean(values)), 4),
+            f"{metric}_seeds": values,
+            "beats_random_every_seed": all(v > result["random"][metric] for v in values),
         }
     result["summary"] = summary
     write_json_atomic(Path(args.out), result)
     if args.image:
         plot(result, Path(args.image))
-    print(json.dumps({"random": result["random"]["success_rate"], **summary}, indent=1))
+    print(json.dumps({"random": result["random"][metric], **summary}, indent=1))
 
 
 def plot(result: dict, path: Path) -> None:
@@ -256,25 +267,33 @@ def plot(result: dict, path: Path) -> None:
     s = result["settings"]
     for k, run in enumerate(result["runs"]):
         c = colours[run["algo"]]
+        metric = result["random"].get("metric", "success_rate")
         xs = [p["steps"] for p in run["curve"]]
-        ys = [p["success_rate"] for p in run["curve"]]
+        ys = [p[metric] for p in run["curve"]]
         first = run["seed"] == result["seeds"][0]
         label = f"{run['algo'].upper()} curve ({s['eval_episodes']} episodes)" if first else None
         ax.plot(xs, ys, color=c, alpha=0.35, marker="o", ms=3, label=label)
         f = run["final"]
-        se = (f["success_rate"] * (1 - f["success_rate"]) / f["episodes"]) ** 0.5
-        label = f"{run['algo'].upper()} final ({f['episodes']} episodes, ± s.e.)" if first else None
-        ax.errorbar(xs[-1] + 3000 * k, f["success_rate"], yerr=se, color=c, marker="s", ms=5,
+        p = f[metric]
+        se = (p * (1 - p) / f["episodes"]) ** 0.5 if metric == "success_rate" else 0.0
+        label = f"{run['algo'].upper()} final ({f['episodes']} episodes)" if first else None
+        ax.errorbar(xs[-1] * (1.01 + 0.015 * k), p, yerr=se, color=c, marker="s", ms=5,
                     capsize=3, ls="none", label=label)  # fmt: skip
     r = result["random"]
-    se = (r["success_rate"] * (1 - r["success_rate"]) / r["episodes"]) ** 0.5
-    ax.axhline(r["success_rate"], color="grey", ls="--", label=f"random ({r['episodes']} episodes)")
-    ax.axhspan(r["success_rate"] - se, r["success_rate"] + se, color="grey", alpha=0.15)
+    metric = r.get("metric", "success_rate")
+    p = r[metric]
+    se = (p * (1 - p) / r["episodes"]) ** 0.5 if metric == "success_rate" else 0.0
+    ax.axhline(p, color="grey", ls="--", label=f"random ({r['episodes']} episodes)")
+    if se:
+        ax.axhspan(p - se, p + se, color="grey", alpha=0.15)
     kw = json.dumps(result["env_kwargs"]) if result["env_kwargs"] else ""
     ax.set_title(f"{result['env_id']} {kw}", fontsize=9)
     ax.set_xlabel("env steps")
-    ax.set_ylabel("success rate")
-    ax.set_ylim(-0.02, 1.02)
+    if metric == "success_rate":
+        ax.set_ylabel("success rate")
+        ax.set_ylim(-0.02, 1.02)
+    else:
+        ax.set_ylabel("mean return")
     ax.legend(fontsize=8)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
