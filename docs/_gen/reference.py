@@ -44,7 +44,14 @@ FAMILIES: tuple[Family, ...] = (
     Family(
         "fluids",
         "FLUIDS",
-        ("FLUIDS-v1", "FLUIDS-Sensitivity-v1", "FLUIDS-v0", "FLUIDS-Sensitivity-v0"),
+        (
+            "FLUIDS-v2",
+            "FLUIDS-Sensitivity-v2",
+            "FLUIDS-v1",
+            "FLUIDS-Sensitivity-v1",
+            "FLUIDS-v0",
+            "FLUIDS-Sensitivity-v0",
+        ),
         image="images/demo_frame.png",
         blurb="an urban intersection: kinematic cars, pedestrians, lights; four-level supervisor",
     ),
@@ -52,7 +59,7 @@ FAMILIES: tuple[Family, ...] = (
         "fluids-multi-agent",
         "FLUIDS multi-agent",
         (),
-        ("FLUIDS-MultiAgent-v1", "FLUIDS-MultiAgent-v0"),
+        ("FLUIDS-MultiAgent-v2", "FLUIDS-MultiAgent-v1", "FLUIDS-MultiAgent-v0"),
         image="images/demo_frame.png",
         blurb="PettingZoo ParallelEnv: every controlled car is an agent with its own label",
     ),
@@ -80,7 +87,7 @@ FAMILIES: tuple[Family, ...] = (
     Family(
         "grasping",
         "Grasping in clutter",
-        ("GraspingInClutter-v0",),
+        ("GraspingInClutter-v1", "GraspingInClutter-v0"),
         image="images/grasping_supervisor.png",
         blurb="ch. 6: a 3-joint arm grasps a target among five obstacles (pymunk)",
     ),

@@ -1,8 +1,8 @@
 """Fingerprints of seeded episodes: one SHA-256 per configuration, printed as JSON.
 
 Runs seeded episodes of every registered id (FLUIDS at every action level and observation
-family, noise on, several layouts; GridWorld; DAG; the multi-agent env) under the supervisor's
-labels with seeded perturbations (so episodes leave the nominal path), and hashes everything
+family, noise on, several layouts; the v1 ids; GridWorld; DAG; the multi-agent env) under the
+supervisor's labels with seeded perturbations (so episodes leave the nominal path), and hashes everything
 the env returns: observations, rewards, terminated/truncated, infos (labels included). Uses only
 the public API (``gym.make`` ids and kwargs, ``make_parallel_env``), so the same script runs on
 an older checkout: compare two revisions with
@@ -79,14 +79,14 @@ def episode_hash(env_id: str, seed: int, steps: int, **kwargs: Any) -> str:
     return h.hexdigest()
 
 
-def parallel_hash(seed: int, steps: int) -> str:
+def parallel_hash(seed: int, steps: int, env_id: str = "FLUIDS-MultiAgent-v0") -> str:
     for module in ("fluids_bench.registration", "fluids_bench.envs.registration"):
         try:
             make = importlib.import_module(module).make_parallel_env
             break
         except (ImportError, AttributeError):
             continue
-    env = make("FLUIDS-MultiAgent-v0", controlled_cars=4, num_cars=2, obs_noise=0.1)
+    env = make(env_id, controlled_cars=4, num_cars=2, obs_noise=0.1)
     rng = np.random.default_rng(seed)
     h = hashlib.sha256()
     obs, infos = env.reset(seed=seed)
@@ -129,6 +129,16 @@ def main() -> None:
     for env_id in ("FLUIDS-Sensitivity-v0", "GridWorld-v0", "DAG-v0"):
         out[env_id] = "".join(episode_hash(env_id, s, args.steps)[:16] for s in seeds)
     out["FLUIDS-MultiAgent-v0"] = "".join(parallel_hash(s, args.steps)[:16] for s in seeds)
+    # the v1 ids as registered (their defaults), and at the velocity level
+    for env_id in ("FLUIDS-v1", "FLUIDS-Sensitivity-v1"):
+        out[env_id] = "".join(episode_hash(env_id, s, args.steps)[:16] for s in seeds)
+    out["FLUIDS-v1 velocity qlidar"] = "".join(
+        episode_hash("FLUIDS-v1", s, args.steps, action_level="velocity", obs_type="qlidar")[:16]
+        for s in seeds
+    )
+    out["FLUIDS-MultiAgent-v1"] = "".join(
+        parallel_hash(s, args.steps, "FLUIDS-MultiAgent-v1")[:16] for s in seeds
+    )
     print(json.dumps(out, indent=1))
 
 

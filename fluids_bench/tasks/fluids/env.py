@@ -9,15 +9,23 @@ import numpy as np
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import as_seed, check_bool, check_choice, reject_unknown_kwargs
+from fluids_bench.core.validation import (
+    as_seed,
+    check_bool,
+    check_choice,
+    check_int,
+    reject_unknown_kwargs,
+)
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
     DONE_WHEN,
+    REWARD_VERSIONS,
     build_scenario,
     is_success,
     progress,
     step_reward,
+    step_reward_v1,
 )
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
@@ -45,6 +53,11 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``"velocity"``: ``Box(0, v_max, (1,))``: the ego's target speed (m/s).
     * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
       rad; force × max_force when ≥ 0, × max_brake_force when < 0).
+
+    ``action_scale="normalized"`` (the v2 ids): every Box level is ``Box(-1, 1)``: the
+    velocity level's ``a`` is the target speed ``(a + 1) / 2 · v_max`` m/s, the trajectory
+    level's waypoints are ``a · 50`` m; control is unchanged. The supervisor's label is given
+    in the same units (``info["supervisor_action"]`` lies in the normalised space).
 
     Box actions are arrays of real numbers (ints or floats): out of bounds they are clipped;
     NaN or infinite values, strings (``"0.5"``), bools and complex numbers raise ``ValueError``
@@ -80,11 +93,41 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
 
+    ``obs_scale="normalized"`` (the v2 ids): the explicit and quasi-LIDAR observations become
+    flat float32 vectors in ``Box(-1, 1)`` that an MLP policy can take as they are. Explicit
+    (same length, same order): the ego's position relative to the layout's centre over half
+    the layout's extent (86 m on the four-way), the goal's offset and the path left over the
+    extent, the other agents' offsets and the distance to the stop line over 30 m (farther
+    reads as ±1), speeds over the car's ``max_speed``, cosines, sines, masks and one-hots
+    unchanged, then clipped to ±1. Quasi-LIDAR: each row becomes ``[d / lidar_range, ψ_r / π, v_r / (2 v_max)]`` followed
+    by a one-hot of its label (labels 1 … L−1; nothing hit is all zeros), rows concatenated:
+    ``(m + 1) · 9`` values with ``lidar_version=1`` (585 for 64 rays). Noise is added before
+    scaling. The bird's-eye image is unchanged (uint8, what image policies expect).
+
     ## Rewards
-    Progress (:func:`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the
-    multi-agent env): the metres of route gained this step divided by the route's length from
-    the start (an episode that reaches the goal earns 1 in total), minus 1 in a step where the
-    ego is in a collision.
+    ``reward_version=0`` (v0, v1): progress
+    (:func:`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the multi-agent env):
+    the metres of route gained this step divided by the route's length from the start (an
+    episode that reaches the goal earns 1 in total), minus 1 in a step where the ego is in a
+    collision. Running a red light or failing to yield fails ``is_success`` but costs nothing.
+
+    ``reward_version=1`` (the v2 ids; :func:`~fluids_bench.tasks.fluids.scenario.step_reward_v1`):
+    a reward that agrees with ``is_success``; every way to fail it costs, success pays. Per
+    step, the sum of
+
+    | term | weight | when |
+    |---|---|---|
+    | progress | +1 over the route | the route's metres gained this step over its length |
+    | collision | −1 | a step with a collision that fails the episode: the ego's with ``done_when="ego"``, any with ``"all"`` |
+    | red light | −1 | the step the ego enters its junction against a red light (``obey_lights``) |
+    | failure to yield | −1 | the step the ego drives onto an occupied crosswalk it could have stopped for (``yield_to_pedestrians``) |
+    | success | +1 | the step that ends the episode with ``info["is_success"]`` |
+
+    So a successful episode returns 2 (plus the few centimetres driven past the goal over the
+    route's length); a failed one at most the progress it made (under 1 for a timeout, about 0
+    for an arrival after a red light, below 0 after a collision): a return above 1.5 means
+    success. A timeout costs the success bonus (the env does not see ``TimeLimit``'s
+    truncation).
 
     ## Starting State
     Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
@@ -194,11 +237,20 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       walkers wait at the kerb while a car is committed to their crosswalk (too close to stop,
       or a background car turning left, inside the junction on its way out across it) and do
       not step out on a white light that turns red before they would reach the crosswalk.
+    * ``action_scale``: ``"physical"`` (default) or ``"normalized"`` (the v2 ids): see Action
+      Space.
+    * ``reward_version``: 0 (default) or 1 (the v2 ids): see Rewards.
+    * ``obs_scale``: ``"physical"`` (default) or ``"normalized"`` (the v2 ids): see Observation
+      Space.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
+    * v2: v1's scenes, supervisor and success criterion, made RL-ready:
+      ``action_scale="normalized"``, ``reward_version=1``, ``obs_scale="normalized"``
+      (``FLUIDS-v2``, ``FLUIDS-Sensitivity-v2``). Off-the-shelf PPO learns it where it fails
+      on v1 (the docs' RL page has the ablation). v0 and v1 are unchanged, bit for bit.
     * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
       ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
       ``FLUIDS-v1`` also runs 8 pedestrians and 600 steps (60 s), the busier scene that
@@ -244,6 +296,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         yield_to_pedestrians: bool = False,
         pedestrian_speed: float = 1.4,
         light_cycle_scale: float = 1.0,
+        action_scale: str = "physical",
+        reward_version: int = 0,
+        obs_scale: str = "physical",
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -260,6 +315,11 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self.yield_to_pedestrians = check_bool(
             "FluidsEnv", "yield_to_pedestrians", yield_to_pedestrians
         )
+        self.action_scale = check_choice(
+            "FluidsEnv", "action_scale", action_scale, levels.ACTION_SCALES
+        )
+        self.reward_version = check_int("FluidsEnv", "reward_version", reward_version, 0, 1)
+        assert self.reward_version in REWARD_VERSIONS
         scenario = build_scenario(
             "FluidsEnv",
             controlled_cars=None,
@@ -282,6 +342,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
                 "lidar_noise": lidar_noise,
                 "lidar_dropout": lidar_dropout,
                 "lidar_version": lidar_version,
+                "obs_scale": obs_scale,
             },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
@@ -303,7 +364,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self.observer = Observer(scenario.observation, self.world)
         self.observation_space = self.observer.space
         self.action_space = levels.action_space(
-            action_level, self.world, self.supervisor_config.waypoints
+            action_level, self.world, self.supervisor_config.waypoints, self.action_scale
         )
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.faults = FaultTracker(self.world)
@@ -331,18 +392,22 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         w, sup = self.world, self.supervisor
         if self._ended:
             raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
-        action = levels.validate(self.action_level, self.action_space, action, "FluidsEnv")
+        action = levels.validate(
+            self.action_level, self.action_space, action, "FluidsEnv", w, self.action_scale
+        )
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
         chosen = {0: action} if w.active[0] else {}
         controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
         if changed:
             self._route_length = float(w.path_len[0]) - self._last_s
         events = sup.execute(w, controls, memory)
+        broken = self._violations()
         self.faults.update()
+        broken = self._violations() - broken  # rules the ego broke in this step
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
         s_now = progress(w, 0)
-        reward = step_reward(s_now - self._last_s, self._route_length, ego_hit)
+        gained = s_now - self._last_s
         self._last_s = s_now
         if self.done_when == "ego":
             terminated = arrived or ego_hit
@@ -359,6 +424,12 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             ran_red = self.obey_lights and bool(self.faults.ran_red[0])
             no_yield = self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
             info["is_success"] = is_success(w, cars) and not ran_red and not no_yield
+        if self.reward_version == 0:
+            reward = step_reward(gained, self._route_length, ego_hit)
+        else:  # every way to fail is_success costs, success pays (see Rewards)
+            failed_by = bool(events) if self.done_when == "all" else ego_hit
+            succeeded = bool(info.get("is_success", False))
+            reward = step_reward_v1(gained, self._route_length, failed_by, broken, succeeded)
         if self.render_mode == "human":
             self.render()
         return self._observe(), float(reward), terminated, False, info
@@ -392,7 +463,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self):
         """The supervisor's action for the ego at ``action_level`` in the current state."""
-        return levels.label(self.supervisor, self.world, self.action_level, 0)
+        return levels.label(self.supervisor, self.world, self.action_level, 0, self.action_scale)
 
     # ------------------------------------------------------------------ snapshots
     # the world (agents, lights, time and step count), the supervisor's memory (the velocity
@@ -407,6 +478,13 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     # ------------------------------------------------------------------ helpers
     def _observe(self) -> np.ndarray:
         return self.observer.observe(self.world, self.np_random)
+
+    def _violations(self) -> int:
+        """How many of the rules that fail ``is_success`` the ego has broken so far (a red
+        light with ``obey_lights``, yielding with ``yield_to_pedestrians``)."""
+        return int(self.obey_lights and bool(self.faults.ran_red[0])) + int(
+            self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
+        )
 
     def _info(self, events) -> dict[str, Any]:
         w = self.world

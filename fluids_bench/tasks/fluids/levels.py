@@ -19,35 +19,78 @@ from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.behavior import choose_movement, movement_count
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
+ACTION_SCALES = ("physical", "normalized")
+WAYPOINT_BOUND = 50.0  # m: trajectory-level waypoints lie in ±this in the car's frame
 
-def action_space(level: str, world: World, waypoints: int) -> spaces.Space:
+
+def action_space(level: str, world: World, waypoints: int, scale: str = "physical") -> spaces.Space:
+    """The action space of ``level``. ``scale="normalized"``: every Box level is ``[-1, 1]``
+    (see :func:`to_physical` for the map to physical units)."""
     if level == "behavior":
         return spaces.Discrete(movement_count(world))
+    normalized = scale == "normalized"
     if level == "trajectory":
-        return spaces.Box(-50.0, 50.0, (2 * waypoints,), np.float32)
+        bound = 1.0 if normalized else WAYPOINT_BOUND
+        return spaces.Box(-bound, bound, (2 * waypoints,), np.float32)
     if level == "velocity":
+        if normalized:
+            return spaces.Box(-1.0, 1.0, (1,), np.float32)
         return spaces.Box(0.0, world.scene.car.max_speed, (1,), np.float32)
     return spaces.Box(-1.0, 1.0, (2,), np.float32)
 
 
-def validate(level: str, space: spaces.Space, action: Any, where: str):
+def to_physical(level: str, world: World, action: np.ndarray) -> np.ndarray:
+    """A normalised Box action (in ``[-1, 1]``) in the level's physical units: velocity
+    ``(a + 1) / 2 · v_max`` m/s, trajectory ``a · 50`` m; control is normalised already."""
+    if level == "velocity":
+        return (action + 1.0) * (0.5 * world.scene.car.max_speed)
+    if level == "trajectory":
+        return action * WAYPOINT_BOUND
+    return action
+
+
+def to_normalized(level: str, world: World, value: np.ndarray) -> np.ndarray:
+    """The inverse of :func:`to_physical`, clipped to ``[-1, 1]``: the label in action units."""
+    if level == "velocity":
+        value = value * (2.0 / world.scene.car.max_speed) - 1.0
+    elif level == "trajectory":
+        value = value / WAYPOINT_BOUND
+    return np.clip(value, -1.0, 1.0)
+
+
+def validate(
+    level: str,
+    space: spaces.Space,
+    action: Any,
+    where: str,
+    world: World | None = None,
+    scale: str = "physical",
+):
     """``action`` as the env uses it; ValueError naming the level, what is wrong and what is
     allowed (the suite's shared check, :func:`fluids_bench.core.actions.check_action`). Box
     actions must be real numbers of exactly the space's shape (strings, bools and complex
     numbers are refused, never coerced; ``(1, n)`` is not ``(n,)``); out of bounds they are
-    clipped; NaN and infinities are refused."""
+    clipped; NaN and infinities are refused. ``scale="normalized"``: the clipped action is
+    returned in physical units (:func:`to_physical`; needs ``world``)."""
     if level == "behavior":
         return check_discrete_action(where, space, action, "behavior action")
     values = check_box_action(where, space, action, f"{level} action").tolist()
     low, high = space.low.reshape(-1).tolist(), space.high.reshape(-1).tolist()
-    return np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high, strict=True)])
+    out = np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high, strict=True)])
+    return to_physical(level, world, out) if scale == "normalized" else out
 
 
-def label(supervisor: DrivingSupervisor, world: World, level: str, agent: int):
-    """The supervisor's label for ``agent`` at ``level``, typed like an action of that level."""
+def label(
+    supervisor: DrivingSupervisor, world: World, level: str, agent: int, scale: str = "physical"
+):
+    """The supervisor's label for ``agent`` at ``level``, typed like an action of that level
+    (with ``scale="normalized"``, in the normalised action's units)."""
     value = supervisor.label(world, level, agent)
     if level == "behavior":
         return int(value)
+    if scale == "normalized" and level in ("velocity", "trajectory"):
+        value = to_normalized(level, world, np.atleast_1d(np.asarray(value, dtype=np.float64)))
+        return value.astype(np.float32)
     if level == "velocity":
         return np.array([value], dtype=np.float32)
     return np.asarray(value, dtype=np.float32)

@@ -19,10 +19,22 @@ from pettingzoo import ParallelEnv
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import as_seed, check_bool, check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import (
+    as_seed,
+    check_bool,
+    check_choice,
+    check_int,
+    reject_unknown_kwargs,
+)
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
-from fluids_bench.tasks.fluids.scenario import build_scenario, is_success, progress, step_reward
+from fluids_bench.tasks.fluids.scenario import (
+    build_scenario,
+    is_success,
+    progress,
+    step_reward,
+    step_reward_v1,
+)
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
@@ -67,6 +79,16 @@ class _SensorObserves:
         return out.astype(self.space.dtype, copy=False)
 
 
+class _Scaled:
+    """An agent observer followed by the family's ``obs_scale="normalized"`` map."""
+
+    def __init__(self, observe: AgentObserver, scale: Callable[[np.ndarray], np.ndarray]) -> None:
+        self.observe, self.scale = observe, scale
+
+    def __call__(self, world: World, rng: np.random.Generator, agent: int):
+        return self.scale(self.observe(world, rng, agent))
+
+
 class _EgoOnly:
     """A family that can only observe for agent 0."""
 
@@ -93,7 +115,11 @@ def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[
         elif (
             sensor is not None and _takes_ego(sensor.observe) and isinstance(part.space, spaces.Box)
         ):
-            out[kind] = _SensorObserves(sensor, part.space)
+            # clipped into the physical Box, then scaled as the family does (obs_scale)
+            raw = getattr(part, "raw_space", part.space)
+            out[kind] = _SensorObserves(sensor, raw)
+            if getattr(part, "scale", None) is not None:
+                out[kind] = _Scaled(out[kind], part.scale)
         else:
             out[kind] = _EgoOnly(part)
             ego_only.append(kind)
@@ -114,7 +140,9 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     Per agent, as ``FLUIDS-v0``'s ``action_level``: ``"behavior"`` ``Discrete(n)`` (movement
     from the car's entry lane), ``"trajectory"`` ``Box(-50, 50, (2K,))`` (next ``K`` path points
     in the car's frame, m), ``"velocity"`` ``Box(0, v_max, (1,))`` (target speed, m/s) or
-    ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]). The supervisor fills the
+    ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]); with
+    ``action_scale="normalized"`` (``FLUIDS-MultiAgent-v2``) every Box level is ``[-1, 1]``,
+    labels included, as ``FLUIDS-v2``'s. The supervisor fills the
     levels below for each car. A live agent missing from the action dict follows its
     supervisor this step; actions for agents that already left are ignored. ``actions`` must
     be a dict (``None`` or a list raise ``ValueError``); unknown names raise ``ValueError``
@@ -124,7 +152,8 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     ## Observation Space
     Per agent, the ``FLUIDS-v0`` observation (``obs_type`` and the same sensor options) taken
-    from that car's point of view. A family whose sensor cannot observe for another car than
+    from that car's point of view (``obs_scale="normalized"``: ``FLUIDS-v2``'s flat vectors in
+    [-1, 1]). A family whose sensor cannot observe for another car than
     agent 0 raises ``NotImplementedError`` at construction when ``controlled_cars > 1``.
 
     ## State
@@ -137,7 +166,9 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     ## Rewards
     Per agent, as ``FLUIDS-v0`` (:func:`fluids_bench.tasks.fluids.scenario.step_reward`): the
     metres of route gained this step divided by the route's length from the start, minus 1 in a
-    step where that car is in a collision.
+    step where that car is in a collision. ``reward_version=1`` (``FLUIDS-MultiAgent-v2``): also
+    +1 on the step the car arrives without a collision (its ``is_success``), so a successful
+    agent returns 2 and a failed one less than 1 (see ``FLUIDS-v2``'s Rewards).
 
     ## Starting State
     Every car starts at rest in its own entry-lane slot (slots never overlap), the lane uniform
@@ -195,10 +226,15 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
       (default False; True in ``FLUIDS-MultiAgent-v1``); the agents' success does not depend
       on it.
     * ``black_death``: keep finished agents in the episode (see Episode End; default False).
+    * ``action_scale``, ``reward_version``, ``obs_scale``: as ``FLUIDS-v0`` (``"physical"``, 0,
+      ``"physical"`` by default; ``"normalized"``, 1, ``"normalized"`` in
+      ``FLUIDS-MultiAgent-v2``).
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
     ## Version History
+    * v2: v1 made RL-ready: normalised actions and labels, a reward that pays success, flat
+      observations in [-1, 1] (``action_scale``, ``reward_version``, ``obs_scale``).
     * v1: defensive, pedestrian-yielding background drivers by default; fault labels in
       ``collisions``.
     * v0: initial release.
@@ -261,6 +297,9 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         defensive: bool = False,
         yield_to_pedestrians: bool = False,
         black_death: bool = False,
+        action_scale: str = "physical",
+        reward_version: int = 0,
+        obs_scale: str = "physical",
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
@@ -271,6 +310,8 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         self.defensive = check_bool(WHERE, "defensive", defensive)
         self.yield_to_pedestrians = check_bool(WHERE, "yield_to_pedestrians", yield_to_pedestrians)
         self.black_death = check_bool(WHERE, "black_death", black_death)
+        self.action_scale = check_choice(WHERE, "action_scale", action_scale, levels.ACTION_SCALES)
+        self.reward_version = check_int(WHERE, "reward_version", reward_version, 0, 1)
         scenario = build_scenario(
             WHERE,
             controlled_cars=controlled_cars,
@@ -293,6 +334,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
                 "lidar_noise": lidar_noise,
                 "lidar_dropout": lidar_dropout,
                 "lidar_version": lidar_version,
+                "obs_scale": obs_scale,
             },
             waypoints=waypoints,
             waypoint_spacing=waypoint_spacing,
@@ -347,7 +389,9 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return self._action_spaces[agent]
 
     def _build_action_space(self) -> spaces.Space:
-        return levels.action_space(self.action_level, self.world, self.supervisor_config.waypoints)
+        return levels.action_space(
+            self.action_level, self.world, self.supervisor_config.waypoints, self.action_scale
+        )
 
     def _build_state_space(self) -> spaces.Box:
         n, lights = self.world.n, len(self.world.lights)
@@ -417,7 +461,15 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             a = agent_name(i)
             arrived = bool(w.reached[i])
             s_now = progress(w, i)
-            rewards[a] = step_reward(s_now - self._last_s[i], self._route_length[i], bool(hit[i]))
+            if self.reward_version == 0:
+                rewards[a] = step_reward(
+                    s_now - self._last_s[i], self._route_length[i], bool(hit[i])
+                )
+            else:  # a collision costs, arriving without one pays (see Rewards)
+                won = arrived and not hit[i] and is_success(w, i)
+                rewards[a] = step_reward_v1(
+                    s_now - self._last_s[i], self._route_length[i], bool(hit[i]), 0, won
+                )
             self._last_s[i] = s_now
             terminations[a] = arrived or bool(hit[i])
             truncations[a] = not terminations[a] and self._cycles >= self.max_cycles
@@ -496,7 +548,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return self._label(self._index[agent])
 
     def _label(self, i: int):
-        return levels.label(self.supervisor, self.world, self.action_level, i)
+        return levels.label(self.supervisor, self.world, self.action_level, i, self.action_scale)
 
     # ------------------------------------------------------------------ helpers
     def _controls(self, chosen: dict[int, Any]) -> tuple[np.ndarray, tuple | None]:
@@ -510,7 +562,14 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return controls, memory
 
     def _validate(self, action, agent: str):
-        return levels.validate(self.action_level, self._action_space, action, f"{WHERE} {agent}")
+        return levels.validate(
+            self.action_level,
+            self._action_space,
+            action,
+            f"{WHERE} {agent}",
+            self.world,
+            self.action_scale,
+        )
 
     def _observe(self, i: int):
         if i in self._dead and i not in self._just_died:  # its last real observation, then 0

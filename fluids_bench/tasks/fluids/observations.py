@@ -14,6 +14,7 @@ Families (ch. 7 of the source):
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -26,6 +27,7 @@ from fluids_bench.tasks.fluids.sim.world import World
 
 OBS_TYPES = ("explicit", "birdseye", "qlidar")
 BIRDSEYE_FRAMES = ("ego", "ego_rotated", "global")
+OBS_SCALES = ("physical", "normalized")
 OBS_BOUND = 1000.0  # explicit observations are clipped to ±this (noise could leave the space)
 
 
@@ -80,10 +82,12 @@ class ObservationConfig:
     lidar_noise: float = 0.0  # qlidar: λ_l, variance of the noise on d, ψ_r and v_r
     lidar_dropout: float = 0.0  # qlidar: ε, probability that a ray reads as empty
     lidar_version: int = 0  # qlidar: 1 adds lights' stop lines, occupied crosswalks, goal row
+    obs_scale: str = "physical"  # "normalized": explicit and qlidar as flat vectors in [-1, 1]
 
     def __post_init__(self) -> None:
         object.__setattr__(self, "obs_type", _obs_type("ObservationConfig", self.obs_type))
         check_choice("ObservationConfig", "birdseye_frame", self.birdseye_frame, BIRDSEYE_FRAMES)
+        check_choice("ObservationConfig", "obs_scale", self.obs_scale, OBS_SCALES)
         for name, (integer, lo, hi) in SENSOR_RANGES.items():
             check_range("ObservationConfig", name, getattr(self, name), lo, hi, integer=integer)
 
@@ -98,6 +102,8 @@ class ObservationConfig:
                 value = (check_int if integer else check_float)(where, name, value, lo, hi)
             elif name == "birdseye_frame":
                 check_choice(where, name, value, BIRDSEYE_FRAMES)
+            elif name == "obs_scale":
+                check_choice(where, name, value, OBS_SCALES)
             values[name] = value
         return cls(obs_type=_obs_type(where, obs_type), **values)
 
@@ -106,14 +112,64 @@ class ObservationConfig:
         return (self.obs_type,) if isinstance(self.obs_type, str) else self.obs_type
 
 
+class _Normalizer:
+    """``obs_scale="normalized"``: a physical observation mapped affinely, entry by entry, onto
+    a flat float32 vector clipped to ``[-1, 1]``: ``(x - offset) * gain``, then an optional
+    one-hot expansion of the quasi-LIDAR labels. Picklable, stateless."""
+
+    def __init__(self, offset: np.ndarray, gain: np.ndarray, labels: int = 0) -> None:
+        self.offset, self.gain, self.labels = offset, gain, labels
+
+    def __call__(self, obs: np.ndarray) -> np.ndarray:
+        x = (obs.astype(np.float64) - self.offset) * self.gain
+        if self.labels:  # qlidar rows [d, label, psi, v] -> [d, psi, v, one-hot(label 1..L-1)]
+            rows = obs.reshape(-1, 4)
+            hot = np.arange(1, self.labels)[None, :] == np.rint(rows[:, 1:2]).astype(np.int64)
+            x = np.concatenate([x.reshape(-1, 4)[:, [0, 2, 3]], hot], axis=1)
+        return np.clip(x.reshape(-1), -1.0, 1.0).astype(np.float32)
+
+
+NEAR = 30.0  # m: the scale of the explicit vector's nearby lengths (the quasi-LIDAR's range)
+
+
+def explicit_normalizer(k_nearest: int, world: World) -> _Normalizer:
+    """The explicit vector's scales: the ego's world position relative to the layout's centre
+    over half its extent; the goal's offset and the path left over the layout's extent; the
+    other agents' offsets and the distance to the stop line over :data:`NEAR` (30 m: what the
+    ego must react to keeps its resolution; farther reads as ±1); speeds over the car's
+    ``max_speed``; cosines, sines, masks and one-hots as they are."""
+    x0, y0, x1, y1 = world.layout.bounds
+    extent = max(x1 - x0, y1 - y0)
+    v_max = world.scene.car.max_speed
+    from fluids_bench.tasks.fluids.sim.sensors.kernels import EGO, GOAL, LIGHT, PER_AGENT
+
+    offset = np.zeros(EGO + GOAL + PER_AGENT * k_nearest + LIGHT)
+    gain = np.ones_like(offset)
+    offset[:2] = (x0 + x1) / 2, (y0 + y1) / 2
+    gain[:2] = 2.0 / extent
+    gain[4] = 1.0 / v_max
+    gain[EGO : EGO + GOAL] = 1.0 / extent
+    for k in range(k_nearest):
+        base = EGO + GOAL + PER_AGENT * k
+        gain[base : base + 2] = 1.0 / NEAR
+        gain[base + 4] = 1.0 / v_max
+    gain[-1] = 1.0 / NEAR
+    return _Normalizer(offset, gain)
+
+
 class _Explicit:
     def __init__(self, cfg: ObservationConfig, world: World) -> None:
         self.sensor = ExplicitSensor(cfg.k_nearest, cfg.obs_noise)
-        self.space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
+        self.raw_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
+        self.space, self.scale = self.raw_space, None
+        if cfg.obs_scale == "normalized":
+            self.scale = explicit_normalizer(cfg.k_nearest, world)
+            self.space = spaces.Box(-1.0, 1.0, (self.sensor.size,), np.float32)
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
         obs = self.sensor.observe(world, rng)
-        return np.minimum(np.maximum(obs, -OBS_BOUND, out=obs), OBS_BOUND, out=obs)
+        obs = np.minimum(np.maximum(obs, -OBS_BOUND, out=obs), OBS_BOUND, out=obs)
+        return obs if self.scale is None else self.scale(obs)
 
 
 class _BirdsEye:
@@ -123,7 +179,8 @@ class _BirdsEye:
         self.sensor = BirdsEyeSensor(
             world.layout, cfg.birdseye_size, cfg.birdseye_fov, cfg.birdseye_frame, cfg.pixel_noise
         )
-        self.space = spaces.Box(0, 255, self.sensor.shape, np.uint8)
+        self.space = self.raw_space = spaces.Box(0, 255, self.sensor.shape, np.uint8)
+        self.scale = None  # an image is already in the form image policies expect
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
         return self.sensor.observe(world, rng)
@@ -143,10 +200,20 @@ class _QLidar:
             version=cfg.lidar_version,
         )
         low, high = self.sensor.bounds
-        self.space = spaces.Box(low, high, dtype=np.float32)
+        self.raw_space = spaces.Box(low, high, dtype=np.float32)
+        self.space, self.scale = self.raw_space, None
+        if cfg.obs_scale == "normalized":
+            # d / range in [0, 1], psi / pi, v / (2 v_max); the label one-hot (labels 1 .. L-1)
+            labels = len(self.sensor.labels)
+            gain = np.tile([1.0 / cfg.lidar_range, 1.0, 1.0 / math.pi, 0.0], (low.shape[0], 1))
+            gain[:, 3] = 1.0 / high[:, 3]
+            self.scale = _Normalizer(np.zeros(low.shape), gain, labels)
+            size = low.shape[0] * (3 + labels - 1)
+            self.space = spaces.Box(-1.0, 1.0, (size,), np.float32)
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
-        return self.sensor.observe(world, rng)
+        obs = self.sensor.observe(world, rng)
+        return obs if self.scale is None else self.scale(obs)
 
 
 _FACTORIES = {"explicit": _Explicit, "birdseye": _BirdsEye, "qlidar": _QLidar}

@@ -55,6 +55,10 @@ from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
 
 COLLISION_PENALTY = 1.0  # subtracted from a car's reward in a step where it is in a collision
+# reward_version=1 (the v2 ids): a reward that agrees with is_success
+REWARD_VERSIONS = (0, 1)
+SUCCESS_BONUS = 1.0  # paid on the step that ends an episode (an agent's) with is_success
+VIOLATION_PENALTY = 1.0  # a red light run or a failure to yield, once each, when it happens
 TRAJECTORY_PLANNERS = ("bezier", "ompl")
 DONE_WHEN = ("ego", "all")
 ASSUMED_MASS = CarConfig().mass  # kg: the supervisor's PID assumes the default car's mass
@@ -204,6 +208,22 @@ def step_reward(gained: float, route_length: float, collided: bool) -> float:
     """Progress reward: the metres gained this step over the route's length from the start (an
     episode that reaches the goal earns 1 in total), minus the collision penalty."""
     return gained / route_length - (COLLISION_PENALTY if collided else 0.0)
+
+
+def step_reward_v1(
+    gained: float, route_length: float, collided: bool, violations: int, succeeded: bool
+) -> float:
+    """``reward_version=1``: the progress reward of :func:`step_reward` (1 in total on
+    arrival, minus ``COLLISION_PENALTY`` in a step with a collision that fails the episode),
+    minus ``VIOLATION_PENALTY`` for each rule the step broke that fails ``is_success`` (a red
+    light run, a failure to yield), plus ``SUCCESS_BONUS`` on the step that ends the episode
+    with ``is_success``. A successful episode returns at least 2 (1 + the overshoot past the
+    goal, + 1); a failed one at most the progress made (1 plus that overshoot)."""
+    return (
+        step_reward(gained, route_length, collided)
+        - VIOLATION_PENALTY * violations
+        + (SUCCESS_BONUS if succeeded else 0.0)
+    )
 
 
 def is_success(world: World, cars: np.ndarray | list[int] | int) -> bool:

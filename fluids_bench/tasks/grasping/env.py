@@ -69,6 +69,10 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     - 2: gripper command: >= 0.5 closes the jaws, < 0.5 opens them (0.4 s from open to closed);
       closing jaws stop on whatever lies between them.
 
+    `action_scale="normalized"` (`GraspingInClutter-v1`): `Box(-1, 1, (3,), float32)`, the same
+    velocities; the gripper command is `2g - 1` (>= 0 closes the jaws). The supervisor's label
+    is given in the same units.
+
     ## Observation Space
 
     `obs_type="state"` (default): `Box((22,), float32)`, as the source: for each box, target
@@ -127,6 +131,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
     | `friction`        | float       | 0.5      | friction coefficient of the boxes and the arm, [0, 2] |
     | `obstacles`       | int         | 5        | obstacles on the table, [0, 5]: the scene is drawn as with five and the last ones are left out, lying off the table at (0, -0.5) m (as a knocked-off box lies where it left); never counted as knocked off |
     | `render_mode`     | str         | None     | None or "rgb_array"                             |
+    | `action_scale`    | str         | "physical" | "physical" or "normalized" (see Action Space) |
 
     ```python
     >>> import gymnasium as gym, fluids_bench
@@ -137,6 +142,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
 
     ## Version History
 
+    * v1: `action_scale="normalized"`: a symmetric `[-1, 1]` action box (the gripper command
+      shifted), what RL libraries expect; dynamics, rewards and success as v0.
     * v0: Initial version.
     """
 
@@ -159,6 +166,7 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         friction: float = 0.5,
         obstacles: int = N_OBJECTS - 1,
         render_mode: str | None = None,
+        action_scale: str = "physical",
     ) -> None:
         types = [obs_type] if isinstance(obs_type, str) else obs_type
         if not isinstance(types, list | tuple) or not types or len(set(types)) != len(types):
@@ -184,8 +192,12 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
             perturbed["object_size"] = (lo * scale, hi * scale)
         perturbed["friction"] = check_float(WHERE, "friction", friction, 0.0, 2.0)
         self.cfg = GraspConfig(target_std_frac=std, **perturbed)
+        self.action_scale = check_choice(
+            WHERE, "action_scale", action_scale, ["physical", "normalized"]
+        )
+        self.grip_low = 0.0 if self.action_scale == "physical" else -1.0
         self.action_space = spaces.Box(
-            np.array([-1.0, -1.0, 0.0], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
+            np.array([-1.0, -1.0, self.grip_low], np.float32), np.array([1.0, 1.0, 1.0], np.float32)
         )
         subspaces = {t: self._space(t) for t in self.obs_types}
         self.observation_space = (
@@ -230,7 +242,8 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         a = check_action(WHERE, self.action_space, action)
         vx = min(1.0, max(-1.0, float(a[0]))) * self.cfg.max_speed
         vy = min(1.0, max(-1.0, float(a[1]))) * self.cfg.max_speed
-        events = self.world.step(vx, vy, bool(a[2] >= 0.5))
+        close = a[2] >= 0.5 if self.action_scale == "physical" else a[2] >= 0.0
+        events = self.world.step(vx, vy, bool(close))
         self._label = None
         reward = GRASP_REWARD * events.grasped - float(events.newly_knocked)
         st = self.world.state
@@ -255,7 +268,10 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
             raise RuntimeError(f"{WHERE}: call reset() before supervisor_action()")
         if self._label is None:
             self._label = self.supervisor.action(self.world).astype(np.float32)
-        return self._label.copy()
+        label = self._label.copy()
+        if self.action_scale == "normalized":  # the gripper command g in [0, 1] as 2g - 1
+            label[2] = 2.0 * label[2] - 1.0
+        return label
 
     def supervisor_stats(self) -> dict[str, float]:
         """Behaviour-level replans since the last reset and the CPU time they took (s)."""

@@ -16,6 +16,7 @@ with warnings.catch_warnings():
     from pettingzoo.test import parallel_api_test
 
 import supersuit as ss  # test dependency (the `test` extra): the recipe's vectoriser
+from train_extra import require_sb3
 
 
 def test_black_death_passes_the_pettingzoo_api_test():
@@ -95,11 +96,8 @@ def test_without_black_death_supersuit_refuses_a_shrinking_agent_set():
 
 
 def test_shared_policy_recipe_trains_with_stable_baselines3(tmp_path):
-    sb3 = pytest.importorskip(
-        "stable_baselines3",
-        reason="the recipe's trainer is the optional `train` extra: pip install "
-        '"fluids-bench[train]"',
-    )
+    # the optional `train` extra: skipped without it, except in CI (FLUIDS_BENCH_TRAIN_TESTS=1)
+    sb3 = require_sb3()
     from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor
 

@@ -1,0 +1,77 @@
+"""FLUIDS' RL-ready options (the v2 ids): normalised actions and labels, the reward that agrees
+with ``is_success``, observations scaled to [-1, 1]."""
+
+from __future__ import annotations
+
+import gymnasium as gym
+import numpy as np
+import pytest
+
+import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.tasks.fluids import levels
+
+
+def test_velocity_label_is_the_physical_label_normalised():
+    v1 = gym.make("FLUIDS-v1", action_level="velocity")
+    v2 = gym.make("FLUIDS-v2", action_level="velocity")
+    assert v2.action_space.low[0] == -1 and v2.action_space.high[0] == 1
+    (_, i1), (_, i2) = v1.reset(seed=7), v2.reset(seed=7)
+    for _ in range(30):
+        # same target speed in both: the physical label, and its normalised form
+        a1 = i1["supervisor_action"]
+        a2 = levels.to_normalized("velocity", v2.unwrapped.world, a1.astype(np.float64))
+        assert np.allclose(i2["supervisor_action"], a2, atol=1e-6)
+        back = levels.to_physical("velocity", v2.unwrapped.world, a2)
+        assert np.allclose(back, a1, atol=1e-5)
+        *_, i1 = v1.step(a1)
+        *_, i2 = v2.step(i2["supervisor_action"])
+
+
+def test_normalised_observations_are_the_physical_ones_scaled():
+    """At the behavior level (no action scaling) v1 and v2 drive the same world: v2's
+    observations are v1's mapped entry by entry, inside [-1, 1]."""
+    for obs_type in ("explicit", "qlidar"):
+        kw = {"action_level": "behavior", "obs_type": obs_type}
+        v1, v2 = gym.make("FLUIDS-v1", **kw), gym.make("FLUIDS-v2", **kw)
+        (o1, i1), (o2, _) = v1.reset(seed=3), v2.reset(seed=3)
+        scale = v2.unwrapped.observer.parts[obs_type].scale
+        for _ in range(40):
+            assert o2.ndim == 1 and v2.observation_space.contains(o2)
+            assert np.array_equal(o2, scale(o1))
+            a = i1["supervisor_action"]
+            o1, _, t1, _, i1 = v1.step(a)
+            o2, _, t2, _, _ = v2.step(a)
+            if t1:
+                break
+
+
+@pytest.mark.parametrize("env_id", ["FLUIDS-v2", "FLUIDS-Sensitivity-v2"])
+def test_return_above_one_and_a_half_exactly_when_success(env_id):
+    """Random target speeds (they run red lights, collide, time out, arrive): an episode's
+    return exceeds 1.5 exactly when it succeeds."""
+    env = gym.make(env_id, action_level="velocity", max_episode_steps=300)
+    outcomes = []
+    for seed in range(6):
+        env.action_space.seed(seed)
+        _, info = env.reset(seed=seed)
+        ret = 0.0
+        while True:
+            _, r, term, trunc, info = env.step(env.action_space.sample())
+            ret += r
+            if term or trunc:
+                break
+        success = bool(info.get("is_success", False))
+        outcomes.append(success)
+        assert (ret > 1.5) == success, (seed, ret, info.get("is_success"))
+        if success:
+            assert ret >= 2.0 - 1e-9
+    assert len(set(outcomes)) == 2, "both outcomes should occur in these seeds"
+
+
+def test_options_are_checked():
+    with pytest.raises(ValueError, match="action_scale"):
+        gym.make("FLUIDS-v1", action_scale="unit")
+    with pytest.raises(ValueError, match="reward_version"):
+        gym.make("FLUIDS-v1", reward_version=2)
+    with pytest.raises(ValueError, match="obs_scale"):
+        gym.make("FLUIDS-v1", obs_scale="whitened")
