@@ -54,7 +54,7 @@ from fluids_bench.tasks.singulation.label_noise import (
 )
 
 REPO = Path(__file__).resolve().parents[2]
-CPU_SECONDS_PER_RUN_ARM = 34.0  # measured: 60 (run, arm) results took 2,052 CPU-s
+CPU_SECONDS_PER_RUN_ARM = 13.5  # measured: 60 (run, arm) results took 800 CPU-s
 
 
 ARMS = ("bc", "dagger", "dagger_retro", "dart")
