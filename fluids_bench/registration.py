@@ -13,90 +13,48 @@ from typing import Any
 import gymnasium as gym
 import pettingzoo
 
+# The scene of the source's sensitivity analysis (ch. 7): the learner maps quasi-LIDAR to the
+# ego's target velocity, the supervisor fills trajectory and control; success means every car
+# arrived.
+SENSITIVITY_SCENE: dict[str, Any] = {
+    "action_level": "velocity",
+    "obs_type": "qlidar",
+    "num_cars": 3,
+    "num_pedestrians": 2,
+    "done_when": "all",
+}
+# v1, the fair benchmark: background drivers are defensive toward the ego (they keep the
+# distance to stop for it, whatever it does); the quasi-LIDAR sees red lights, occupied
+# crosswalks, the goal; success requires the ego not to run a red light nor drive onto an
+# occupied crosswalk, and background cars wait for pedestrians on crosswalks
+FAIR: dict[str, Any] = {
+    "defensive": True,
+    "lidar_version": 1,
+    "obey_lights": True,
+    "yield_to_pedestrians": True,
+}
+# v2: RL-ready v1 (same scenes, same success): normalised actions ([-1, 1] at every continuous
+# level, labels in the same units), a reward that agrees with is_success, flat observations
+# scaled to [-1, 1]; see the env card's Rewards and Version History
+RL_READY: dict[str, Any] = {
+    "action_scale": "normalized",
+    "reward_version": 1,
+    "obs_scale": "normalized",
+}
+# FLUIDS-v1's default scene is busy enough to discriminate: 8 walkers, and 60 s, which the
+# yielding supervisor needs with them
+BUSY_SCENE: dict[str, Any] = {"num_pedestrians": 8}
+_FLUIDS = "fluids_bench.tasks.fluids.env:FluidsEnv"
+
 # id -> (entry point, max_episode_steps, default kwargs)
 ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
-    "FLUIDS-v0": ("fluids_bench.tasks.fluids.env:FluidsEnv", 400, {}),
-    # The configuration of the source's sensitivity analysis (ch. 7): the learner maps
-    # quasi-LIDAR to the ego's target velocity, the supervisor fills trajectory and control;
-    # success means every car arrived.
-    "FLUIDS-Sensitivity-v0": (
-        "fluids_bench.tasks.fluids.env:FluidsEnv",
-        600,  # every car must arrive: longer than the ego alone needs
-        {
-            "action_level": "velocity",
-            "obs_type": "qlidar",
-            "num_cars": 3,
-            "num_pedestrians": 2,
-            "done_when": "all",
-        },
-    ),
-    # v1: background drivers are defensive toward the ego (they keep the distance to stop for
-    # it, whatever it does); the quasi-LIDAR sees red lights, occupied crosswalks, the goal;
-    # success requires the ego not to run a red light nor drive onto an occupied crosswalk, and
-    # background cars wait for pedestrians on crosswalks
-    # The default scene is busy enough to discriminate (README, "Does the default scene
-    # discriminate?"): 8 walkers, and 60 s, which the yielding supervisor needs with them.
-    "FLUIDS-v1": (
-        "fluids_bench.tasks.fluids.env:FluidsEnv",
-        600,
-        {
-            "num_pedestrians": 8,
-            "defensive": True,
-            "lidar_version": 1,
-            "obey_lights": True,
-            "yield_to_pedestrians": True,
-        },
-    ),
-    "FLUIDS-Sensitivity-v1": (
-        "fluids_bench.tasks.fluids.env:FluidsEnv",
-        600,
-        {
-            "action_level": "velocity",
-            "obs_type": "qlidar",
-            "num_cars": 3,
-            "num_pedestrians": 2,
-            "done_when": "all",
-            "defensive": True,
-            "lidar_version": 1,
-            "obey_lights": True,
-            "yield_to_pedestrians": True,
-        },
-    ),
-    # v2: RL-ready v1 (same scenes, same success): normalised actions ([-1, 1] at every
-    # continuous level, labels in the same units), a reward that agrees with is_success, flat
-    # observations scaled to [-1, 1]; see the env card's Rewards and Version History
-    "FLUIDS-v2": (
-        "fluids_bench.tasks.fluids.env:FluidsEnv",
-        600,
-        {
-            "num_pedestrians": 8,
-            "defensive": True,
-            "lidar_version": 1,
-            "obey_lights": True,
-            "yield_to_pedestrians": True,
-            "action_scale": "normalized",
-            "reward_version": 1,
-            "obs_scale": "normalized",
-        },
-    ),
-    "FLUIDS-Sensitivity-v2": (
-        "fluids_bench.tasks.fluids.env:FluidsEnv",
-        600,
-        {
-            "action_level": "velocity",
-            "obs_type": "qlidar",
-            "num_cars": 3,
-            "num_pedestrians": 2,
-            "done_when": "all",
-            "defensive": True,
-            "lidar_version": 1,
-            "obey_lights": True,
-            "yield_to_pedestrians": True,
-            "action_scale": "normalized",
-            "reward_version": 1,
-            "obs_scale": "normalized",
-        },
-    ),
+    "FLUIDS-v0": (_FLUIDS, 400, {}),
+    # every car must arrive: longer than the ego alone needs
+    "FLUIDS-Sensitivity-v0": (_FLUIDS, 600, dict(SENSITIVITY_SCENE)),
+    "FLUIDS-v1": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR}),
+    "FLUIDS-Sensitivity-v1": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR}),
+    "FLUIDS-v2": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR, **RL_READY}),
+    "FLUIDS-Sensitivity-v2": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR, **RL_READY}),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
@@ -123,23 +81,13 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
 # id -> (factory "module:function", default kwargs). Build with
 # pettingzoo.make("parallel", id, **kwargs) or make_parallel_env(id, **kwargs). Factories take
 # PettingZoo's ``max_cycles`` keyword (the registry tests shorten episodes with it).
+_MULTI = "fluids_bench.tasks.fluids.multi_agent:parallel_env"
+_MULTI_FAIR = {k: v for k, v in FAIR.items() if k != "obey_lights"}
 PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
-    "FLUIDS-MultiAgent-v0": ("fluids_bench.tasks.fluids.multi_agent:parallel_env", {}),
-    "FLUIDS-MultiAgent-v1": (
-        "fluids_bench.tasks.fluids.multi_agent:parallel_env",
-        {"defensive": True, "lidar_version": 1, "yield_to_pedestrians": True},
-    ),
-    "FLUIDS-MultiAgent-v2": (
-        "fluids_bench.tasks.fluids.multi_agent:parallel_env",
-        {
-            "defensive": True,
-            "lidar_version": 1,
-            "yield_to_pedestrians": True,
-            "action_scale": "normalized",
-            "reward_version": 1,
-            "obs_scale": "normalized",
-        },
-    ),
+    "FLUIDS-MultiAgent-v0": (_MULTI, {}),
+    # (the multi-agent env has no obey_lights option: FAIR less that one)
+    "FLUIDS-MultiAgent-v1": (_MULTI, dict(_MULTI_FAIR)),
+    "FLUIDS-MultiAgent-v2": (_MULTI, {**_MULTI_FAIR, **RL_READY}),
 }
 
 # Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or

@@ -2,7 +2,7 @@
 
 A page never holds a measured number by hand: it calls ``table("<name>")``, which loads
 ``docs/results/<name>.json`` and renders it with ``docs/_gen/tables/<name>.py``'s
-``render(data) -> str`` (one renderer per results file, so they can change independently; a
+``render(data) -> str`` (files of one layout share one, see :data:`SHARED_RENDERERS`; a
 renderer may take keyword arguments for a part of its file: ``table("x", part="speed")``).
 Each results file names the command that wrote it (``"command"``), shown under the table.
 """
@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import importlib.util
 import json
+import re
 from pathlib import Path
 
 DOCS = Path(__file__).resolve().parents[1]
@@ -25,7 +26,25 @@ def load(name: str) -> dict:
     return json.loads(path.read_text())
 
 
+# results files of one layout share a renderer (the runs of one script with other settings)
+SHARED_RENDERERS = (
+    (r"dart_mujoco_.+", "dart_mujoco"),
+    (r"reproduce_grasping_shiv_.+", "reproduce_grasping_shiv"),
+    (r"reproduce_track_shiv_.+", "reproduce_track_shiv"),
+    (r"sweep_(singulation|track)", "sweep_study"),
+    (r"bench_(singulation|grasping)", "bench_tasks"),
+)
+
+
+def renderer_name(name: str) -> str:
+    for pattern, shared in SHARED_RENDERERS:
+        if re.fullmatch(pattern, name):
+            return shared
+    return name
+
+
 def renderer(name: str):
+    name = renderer_name(name)
     path = TABLES / f"{name}.py"
     if not path.is_file():
         raise FileNotFoundError(f"no renderer {path} for docs/results/{name}.json")

@@ -15,8 +15,7 @@ def render(data, **_):
         )
     s = data["settings"]
     return (
-        "\n".join(rows)
-        + f"\n\n`{data['env_id']}`, a `{s['policy']}` learner; iteration 0 is BC on"
+        "\n".join(rows) + f"\n\n`{data['env_id']}`, a `{s['policy']}` learner; iteration 0 is BC on"
         f" {s['teleop_episodes']} episodes teleoperated by the simulated person ({s['human']});"
         f" each later iteration adds {s['rollouts']} learner rollouts relabelled by it"
         f" ({s['labeller']}). Mean return over {s['eval_episodes']} evaluation episodes (seeds"

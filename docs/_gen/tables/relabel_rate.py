@@ -2,7 +2,10 @@
 
 
 def render(data, **_):
-    rows = ["| env | kwargs | states labelled | seconds | labels per minute |", "|---|---|---|---|---|"]
+    rows = [
+        "| env | kwargs | states labelled | seconds | labels per minute |",
+        "|---|---|---|---|---|",
+    ]
     for t in data["tasks"]:
         kwargs = ", ".join(f"{k}={v}" for k, v in t["env_kwargs"].items()) or "(defaults)"
         rows.append(
@@ -11,8 +14,7 @@ def render(data, **_):
         )
     s = data["settings"]
     return (
-        "\n".join(rows)
-        + f"\n\nOne scripted relabelling session per task in a real pygame window"
+        "\n".join(rows) + f"\n\nOne scripted relabelling session per task in a real pygame window"
         f" (SDL video driver `{s['video_driver']}`), one confirming input posted as soon as each"
         f" state is drawn; the episode was teleoperated by the simulated person with states"
         f" stored every {s['snapshot_every']} steps (the others replayed). Machine:"

@@ -1,4 +1,4 @@
-"""docs/results/sweep_track.json (scripts/reproductions/sensitivity_study.py --tasks track)."""
+"""docs/results/sweep_{singulation,track}.json (scripts/reproductions/sensitivity_study.py --tasks ...)."""
 
 
 def _cell(entry, metric):

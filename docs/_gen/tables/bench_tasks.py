@@ -1,4 +1,4 @@
-"""docs/results/bench_grasping.json (scripts/benchmarks/bench_tasks.py --env GraspingInClutter-v0 --modes supervisor pixels)."""
+"""docs/results/bench_{singulation,grasping}.json (scripts/benchmarks/bench_tasks.py --env ID)."""
 
 import sys
 from pathlib import Path

@@ -1,4 +1,4 @@
-"""Renderer of docs/results/dart_mujoco_hopper.json (Fig. 3.3 and 3.4 on Hopper).
+"""Renderer of docs/results/dart_mujoco_*.json (Fig. 3.3 and 3.4, every task and setting).
 
 The DART-on-MuJoCo files share one layout (written by scripts/reproductions/reproduce_dart_mujoco.py),
 so the other dart_mujoco_* renderers reuse this one's ``render``.
