@@ -29,3 +29,8 @@ def machine() -> str:
     """Cores, architecture and the load average now (results measured under load say so)."""
     load = os.getloadavg()[0] if hasattr(os, "getloadavg") else float("nan")
     return f"{os.cpu_count()} cores ({platform.machine()}), load average {load:.1f} at the start"
+
+
+def announce(expected: str) -> None:
+    """Say up front how long a script runs (on standard error: benchmarks print JSON on stdout)."""
+    print(f"expected run time: {expected}", file=sys.stderr, flush=True)

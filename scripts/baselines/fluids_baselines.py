@@ -40,6 +40,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.provenance import announce
 
 ENVS = {
     "FLUIDS-v1": {"action_level": "velocity"},
@@ -177,6 +178,9 @@ def main() -> None:
     )
     parser.add_argument("--out", default=None)
     args = parser.parse_args()
+    announce(
+        "~15 min on 2 cores at --episodes 200 --demos 60 (PPO rows add ~5 min and need the train extra)"
+    )
     extra = json.dumps(json.loads(args.env_kwargs), sort_keys=True)
     jobs = [
         (e, m, args.episodes, args.demos, args.ppo_steps, args.seed, extra)

@@ -22,6 +22,8 @@ import sys
 import tempfile
 from pathlib import Path
 
+from fluids_bench.core.provenance import announce
+
 HERE = Path(__file__).resolve().parent  # scripts/benchmarks: the scripts it can run
 ROOT = HERE.parents[1]
 RATE_SUFFIXES = ("per_s", "per_cpu_s")
@@ -59,6 +61,7 @@ def main() -> None:
         "bench", nargs=argparse.REMAINDER, help="-- SCRIPT [ARGS]: a script in scripts/benchmarks/"
     )
     args = parser.parse_args()
+    announce("2 x --runs times the benchmark's own run time")
     bench = args.bench[1:] if args.bench[:1] == ["--"] else args.bench
     if not bench or not (HERE / bench[0]).is_file():
         parser.error(f"benchmark is {bench[:1]}; allowed: a script in {HERE}, after --")

@@ -24,6 +24,7 @@ import time
 import gymnasium as gym
 
 import fluids_bench
+from fluids_bench.core.provenance import announce
 from fluids_bench.data.collect import collect
 from fluids_bench.tasks.fluids.observations import OBS_TYPES
 
@@ -77,6 +78,7 @@ def main() -> None:
     )
     parser.add_argument("--workers", type=int, nargs="+", default=[1, 2])
     args = parser.parse_args()
+    announce("~2 min on 2 cores at the defaults")
     kwargs = scenario()
     report = {
         "env": ENV_ID,

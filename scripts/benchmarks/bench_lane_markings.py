@@ -18,6 +18,7 @@ import time
 
 import numpy as np
 
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.fluids.sim import draw
 from fluids_bench.tasks.fluids.sim.layout.spec import Lane
 
@@ -50,6 +51,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--lanes", type=int, default=1024)
     args = parser.parse_args()
+    announce("~10 s at 1,024 lanes")
     layout = _Layout(grid_lanes(args.lanes))
     start = time.perf_counter()
     markings = draw.lane_markings.__wrapped__(layout)

@@ -28,6 +28,7 @@ from _results import add_results_option, emit
 from bench_sim import bench_env  # the same S2 loop as the simulator benchmark (scripts/)
 
 import fluids_bench
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.fluids.sim.render import Renderer
 from fluids_bench.tasks.fluids.sim.sensors.birdseye import BirdsEyeSensor
 from fluids_bench.tasks.fluids.sim.sensors.qlidar import QLidarSensor
@@ -106,6 +107,7 @@ def main() -> None:
     parser.add_argument("--calls", type=int, default=1000, help="timed calls per sensor")
     add_results_option(parser)
     args = parser.parse_args()
+    announce("~1 min on one core at the defaults")
     # numpy's speed on tiny arrays, to compare machines (and loads) with each other
     a = np.zeros(64)
     t0 = time.perf_counter()

@@ -20,6 +20,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.singulation.sim import SceneConfig, sample_cluster
 from fluids_bench.tasks.singulation.supervisor import plan_push
 
@@ -44,6 +45,7 @@ def main() -> None:
     parser.add_argument("--states", type=int, default=100)
     parser.add_argument("--repeats", type=int, default=3)
     args = parser.parse_args()
+    announce("~30 s on one core at the defaults")
     sample = states(args.states)
     plan_push(*sample[0])  # warm up
     c0 = time.process_time()

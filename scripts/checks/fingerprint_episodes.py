@@ -26,6 +26,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 
 LEVELS = ("behavior", "trajectory", "velocity", "control")
 OBS = ("explicit", "birdseye", "qlidar", ["explicit", "qlidar"])
@@ -109,6 +110,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=2, help="episodes per configuration")
     parser.add_argument("--steps", type=int, default=150, help="steps per configuration")
     args = parser.parse_args()
+    announce("a few minutes on one core")
     out: dict[str, str] = {}
     seeds = range(args.seeds)
     for level in LEVELS:

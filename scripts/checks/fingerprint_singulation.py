@@ -30,6 +30,7 @@ import numpy as np
 from fingerprint_episodes import _feed  # the same canonical hashing (scripts/ is on the path)
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.singulation.supervisor import plan_push
 
 ENV_ID = "Singulation-v0"
@@ -84,6 +85,7 @@ def main() -> None:
     parser.add_argument("--seeds", type=int, default=40, help="episodes per regime")
     parser.add_argument("--steps", type=int, default=150, help="step limit per episode")
     args = parser.parse_args()
+    announce("~1 min on one core")
     seeds = range(args.seeds)
     plans = hashlib.sha256()
     out = {

@@ -20,6 +20,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 
@@ -39,6 +40,7 @@ def main() -> None:
     p.add_argument("--turner-speeds", type=float, nargs="+", default=[0, 3, 6])
     p.add_argument("--steps", type=int, default=120)
     args = p.parse_args()
+    announce("~1 min on one core per layout")
     env = gym.make(
         "FLUIDS-v0", layout=args.layout, num_cars=1, num_pedestrians=0,
         action_level="velocity", defensive=True, lights=False,

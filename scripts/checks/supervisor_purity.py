@@ -34,6 +34,8 @@ from fluids_bench.registration import ENV_SPECS
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 from exact_compare import exactly_equal  # noqa: E402
 
+from fluids_bench.core.provenance import announce
+
 SEED = 20_000  # seeds the project's tests and tables do not use
 
 
@@ -99,6 +101,7 @@ def main() -> None:
     parser.add_argument("--ahead", type=int, default=2, help="steps compared after each copy")
     parser.add_argument("--copy", choices=["snapshot", "deepcopy"], default="snapshot")
     args = parser.parse_args()
+    announce("~2 min on one core at --states 60")
     out = {
         env_id: {
             kind: measure(env_id, kind, args.states, args.ahead, args.copy)

@@ -14,6 +14,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the env ids)
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.fluids.sim.draw import visible_agents
 from fluids_bench.tasks.fluids.sim.layout import build_layout, compile_layout
 from fluids_bench.tasks.fluids.sim.render import RAY_LEGEND, Renderer, draw_legend, draw_rays
@@ -111,6 +112,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args()
+    announce("~30 s")
     args.out.mkdir(parents=True, exist_ok=True)
     layouts(args.out)
     observations(args.out)

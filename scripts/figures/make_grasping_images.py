@@ -18,6 +18,7 @@ import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_bytes_atomic
+from fluids_bench.core.provenance import announce
 from fluids_bench.core.raster import SHIFT, to_fixed
 from fluids_bench.tasks.grasping.render import view
 from fluids_bench.tasks.grasping.sim import TARGET
@@ -45,6 +46,7 @@ def main() -> None:
     parser.add_argument("--size", type=int, default=360)
     parser.add_argument("--out", type=Path, default=Path("docs/images/grasping_supervisor.png"))
     args = parser.parse_args()
+    announce("~10 s")
     env = gym.make("GraspingInClutter-v0", render_mode="rgb_array", render_size=args.size)
     _, info = env.reset(seed=args.seed)
     sup = GraspSupervisor(env.unwrapped.cfg)  # labels depend on the state only: same labels

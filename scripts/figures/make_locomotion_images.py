@@ -15,6 +15,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -27,6 +28,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--seed", type=int, default=0)
     p.add_argument("--out", type=Path, default=Path("docs/images"))
     args = p.parse_args(argv)
+    announce("~30 s per id")
     args.out.mkdir(parents=True, exist_ok=True)
     for env_id in args.env:
         kwargs = {} if args.kind is None else {"supervisor": args.kind}

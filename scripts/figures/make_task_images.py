@@ -22,6 +22,7 @@ import imageio.v3 as iio
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers the ids)
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.dag.model import DEPTH, EDGE_REWARDS, L, R
 from fluids_bench.tasks.dag.supervisor import expected_return, greedy_action
 
@@ -143,6 +144,7 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--mu", type=float, default=0.25, help="DAG-v0's root slip")
     p.add_argument("--out", type=Path, default=IMAGES)
     args = p.parse_args(argv)
+    announce("~10 s")
     if args.every < 1:
         p.error("--every must be >= 1")
     args.out.mkdir(parents=True, exist_ok=True)

@@ -18,6 +18,7 @@ import numpy as np
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.results import write_bytes_atomic
+from fluids_bench.core.provenance import announce
 from fluids_bench.core.raster import SHIFT, to_fixed
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
@@ -77,6 +78,7 @@ def main() -> None:
     parser.add_argument("--tracks", type=int, nargs="+", default=[0, 1, 2])
     parser.add_argument("--out", type=Path, default=Path("docs/images/track_laps.png"))
     args = parser.parse_args()
+    announce("~20 s")
     panels = [panel(t) for t in args.tracks]
     gap = np.full((panels[0].shape[0], 6, 3), 255, np.uint8)
     row = np.concatenate(

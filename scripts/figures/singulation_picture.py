@@ -17,6 +17,7 @@ import numpy as np
 
 import fluids_bench  # noqa: F401
 from fluids_bench.core import raster
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.singulation import render
 
 SIZE = 480
@@ -46,6 +47,7 @@ def main() -> None:
     parser.add_argument("--seed", type=int, default=7)
     parser.add_argument("--out", type=Path, default=Path("docs/images/singulation_supervisor.png"))
     args = parser.parse_args()
+    announce("~10 s")
 
     env = gym.make("Singulation-v0", render_mode="rgb_array")
     env.unwrapped.RENDER_SIZE = SIZE

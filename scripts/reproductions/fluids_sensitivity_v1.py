@@ -29,6 +29,7 @@ import sys
 from pathlib import Path
 
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import announce
 
 ENV = "FLUIDS-Sensitivity-v1"
 BASE = {
@@ -81,6 +82,7 @@ def main() -> None:
     p.add_argument("--slice-episodes", type=int, default=50, help="per point, slices")
     p.add_argument("--workers", type=int, default=2)
     args = p.parse_args()
+    announce("~7 min on 2 free cores for the main sweep; the slices and ablations add more")
     out = args.out
     main_dir = out / "main"
     sweep(

@@ -29,6 +29,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec, fit_policy
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.provenance import announce
 
 ENV_ID = "GraspingInClutter-v0"
 FEATURES = ("standardised", "raw")
@@ -95,6 +96,9 @@ def main() -> None:
     parser.add_argument("--workers", type=int, default=2)
     parser.add_argument("--out", type=Path, default=Path("out/grasping_krr_features"))
     args = parser.parse_args()
+    announce(
+        "tens of minutes on 2 cores (one fit per layout, alpha, feature set and demonstration count); finished cells are reused"
+    )
     if min(args.layouts, args.eval_episodes, args.workers, *args.demos) < 1:
         parser.error("--layouts, --demos, --eval-episodes, --workers: >= 1")
     args.out.mkdir(parents=True, exist_ok=True)

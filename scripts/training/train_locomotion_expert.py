@@ -38,6 +38,7 @@ from pathlib import Path
 import gymnasium as gym
 import numpy as np
 
+from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
 
 # The ARS paper's V2-t settings per task (Table 9 of arXiv:1803.07055), shift = survival bonus.
@@ -136,6 +137,9 @@ def main(argv: list[str] | None = None) -> int:
     for key in ("step_size", "noise", "shift"):
         p.add_argument("--" + key.replace("_", "-"), type=float, default=None)
     args = p.parse_args(argv)
+    announce(
+        "hours for a full recipe (tens of millions of env steps; Humanoid ~2 h on 2 free cores); a few seconds per iteration"
+    )
     hp = dict(PRESETS[args.env])
     for key in hp:
         if getattr(args, key) is not None:
