@@ -46,7 +46,7 @@ from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.provenance import command_line, machine
 
 REPO = Path(__file__).resolve().parents[2]
-CPU_SECONDS_PER_RUN = 100.0  # measured: 24 runs took 14-28 min with 2 workers
+CPU_SECONDS_PER_RUN = 20.0  # measured: 24 runs took 7 min on one worker (2-core machine, loaded)
 
 
 ENV_ID = "GraspingInClutter-v0"

@@ -1,6 +1,6 @@
 """Renderer of docs/results/reproduce_grasping_shiv.json (Fig. 6.4: SHIV vs DAgger vs Behavior
 Cloning on grasping in clutter). The ablations' files (``reproduce_grasping_shiv_<suffix>.json``)
-have the same layout; their renderers reuse this ``render``."""
+have the same layout and share this renderer."""
 
 from __future__ import annotations
 
@@ -41,12 +41,15 @@ def render(data: dict, iterations: tuple[int, ...] = (1, 5, 10), **options) -> s
         f"σ_r = {shiv['sigma_r']}; labels per rollout: {settings['samples_per_demo'] or 'all'}; "
         f"{settings['eval_episodes']} evaluation episodes per iteration; {data['machine']}.",
     ]
-    reduction = data["summary"].get("query_reduction") or {}
+    # levels at which one of the two never arrives have no reduction (null)
+    reduction = {
+        k: v for k, v in (data["summary"].get("query_reduction") or {}).items() if v is not None
+    }
     if reduction:
         lines.append(
             "SHIV's query reduction at the levels both reach: "
             + ", ".join(
-                f"{float(k):g}: {100 * v:.0f}%"
+                f"{float(k):g}: {100 * v:.1f}%"
                 for k, v in sorted(reduction.items(), key=lambda kv: float(kv[0]))
             )
             + "."
