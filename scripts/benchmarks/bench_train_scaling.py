@@ -24,6 +24,8 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.core.pool import descendants
+
 TIMING = ("train_seconds", "wall_seconds")
 
 
@@ -55,23 +57,6 @@ def records(out: Path) -> dict[str, Any]:
     return payload
 
 
-def _family(pid: int) -> list[int]:
-    """``pid`` and its descendants (Linux /proc)."""
-    children: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                stat = Path(f"/proc/{entry}/stat").read_text()
-            except OSError:
-                continue
-            children.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        out.append(todo.pop())
-        todo += children.get(out[-1], [])
-    return out
-
-
 def _cpu_seconds(pid: int) -> float | None:
     try:
         fields = Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()
@@ -90,7 +75,7 @@ def run(command: list[str]) -> tuple[float, float]:
     process = subprocess.Popen(argv, env=env, stdout=subprocess.DEVNULL)
     cpu: dict[int, float] = {}
     while process.poll() is None:
-        for pid in _family(process.pid):
+        for pid in [process.pid, *descendants(process.pid)]:
             seconds = _cpu_seconds(pid)
             if seconds is not None:
                 cpu[pid] = seconds

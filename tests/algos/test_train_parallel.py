@@ -22,6 +22,7 @@ from fluids_bench.algos.bc import BCConfig
 from fluids_bench.algos.config import BACKENDS, EXECUTION_FIELDS
 from fluids_bench.algos.dagger import DAggerConfig
 from fluids_bench.algos.harness import Harness
+from fluids_bench.core.pool import descendants, pid_alive
 from fluids_bench.data import collect as data_collect
 from fluids_bench.sweep.backends import TaskSession
 
@@ -257,30 +258,6 @@ def test_without_resume_a_run_starts_again(tmp_path: Path, monkeypatch: pytest.M
 # -- Ctrl-C with workers ----------------------------------------------------------------------
 
 
-def _descendants(pid: int) -> list[int]:
-    parents: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                stat = Path(f"/proc/{entry}/stat").read_text()
-            except OSError:
-                continue
-            parents.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        kids = parents.get(todo.pop(), [])
-        out += kids
-        todo += kids
-    return out
-
-
-def _running(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
-
-
 @pytest.mark.parametrize("backend", ["process", "ray"])
 def test_ctrl_c_with_workers_ends_cleanly_and_keeps_the_finished_iterations(
     backend: str, tmp_path: Path
@@ -305,7 +282,7 @@ def test_ctrl_c_with_workers_ends_cleanly_and_keeps_the_finished_iterations(
         assert process.poll() is None, process.communicate()
         assert time.monotonic() < deadline, "no iteration finished in 120 s"
         time.sleep(0.2)
-    family = _descendants(process.pid)
+    family = descendants(process.pid)
     assert len(family) >= 3  # workers and their helpers (fork server or Ray's processes)
     os.killpg(process.pid, signal.SIGINT)  # what Ctrl-C in a terminal does
     try:
@@ -320,6 +297,6 @@ def test_ctrl_c_with_workers_ends_cleanly_and_keeps_the_finished_iterations(
     assert len(lines) == 1 and lines[0].startswith("fluids-bench train: interrupted; the "), err
     assert json.loads(path.read_text())["complete"] is False
     deadline = time.monotonic() + 10
-    while any(map(_running, family)) and time.monotonic() < deadline:
+    while any(map(pid_alive, family)) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert not [pid for pid in family if _running(pid)], "orphaned worker processes"
+    assert not [pid for pid in family if pid_alive(pid)], "orphaned worker processes"

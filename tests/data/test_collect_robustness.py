@@ -17,6 +17,7 @@ import pyarrow.dataset
 import pytest
 
 from fluids_bench.cli import main
+from fluids_bench.core.pool import descendants, pid_alive
 from fluids_bench.data import minari_export
 from fluids_bench.data.minari_export import STAGING_DIR
 
@@ -49,34 +50,10 @@ def _spawn(args: list[str], capture: bool = True) -> subprocess.Popen:
     )
 
 
-def _descendants(pid: int) -> list[int]:
-    parents: dict[int, list[int]] = {}
-    for entry in os.listdir("/proc"):
-        if entry.isdigit():
-            try:
-                stat = Path(f"/proc/{entry}/stat").read_text()
-            except OSError:
-                continue
-            parents.setdefault(int(stat.rsplit(")", 1)[1].split()[1]), []).append(int(entry))
-    out, todo = [], [pid]
-    while todo:
-        kids = parents.get(todo.pop(), [])
-        out += kids
-        todo += kids
-    return out
-
-
-def _running(pid: int) -> bool:
-    try:
-        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
-    except OSError:
-        return False
-
-
 def _wait_for_workers(process: subprocess.Popen, count: int, timeout: float = 90) -> list[int]:
     """The process's descendants once ``count`` exist (resource tracker, fork server, workers)."""
     deadline = time.monotonic() + timeout
-    while len(found := _descendants(process.pid)) < count:
+    while len(found := descendants(process.pid)) < count:
         assert process.poll() is None, "the command ended early"
         assert time.monotonic() < deadline, "the worker pool did not start"
         time.sleep(0.1)
@@ -139,12 +116,12 @@ def test_sigkill_of_collect_with_workers_leaves_no_process_behind():
         process.kill()  # SIGKILL: no clean-up runs in the parent
         process.wait()
         deadline = time.monotonic() + 15
-        while any(map(_running, family)) and time.monotonic() < deadline:
+        while any(map(pid_alive, family)) and time.monotonic() < deadline:
             time.sleep(0.1)
-        assert not [pid for pid in family if _running(pid)], "orphaned worker processes"
+        assert not [pid for pid in family if pid_alive(pid)], "orphaned worker processes"
     finally:
         for pid in family:
-            if _running(pid):
+            if pid_alive(pid):
                 os.kill(pid, signal.SIGKILL)
 
 
@@ -158,16 +135,16 @@ def test_ctrl_c_ends_with_one_line_and_exit_code_130(workers):
     try:
         _, err = process.communicate(timeout=60)
     except subprocess.TimeoutExpired:  # say where it stood, then clean up
-        alive = [pid for pid in [process.pid, *family] if _running(pid)]
+        alive = [pid for pid in [process.pid, *family] if pid_alive(pid)]
         os.killpg(process.pid, signal.SIGKILL)
         _, err = process.communicate()
         pytest.fail(f"not ended 60 s after Ctrl-C; processes alive: {alive}; stderr:\n{err}")
     assert process.returncode == 130, err
     assert err.strip().splitlines() == ["fluids-bench collect: interrupted"], err
     deadline = time.monotonic() + 10
-    while any(map(_running, family)) and time.monotonic() < deadline:
+    while any(map(pid_alive, family)) and time.monotonic() < deadline:
         time.sleep(0.1)
-    assert not [pid for pid in family if _running(pid)]
+    assert not [pid for pid in family if pid_alive(pid)]
 
 
 def test_a_full_disk_is_one_clear_line(monkeypatch, capsys, datasets_root):
