@@ -36,7 +36,7 @@ import shutil
 import socket
 import uuid
 import warnings
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -233,16 +233,13 @@ def export_minari(
     exists and ``overwrite`` is False, ``ValueError`` for a malformed id, an empty list, a
     half-given reference pair or env kwargs that are not JSON-friendly.
     """
-    namespace, _, _ = check_dataset_id(dataset_id)
+    check_dataset_id(dataset_id)
     if not trajectories:
         raise ValueError("export_minari: no trajectories to export")
     if (ref_min_score is None) != (ref_max_score is None):
         raise ValueError("export_minari: pass both ref_min_score and ref_max_score, or neither")
     check_data_format(data_format)
     check_new_dataset(dataset_id, overwrite)
-    root = Path(get_dataset_path())
-    final = root / dataset_id
-    remove_stale_staging(root)
     env = gym.make(env_id, **dict(env_kwargs or {}))
     spec, observation_space, action_space = env.spec, env.observation_space, env.action_space
     env.close()
@@ -258,6 +255,41 @@ def export_minari(
         for i, t in enumerate(trajectories)
     ]
 
+    return write_staged(
+        dataset_id,
+        buffers,
+        overwrite=overwrite,
+        env=spec,
+        eval_env=spec,
+        algorithm_name=algorithm_name,
+        author=author,
+        author_email=author_email,
+        code_permalink=code_permalink,
+        observation_space=observation_space,
+        action_space=action_space,
+        ref_min_score=ref_min_score,
+        ref_max_score=ref_max_score,
+        description=description,
+        data_format=data_format,
+    )
+
+
+def write_staged(
+    dataset_id: str,
+    buffers: Sequence[EpisodeBuffer],
+    *,
+    overwrite: bool,
+    add_files: Callable[[Path], None] | None = None,
+    **metadata: Any,
+) -> minari.MinariDataset:
+    """Build Minari dataset ``dataset_id`` from ``buffers`` in a staging folder, let
+    ``add_files(folder)`` put files of its own next to Minari's, then rename it into place
+    (see :func:`_move_into_place`) and return it loaded. ``metadata`` goes to
+    ``minari.create_dataset_from_buffers``; images are stored losslessly."""
+    namespace, _, _ = check_dataset_id(dataset_id)
+    root = Path(get_dataset_path())
+    final = root / dataset_id
+    remove_stale_staging(root)
     staging = root / STAGING_DIR / _staging_name()
     try:
         with _datasets_root(staging), warnings.catch_warnings():
@@ -265,21 +297,12 @@ def export_minari(
             minari.create_dataset_from_buffers(
                 dataset_id,
                 buffers,
-                env=spec,
-                eval_env=spec,
-                algorithm_name=algorithm_name,
-                author=author,
-                author_email=author_email,
-                code_permalink=code_permalink,
-                observation_space=observation_space,
-                action_space=action_space,
-                ref_min_score=ref_min_score,
-                ref_max_score=ref_max_score,
-                description=description,
-                data_format=data_format,
                 jpeg_encoding=False,  # images stay exact (JPEG would be lossy)
                 requirements=[f"fluids-bench>={__version__}"],
+                **metadata,
             )
+        if add_files is not None:
+            add_files(staging / dataset_id)
         if namespace is not None and namespace not in list_local_namespaces():
             create_namespace(namespace)
         final.parent.mkdir(parents=True, exist_ok=True)

@@ -37,12 +37,9 @@ Writing is atomic (staged in a hidden folder of the datasets root, then renamed 
 
 from __future__ import annotations
 
-import contextlib
 import gzip
 import json
 import pickle
-import shutil
-import warnings
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,21 +49,9 @@ import minari
 import numpy as np
 from gymnasium import spaces
 from minari.data_collector import EpisodeBuffer
-from minari.namespace import create_namespace, list_local_namespaces
-from minari.storage import get_dataset_path
 
-from fluids_bench import __version__
 from fluids_bench.core import snapshot as snap
-from fluids_bench.data.minari_export import (
-    _OPTIONAL_FIELD_WARNINGS,
-    STAGING_DIR,
-    _datasets_root,
-    _move_into_place,
-    _staging_name,
-    check_dataset_id,
-    dataset_path,
-    remove_stale_staging,
-)
+from fluids_bench.data.minari_export import check_dataset_id, dataset_path, write_staged
 
 STATES_DIR = "fluids_bench_states"
 SESSIONS_FILE = "sessions.json"  # in STATES_DIR: one record per teleop / relabel session
@@ -236,7 +221,7 @@ def write_dataset(
 ) -> minari.MinariDataset:
     """Write ``episodes`` (after the existing ones when ``append``) atomically as
     ``dataset_id``, with their states and the session record; returns the loaded dataset."""
-    namespace, _, _ = check_dataset_id(dataset_id)
+    check_dataset_id(dataset_id)
     exists = check_writable(dataset_id, overwrite=overwrite, append=append)
     if not episodes:
         raise ValueError("no finished episodes to write")
@@ -268,50 +253,31 @@ def write_dataset(
     everything = old + list(episodes)
     buffers = [episode_buffer(i, ep, obs_space, act_space) for i, ep in enumerate(everything)]
 
-    root = Path(get_dataset_path())
-    final = root / dataset_id
-    remove_stale_staging(root)
-    staging = root / STAGING_DIR / _staging_name()
-    try:
-        with _datasets_root(staging), warnings.catch_warnings():
-            warnings.filterwarnings("ignore", message=_OPTIONAL_FIELD_WARNINGS)
-            minari.create_dataset_from_buffers(
-                dataset_id,
-                buffers,
-                env=spec,
-                eval_env=spec,
-                algorithm_name=algorithm_name,
-                author="fluids-bench",
-                observation_space=obs_space,
-                action_space=act_space,
-                description=description,
-                data_format=data_format,
-                jpeg_encoding=False,
-                requirements=[f"fluids-bench>={__version__}"],
-            )
-        states_dir = staging / dataset_id / STATES_DIR
+    def add_states(folder: Path) -> None:
+        states_dir = folder / STATES_DIR
         states_dir.mkdir()
         for i, ep in enumerate(everything):
             if ep.states:
                 with gzip.open(states_dir / f"episode_{i}.pkl.gz", "wb", compresslevel=3) as f:
                     pickle.dump(ep.states, f, protocol=pickle.HIGHEST_PROTOCOL)
         (states_dir / SESSIONS_FILE).write_text(json.dumps(old_sessions + [session], indent=1))
-        if namespace is not None and namespace not in list_local_namespaces():
-            create_namespace(namespace)
-        final.parent.mkdir(parents=True, exist_ok=True)
-        # an append or an asked-for overwrite replaces the old version; otherwise a dataset that
-        # appeared meanwhile (another run's) is kept and this write refused
-        _move_into_place(
-            staging / dataset_id,
-            final,
-            staging.with_name(staging.name + "-old"),
-            overwrite=overwrite or (append and exists),
-        )
-    finally:
-        shutil.rmtree(staging, ignore_errors=True)
-        with contextlib.suppress(OSError):
-            (root / STAGING_DIR).rmdir()
-    return minari.load_dataset(dataset_id)
+
+    # an append or an asked-for overwrite replaces the old version; otherwise a dataset that
+    # appeared meanwhile (another run's) is kept and this write refused
+    return write_staged(
+        dataset_id,
+        buffers,
+        overwrite=overwrite or (append and exists),
+        add_files=add_states,
+        env=spec,
+        eval_env=spec,
+        algorithm_name=algorithm_name,
+        author="fluids-bench",
+        observation_space=obs_space,
+        action_space=act_space,
+        description=description,
+        data_format=data_format,
+    )
 
 
 def next_version(dataset_id: str) -> str:
