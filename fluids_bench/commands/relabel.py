@@ -83,7 +83,7 @@ def run(args: argparse.Namespace) -> int:
     from fluids_bench.core.validation import check_int
     from fluids_bench.human.recording import check_writable, load_episodes, next_version, spec_of
     from fluids_bench.human.session import Relabel
-    from fluids_bench.human.simulated import SimulatedHuman
+    from fluids_bench.human.simulated import person
 
     check_int("relabel", "--every", args.every, 1)
     out = args.out or next_version(args.dataset)
@@ -99,15 +99,7 @@ def run(args: argparse.Namespace) -> int:
         if not 0 <= e < len(episodes):
             raise ValueError(f"--episode {e}; allowed: 0..{len(episodes) - 1}")
     items = [(e, t) for e in chosen for t in range(0, len(episodes[e]), args.every)]
-    human = None if args.simulated_human is None else SimulatedHuman.parse(args.simulated_human)
-    if human is None:
-        from fluids_bench.human.window import require_pygame
-
-        try:
-            require_pygame()
-        except ImportError as exc:
-            print(f"fluids-bench relabel: error: {exc}", file=sys.stderr)
-            return 2
+    human = person(args.simulated_human)  # a simulated one, or pygame for a real one
     session = Relabel(
         spec,
         episodes,

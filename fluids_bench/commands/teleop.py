@@ -99,7 +99,7 @@ def run(args: argparse.Namespace) -> int:
     from fluids_bench.core.validation import check_int
     from fluids_bench.human.recording import check_writable, env_spec
     from fluids_bench.human.session import Teleop
-    from fluids_bench.human.simulated import SimulatedHuman
+    from fluids_bench.human.simulated import person
 
     check_int("teleop", "--episodes", args.episodes, 1)
     check_int("teleop", "--snapshot-every", args.snapshot_every, 1)
@@ -115,15 +115,7 @@ def run(args: argparse.Namespace) -> int:
                 m.get("seed") for m in dataset.storage.get_episode_metadata(dataset.episode_indices)
             ]
             seed = 1 + max((s for s in seeds if s is not None), default=-1)
-    human = None if args.simulated_human is None else SimulatedHuman.parse(args.simulated_human)
-    if human is None:
-        from fluids_bench.human.window import require_pygame
-
-        try:
-            require_pygame()
-        except ImportError as exc:
-            print(f"fluids-bench teleop: error: {exc}", file=sys.stderr)
-            return 2
+    human = person(args.simulated_human)  # a simulated one, or pygame for a real one
     session = Teleop(
         args.env,
         dict(args.env_kwarg),

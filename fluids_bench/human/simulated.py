@@ -152,3 +152,17 @@ class NoiseInjector:
         else:
             cov = disagreement_covariance(predicted, ys)
             self.covariance = cov if self.alpha is None else scale_to_trace(cov, self.alpha)
+
+
+def person(simulated: str | None) -> SimulatedHuman | None:
+    """The labeller a command was asked for: a simulated person (``--simulated-human SPEC``), or
+    ``None`` for a real one at a window, which needs pygame (``ValueError`` naming the extra)."""
+    if simulated is not None:
+        return SimulatedHuman.parse(simulated)
+    from fluids_bench.human.window import require_pygame
+
+    try:
+        require_pygame()
+    except ImportError as exc:
+        raise ValueError(str(exc)) from None
+    return None
