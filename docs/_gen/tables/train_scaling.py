@@ -26,6 +26,6 @@ def render(data, **_):
         f" rollouts, fits, evaluation, output), {s['repeats']} runs per row, alternating; speed-up"
         f" against one worker. CPU time: the command and every process it started (workers, fork"
         f" server, Ray), sampled every 0.25 s. Records identical across all runs:"
-        f" {'yes' if data['identical_records'] else 'NO'}. Machine: {m['cpus']} cores shared with"
-        f" other jobs (load average {load} before the runs), Python {m['python']}."
+        f" {'yes' if data['identical_records'] else 'NO'}. Machine: {m['cpus']} cores"
+        f" (load average {load} before the runs), Python {m['python']}."
     )
