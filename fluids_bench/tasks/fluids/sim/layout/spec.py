@@ -15,6 +15,7 @@ a route whose exit lane is some route's entry lane.
 from __future__ import annotations
 
 import math
+from collections import Counter
 from dataclasses import dataclass
 
 Point = tuple[float, float]
@@ -34,6 +35,11 @@ CROSSWALK_STATES = ("white", "red")
 
 def _fail(where: str, field_name: str, value, allowed: str) -> None:
     raise ValueError(f"{where}: field '{field_name}' is {value!r}; allowed: {allowed}")
+
+
+def _repeated(names) -> set[str]:
+    """The names that occur more than once (in linear time: layouts may have 10,000 lanes)."""
+    return {name for name, count in Counter(names).items() if count > 1}
 
 
 def _check_points(where: str, name: str, pts, minimum: int) -> tuple[Point, ...]:
@@ -240,8 +246,7 @@ class LayoutSpec:
             )
         object.__setattr__(self, "bounds", tuple(float(v) for v in b))
         for group in ("lanes", "sidewalks", "crosswalks", "lights", "walks"):
-            names = [e.name for e in getattr(self, group)]
-            dup = {n for n in names if names.count(n) > 1}
+            dup = _repeated(e.name for e in getattr(self, group))
             if dup:
                 _fail(where, group, sorted(dup), "unique names")
         lanes = {lane.name for lane in self.lanes}
@@ -258,8 +263,7 @@ class LayoutSpec:
                 )
         if not self.routes:
             _fail(where, "routes", self.routes, "at least one car route")
-        route_names = [r.name for r in self.routes]
-        dup = sorted({n for n in route_names if route_names.count(n) > 1})
+        dup = sorted(_repeated(r.name for r in self.routes))
         if dup:
             _fail(where, "routes", dup, "each movement (entry->exit) once")
         for r in self.routes:
