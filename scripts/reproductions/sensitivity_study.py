@@ -1,5 +1,6 @@
 """Sensitivity studies on every task family: the supervisor, Behavior Cloning and DAgger over a
-3 x 3 x 3 grid of each task's perturbation kwargs (the question of the source's Fig. 7.6).
+3 x 3 x 3 grid of each task's perturbation kwargs (the question of the source's Fig. 7.6), and
+over the Singulation objects' size alone (``singulation_size``).
 
 For each task, three resumable ``fluids-bench sweep`` runs in ``--out/<task>/``: ``supervisor``
 (the reference), ``bc`` (a decision tree trained on the task's number of supervisor
@@ -65,6 +66,8 @@ STUDIES = {
         },
         10,
     ),
+    # the objects' size on its own, the learners trained with the settings of "singulation"
+    "singulation_size": ("Singulation-v0", {}, {"object_size_scale": (0.75, 1.0, 1.25)}, 20),
     # GridWorld: the world (goal, penalties) is drawn from world_seed for each size; at one
     # size more penalty_fraction adds penalty cells to the same world
     "gridworld": (
@@ -106,6 +109,7 @@ STUDIES = {
 # minutes for 10 episodes a configuration with 2 workers
 EXPECTED_MINUTES = {
     "singulation": 1.0,
+    "singulation_size": 0.1,
     "track": 0.5,
     "hopper": 1.8,
     "gridworld": 0.2,
