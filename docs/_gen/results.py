@@ -31,7 +31,7 @@ SHARED_RENDERERS = (
     (r"dart_mujoco_.+", "dart_mujoco"),
     (r"reproduce_grasping_shiv_.+", "reproduce_grasping_shiv"),
     (r"reproduce_track_shiv_.+", "reproduce_track_shiv"),
-    (r"sweep_(singulation|track)", "sweep_study"),
+    (r"sweep_(singulation|singulation_size|track|grasping|fluids)", "sweep_study"),
     (r"bench_(singulation|grasping)", "bench_tasks"),
 )
 

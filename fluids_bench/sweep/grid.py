@@ -328,6 +328,7 @@ SENSITIVITY: dict[str, dict[str, tuple[Any, ...]]] = {
         "mass_ratio": (1.0, 4.0, 16.0),
         "friction_scale": (0.5, 1.0, 2.0),
         "cluster_std": (0.0, 0.0447, 0.09),
+        "object_size_scale": (0.75, 1.0, 1.25),
     },
     "GraspingInClutter-v0": {
         "obstacles": (1, 3, 5),

@@ -15,6 +15,7 @@ from fluids_bench.algos.rollout import rollout
 CASES = [
     # id, the defaults written out, a perturbation, steps
     ("Singulation-v0", {"mass_ratio": 1.0, "friction_scale": 1.0}, {"friction_scale": 0.2}, 40),
+    ("Singulation-v0", {"object_size_scale": 1.0}, {"object_size_scale": 1.2}, 40),
     (
         "GraspingInClutter-v0",
         {"obstacle_size_scale": 1.0, "friction": 0.5, "obstacles": 5},
@@ -71,6 +72,7 @@ def test_defaults_are_the_nominal_env_and_perturbations_change_it(
     [
         ("Singulation-v0", {"mass_ratio": 0.5}, "mass_ratio"),
         ("Singulation-v0", {"friction_scale": -1.0}, "friction_scale"),
+        ("Singulation-v0", {"object_size_scale": 2.0}, "object_size_scale"),
         ("GraspingInClutter-v0", {"obstacle_size_scale": 2.0}, "obstacle_size_scale"),
         ("GraspingInClutter-v0", {"friction": "high"}, "friction"),
         ("GraspingInClutter-v0", {"obstacles": 6}, "obstacles"),

@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from fluids_bench.sweep.grid import ORDER, Grid
-from fluids_bench.sweep.plot import marginals, plot_sensitivity
+from fluids_bench.sweep.plot import marginals, plot_sensitivity, reports_success
 
 
 def _rows(grid: Grid) -> list[dict]:
@@ -44,3 +44,16 @@ def test_values_match_by_number(value):
     rows = [{"index": 0, **grid.configuration(0), "episodes": 1, "successes": 1}]
     rows[0]["cars"] = value
     assert marginals(rows, grid)["cars"] == [(0.0, 1.0)]
+
+
+@pytest.mark.parametrize(
+    "env_id, expected",
+    [
+        ("FLUIDS-Sensitivity-v1", True),  # is_success only on the terminating step
+        ("FLUIDS-v0", True),
+        ("Singulation-v0", True),
+        ("GridWorld-v0", False),
+    ],
+)
+def test_the_metric_is_success_where_the_env_reports_it(env_id, expected):
+    assert reports_success(env_id) is expected

@@ -1,4 +1,4 @@
-"""docs/results/sweep_{singulation,track}.json (scripts/reproductions/sensitivity_study.py --tasks ...)."""
+"""docs/results/sweep_{singulation,track,grasping,fluids}.json (scripts/reproductions/sensitivity_study.py --tasks ...)."""
 
 
 def _cell(entry, metric):
@@ -31,7 +31,9 @@ def render(data, **_):
         size *= len(values)
     note = (
         f"`{data['env_id']}` (fixed kwargs: {fixed}); {size} configurations × "
-        f"{data['episodes']} episodes (sweep seed {data['seed']}); each level pools the "
+        f"{data['episodes']} episodes"
+        + (f" of up to {data['max_episode_steps']} steps" if data.get("max_episode_steps") else "")
+        + f" (sweep seed {data['seed']}); each level pools the "
         f"configurations with that value (± standard error"
     )
     if metric == "success":

@@ -26,7 +26,7 @@ from fluids_bench.tasks.singulation.sim import (
     MAX_DR,
     MAX_DTHETA,
     NUM_OBJECTS,
-    OBJECT_SHAPES,
+    OBJECT_SIZE_SCALES,
     SceneConfig,
     SingulationWorld,
     sample_cluster,
@@ -71,7 +71,7 @@ def _check_reset_state(c: SceneConfig, state: Any) -> tuple[float, float, np.nda
                 f"on the table: x in [{-half}, {half}] m, y in [0, {c.table_depth}] m",
             )
         rot = np.array([[math.cos(phi), -math.sin(phi)], [math.sin(phi), math.cos(phi)]])
-        polygons.append(shapely.Polygon(OBJECT_SHAPES[i] @ rot.T + (x, y)))
+        polygons.append(shapely.Polygon(c.shapes[i] @ rot.T + (x, y)))
     for i in range(NUM_OBJECTS):
         for j in range(i + 1, NUM_OBJECTS):
             shared = polygons[i].intersection(polygons[j]).area
@@ -92,7 +92,8 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     The singulation task of the source's ch. 5: four convex polygons of about 10 cm and
     uniform density lie packed touching on a table; a planar arm at the table's near edge
     (base rotation and extension, only its fingertip touching the table) must push them until
-    one object's centre is at least 10 cm from every other object's centre. Pushing is
+    one object's centre is at least 10 cm from every other object's centre (with
+    `object_size_scale` s: objects of about 10 s cm, singulated at 10 s cm). Pushing is
     quasi-static (pymunk 7, no gravity, damping 0: objects move only while pushed). The
     supervisor (`fluids_bench.tasks.singulation.supervisor`) is hierarchical: it picks the
     object and push direction by simulating candidate pushes on a rebuilt world, routes the
@@ -133,11 +134,12 @@ class SingulationEnv(SnapshotMixin, gym.Env):
 
     ## Episode End
 
-    Termination when some object's centre is 10 cm or more from every other object's centre
-    (`info["is_success"]`, to 1 nm); with `terminate_on_success=False` the episode runs on.
-    Truncation at 150 steps (the registration's `max_episode_steps`).
+    Termination when some object's centre is 10 cm × `object_size_scale` or more from every
+    other object's centre (`info["is_success"]`, to 1 nm); with `terminate_on_success=False`
+    the episode runs on. Truncation at 150 steps (the registration's `max_episode_steps`).
     `info["progress"]` is the continuous measure: the largest, over objects, of the distance
-    (m) from its centre to the nearest other centre (success is progress ≥ 0.10).
+    (m) from its centre to the nearest other centre (success is progress ≥ 0.10 ×
+    `object_size_scale`).
 
     ## Snapshots and labels
 
@@ -163,6 +165,7 @@ class SingulationEnv(SnapshotMixin, gym.Env):
     | `terminate_on_success` | bool        | True      | end the episode when singulated                    |
     | `mass_ratio`           | float       | 1.0       | heaviest object's mass over the lightest's, [1, 100]: object i's density × ratio^(i/3 − 1/2) (one common scale would change nothing: no gravity, no table friction); the supervisor's foresight simulates the same world |
     | `friction_scale`       | float       | 1.0       | objects' and fingertip's friction (0.5) × this, [0, 4] |
+    | `object_size_scale`    | float       | 1.0       | every object's lengths × this, [0.5, 1.5] (density kept); the singulation distance (10 cm) scales with it, so packed clusters never start singulated |
     | `render_mode`          | str         | None      | None or "rgb_array" (400×400)                      |
 
     ## Version History
@@ -187,6 +190,7 @@ class SingulationEnv(SnapshotMixin, gym.Env):
         terminate_on_success: bool = True,
         mass_ratio: float = 1.0,
         friction_scale: float = 1.0,
+        object_size_scale: float = 1.0,
         render_mode: str | None = None,
     ) -> None:
         kinds = [obs_type] if isinstance(obs_type, str) else obs_type
@@ -204,6 +208,9 @@ class SingulationEnv(SnapshotMixin, gym.Env):
             ),
             mass_ratio=check_float(WHERE, "mass_ratio", mass_ratio, 1.0, 100.0),
             friction_scale=check_float(WHERE, "friction_scale", friction_scale, 0.0, 4.0),
+            object_size_scale=check_float(
+                WHERE, "object_size_scale", object_size_scale, *OBJECT_SIZE_SCALES
+            ),
         )
         if not isinstance(terminate_on_success, bool | np.bool_):
             fail(WHERE, "terminate_on_success", terminate_on_success, "True or False")

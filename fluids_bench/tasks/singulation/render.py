@@ -26,8 +26,9 @@ def draw(world: SingulationWorld, size: int, out: np.ndarray | None = None) -> n
     affine = raster.pixel_affine(ppm, VIEW_X0, VIEW_Y1)
     img = np.empty((size, size, 3), np.uint8) if out is None else out
     img[:] = TABLE
+    scale = world.config.object_size_scale
     for i, (x, y, a) in enumerate(world.poses()):
-        pts = raster.to_fixed(affine, object_polygon(i, x, y, a))
+        pts = raster.to_fixed(affine, object_polygon(i, x, y, a, scale))
         cv2.fillPoly(img, [pts], OBJECT_COLOURS[i], cv2.LINE_AA, raster.SHIFT)
     base, tip = raster.to_fixed(affine, np.array([[0.0, 0.0], world.tip_xy()]))
     cv2.line(img, base, tip, LINK, raster.line_px(ppm, 0.008), cv2.LINE_AA, raster.SHIFT)

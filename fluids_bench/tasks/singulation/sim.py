@@ -10,13 +10,15 @@ moving along the commanded joint-space segment).
 
 No gravity and a space damping of 0 make pushing quasi-static: an object moves only while
 something pushes it. The four objects are fixed convex polygons of about 10 cm (the source's
-four MDF polygons of 4" diameter) with uniform density.
+four MDF polygons of 4" diameter) with uniform density; ``SceneConfig.object_size_scale``
+scales them (a sensitivity sweep's factor).
 
 This module imports neither gymnasium nor another task.
 """
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 
@@ -73,6 +75,19 @@ OBJECT_SHAPES: tuple[np.ndarray, ...] = (
     _centred(_regular(7, 0.05, squash=0.85, phase=0.3)),
 )
 OBJECT_RADII = np.array([float(np.hypot(*s.T).max()) for s in OBJECT_SHAPES])
+OBJECT_SIZE_SCALES = (0.5, 1.5)  # the range of SceneConfig.object_size_scale
+
+
+@functools.lru_cache(maxsize=32)
+def object_shapes(scale: float = 1.0) -> tuple[np.ndarray, ...]:
+    """The four objects' vertices (m) with every length multiplied by ``scale``; at 1.0 the
+    very arrays of :data:`OBJECT_SHAPES` (the nominal world, bit for bit)."""
+    if scale == 1.0:
+        return OBJECT_SHAPES
+    shapes = tuple(shape * scale for shape in OBJECT_SHAPES)
+    for shape in shapes:
+        shape.setflags(write=False)  # shared by every caller of the cache
+    return shapes
 
 
 @dataclass(frozen=True)
@@ -104,15 +119,30 @@ class SceneConfig:
     # (scaling every mass alike changes nothing here: no gravity, no table friction)
     mass_ratio: float = 1.0
     friction_scale: float = 1.0  # multiplies the objects' and the fingertip's friction
+    # every object's lengths × this (density kept, so mass × its square); the singulation
+    # distance scales with it (one object size apart), else large objects would start
+    # singulated and small ones would have to be thrown apart
+    object_size_scale: float = 1.0
 
     def __post_init__(self) -> None:
         where = "SceneConfig"
         check_float(where, "cluster_std", self.cluster_std, 0.0, 0.2)
         check_float(where, "mass_ratio", self.mass_ratio, 1.0, 100.0)
         check_float(where, "friction_scale", self.friction_scale, 0.0, 4.0)
+        check_float(where, "object_size_scale", self.object_size_scale, *OBJECT_SIZE_SCALES)
         check_float(where, "cluster_rotation", self.cluster_rotation, 0.0, math.pi)
         check_float(where, "r_min", self.r_min, 0.0, self.r_max, hi_open=True)
         check_float(where, "theta_min", self.theta_min, 0.0, self.theta_max, hi_open=True)
+
+    @property
+    def shapes(self) -> tuple[np.ndarray, ...]:
+        """The objects' vertices at this scene's size."""
+        return object_shapes(self.object_size_scale)
+
+    @property
+    def singulation_distance(self) -> float:
+        """Centre distance (m) that counts as singulated: 10 cm × ``object_size_scale``."""
+        return SINGULATION_DISTANCE * self.object_size_scale
 
 
 def tip_position(theta: float, r: float) -> tuple[float, float]:
@@ -146,23 +176,23 @@ def _progress4(x: list[float], y: list[float]) -> float:
     )
 
 
-def is_singulated(centres: np.ndarray) -> bool:
-    """Some object's centre is at least 10 cm from every other object's centre."""
-    return progress(centres) >= SINGULATION_DISTANCE - SUCCESS_TOLERANCE
+def is_singulated(centres: np.ndarray, distance: float = SINGULATION_DISTANCE) -> bool:
+    """Some object's centre is at least ``distance`` (10 cm) from every other object's centre."""
+    return progress(centres) >= distance - SUCCESS_TOLERANCE
 
 
-def object_polygon(index: int, x: float, y: float, angle: float) -> np.ndarray:
-    """World vertices (k, 2) of object ``index`` at pose (x, y, angle)."""
+def object_polygon(index: int, x: float, y: float, angle: float, scale: float = 1.0) -> np.ndarray:
+    """World vertices (k, 2) of object ``index`` (its size × ``scale``) at pose (x, y, angle)."""
     c, s = math.cos(angle), math.sin(angle)
-    v = OBJECT_SHAPES[index]
+    v = object_shapes(scale)[index]
     return np.column_stack((x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]))
 
 
 def sample_cluster(config: SceneConfig, rng: np.random.Generator) -> np.ndarray:
     """Object poses (4, 3) ``[x, y, angle]``: packed touching, never already singulated."""
     while True:
-        poses = _pack(rng)
-        if is_singulated(poses[:, :2]):
+        poses = _pack(rng, config.object_size_scale)
+        if is_singulated(poses[:, :2], config.singulation_distance):
             continue  # the source's initial states are clusters, never already singulated
         # rotate the cluster about its centroid, then translate it
         spin = rng.uniform(-config.cluster_rotation, config.cluster_rotation)
@@ -182,9 +212,10 @@ def sample_cluster(config: SceneConfig, rng: np.random.Generator) -> np.ndarray:
         return out
 
 
-def _pack(rng: np.random.Generator) -> np.ndarray:
-    """Place the objects one at a time, in a random order, each slid in from a random direction
-    towards the centroid of those already placed until it touches them (gap ``TOUCH_GAP``)."""
+def _pack(rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
+    """Place the objects (their size × ``scale``) one at a time, in a random order, each slid in
+    from a random direction towards the centroid of those already placed until it touches them
+    (gap ``TOUCH_GAP``)."""
     order = rng.permutation(NUM_OBJECTS)
     angles = rng.uniform(-math.pi, math.pi, NUM_OBJECTS)
     poses = np.zeros((NUM_OBJECTS, 3))
@@ -193,21 +224,21 @@ def _pack(rng: np.random.Generator) -> np.ndarray:
         angle = angles[k]
         if not placed:
             poses[index] = (0.0, 0.0, angle)
-            placed.append(shapely.Polygon(object_polygon(index, 0.0, 0.0, angle)))
+            placed.append(shapely.Polygon(object_polygon(index, 0.0, 0.0, angle, scale)))
             continue
         union = shapely.union_all(placed)
         centre = np.array([union.centroid.x, union.centroid.y])
         direction = rng.uniform(-math.pi, math.pi)
         u = np.array([math.cos(direction), math.sin(direction)])
 
-        slide = _Slide(index, angle, centre, u, union)
+        slide = _Slide(index, angle, centre, u, union, scale)
         # start just outside: the union's farthest point plus this object's radius
         xy = np.asarray(
             union.exterior.coords
             if union.geom_type == "Polygon"
             else union.convex_hull.exterior.coords
         )
-        t = float(np.hypot(*(xy - centre).T).max()) + OBJECT_RADII[index] + 0.005
+        t = float(np.hypot(*(xy - centre).T).max()) + OBJECT_RADII[index] * scale + 0.005
         t = slide.march(t, 0.005)  # march in until the first contact
         # lo overlaps (or is at the centre), hi is free: bisect to 0.3 µm (14 halvings)
         hi = slide.bisect(t, t + 0.005, 14)
@@ -215,18 +246,18 @@ def _pack(rng: np.random.Generator) -> np.ndarray:
         hi = slide.back_off(hi, TOUCH_GAP / 4, TOUCH_GAP)
         p = centre + hi * u
         poses[index] = (p[0], p[1], angle)
-        placed.append(shapely.Polygon(object_polygon(index, p[0], p[1], angle)))
+        placed.append(shapely.Polygon(object_polygon(index, p[0], p[1], angle, scale)))
     return poses
 
 
 class _Slide:
-    """Object ``index`` (at ``angle``) slid along the line ``centre + t u`` towards ``union``:
-    its gap to the union at several ``t`` in one vectorised shapely call (the same vertices,
-    bit for bit, as :func:`object_polygon` at each point)."""
+    """Object ``index`` (at ``angle``, its size × ``scale``) slid along the line ``centre + t u``
+    towards ``union``: its gap to the union at several ``t`` in one vectorised shapely call (the
+    same vertices, bit for bit, as :func:`object_polygon` at each point)."""
 
-    def __init__(self, index, angle, centre, u, union) -> None:
+    def __init__(self, index, angle, centre, u, union, scale: float = 1.0) -> None:
         c, s = math.cos(angle), math.sin(angle)
-        v = OBJECT_SHAPES[index]
+        v = object_shapes(scale)[index]
         self.cv0, self.sv1, self.sv0, self.cv1 = c * v[:, 0], s * v[:, 1], s * v[:, 0], c * v[:, 1]
         self.centre, self.u, self.union = centre, u, union
 
@@ -328,7 +359,7 @@ class SingulationWorld:
         self._shapes: list[pymunk.Shape] = []
         for index in range(len(poses)):
             body = pymunk.Body()
-            shape = pymunk.Poly(body, [tuple(v) for v in OBJECT_SHAPES[index]])
+            shape = pymunk.Poly(body, [tuple(v) for v in config.shapes[index]])
             # the body gets its mass when the shape is added
             shape.density = AREAL_DENSITY * config.mass_ratio ** (index / 3 - 0.5)
             shape.friction = FRICTION_OBJECTS * config.friction_scale
@@ -436,7 +467,7 @@ class SingulationWorld:
         return self._progress
 
     def is_singulated(self) -> bool:
-        return self.progress() >= SINGULATION_DISTANCE - SUCCESS_TOLERANCE
+        return self.progress() >= self.config.singulation_distance - SUCCESS_TOLERANCE
 
     # -- dynamics ------------------------------------------------------------------------
 

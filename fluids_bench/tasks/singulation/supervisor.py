@@ -36,11 +36,10 @@ from fluids_bench.tasks.singulation.sim import (
     MAX_DR,
     MAX_DTHETA,
     NUM_OBJECTS,
-    OBJECT_SHAPES,
-    SINGULATION_DISTANCE,
     TIP_RADIUS,
     SingulationWorld,
     joint_pose,
+    object_shapes,
     progress,
 )
 
@@ -66,20 +65,29 @@ LOOKAHEAD = 0.012  # m along the push line per step (the joint limits cap it fur
 
 # the objects' vertices padded to a common count (padding repeats the last vertex), and each
 # vertex's successor around its polygon (np.roll(..., -1, axis=1) as an index: cheaper)
-_K = max(len(s) for s in OBJECT_SHAPES)
-_SHAPES = np.array([[*s, *[s[-1]] * (_K - len(s))] for s in OBJECT_SHAPES])
+_K = max(len(s) for s in object_shapes())
 _NEXT = np.roll(np.arange(_K), -1)
 
 
-def polygons(poses: np.ndarray) -> np.ndarray:
+@functools.lru_cache(maxsize=32)
+def _padded_shapes(scale: float) -> np.ndarray:
+    """The objects' vertices (size × ``scale``) padded to ``_K`` each (read-only)."""
+    out = np.array([[*s, *[s[-1]] * (_K - len(s))] for s in object_shapes(scale)])
+    out.setflags(write=False)
+    return out
+
+
+def polygons(poses: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """World vertices padded to a common count (n, k, 2) (padding repeats the last vertex):
-    :func:`~fluids_bench.tasks.singulation.sim.object_polygon` of every object, in one go."""
-    if len(poses) != len(OBJECT_SHAPES):
-        raise ValueError(f"polygons: poses has {len(poses)} rows; allowed: {len(OBJECT_SHAPES)}")
+    :func:`~fluids_bench.tasks.singulation.sim.object_polygon` of every object (their size ×
+    ``scale``), in one go."""
+    if len(poses) != NUM_OBJECTS:
+        raise ValueError(f"polygons: poses has {len(poses)} rows; allowed: {NUM_OBJECTS}")
     # math.cos / math.sin as object_polygon (numpy's may differ in the last bit)
     c = np.array([math.cos(a) for a in poses[:, 2].tolist()])[:, None]
     s = np.array([math.sin(a) for a in poses[:, 2].tolist()])[:, None]
-    vx, vy = _SHAPES[:, :, 0], _SHAPES[:, :, 1]
+    shapes = _padded_shapes(scale)
+    vx, vy = shapes[:, :, 0], shapes[:, :, 1]
     out = np.empty((len(poses), _K, 2))
     out[:, :, 0] = poses[:, 0:1] + c * vx - s * vy
     out[:, :, 1] = poses[:, 1:2] + s * vx + c * vy
@@ -268,7 +276,7 @@ class SingulationSupervisor:
         poses = world.poses()
         tip = world.tip_xy()
         here = (world.theta, world.r)
-        if world.progress() >= SINGULATION_DISTANCE + SUCCESS_MARGIN / 2:
+        if world.progress() >= world.config.singulation_distance + SUCCESS_MARGIN / 2:
             return normalised(0.0, 0.0)  # done: hold still
         if not self._plan_holds(poses, tip):
             self._replan(world, poses)
@@ -286,7 +294,7 @@ class SingulationSupervisor:
         else:
             key = poses.tobytes()
             if self._geometry is None or self._geometry[0] != key:  # the objects moved
-                verts = polygons(poses)
+                verts = polygons(poses, c.object_size_scale)
                 self._geometry = (key, verts, edge_planes(verts))
             _, verts, planes = self._geometry
             limits = (c.theta_min, c.theta_max, c.r_min, c.r_max)
@@ -341,7 +349,7 @@ def candidate_pushes(world: SingulationWorld, poses: np.ndarray):
     centre against the push direction to the first point where the fingertip stands clear of
     every object by ``STANDOFF`` (all candidates in one vectorised test)."""
     c = world.config
-    verts = polygons(poses)
+    verts = polygons(poses, c.object_size_scale)
     planes = edge_planes(verts)
     angles = 2 * math.pi * np.arange(DIRECTIONS) / DIRECTIONS
     dirs = np.column_stack((np.cos(angles), np.sin(angles)))
@@ -388,7 +396,7 @@ def simulate_push(
         sim = scratch
         sim.restart(theta, r, poses)
     best, best_step, best_s = progress(poses[:, :2]), 0, 0.0
-    goal = SINGULATION_DISTANCE + SUCCESS_MARGIN
+    goal = world.config.singulation_distance + SUCCESS_MARGIN
     for k in range(1, horizon + 1):
         sim.step(*line_action(sim.tip_xy(), origin, direction, 0.3))
         p = sim.progress()
@@ -409,7 +417,7 @@ def plan_push(world: SingulationWorld, poses: np.ndarray) -> PushPlan | None:
     ``C`` steps or more cannot beat it and are neither routed nor simulated (branch and bound:
     the same pick as trying all, for far fewer simulations)."""
     c = world.config
-    goal = SINGULATION_DISTANCE + SUCCESS_MARGIN
+    goal = c.singulation_distance + SUCCESS_MARGIN
     limits = (c.theta_min, c.theta_max, c.r_min, c.r_max)
     here = (world.theta, world.r)
     candidates, verts, planes = candidate_pushes(world, poses)
