@@ -45,6 +45,7 @@ from fluids_bench.tasks.grasping.kernels import arm_step_kernel, inverse_kernel
 JT_ITERATIONS = 6  # Jacobian-transpose iterations per env step (end effector within ~5%)
 N_OBJECTS = 6  # the target (index 0) and five obstacles
 TARGET = 0
+SCENE_ATTEMPTS = 100  # whole-scene redraws before giving up (the first nearly always fits)
 
 # pymunk's property setters, called directly: Body's attribute assignment goes through a typing
 # mixin's __setattr__ that costs more than the setter itself, ~20 times per step
@@ -254,15 +255,26 @@ def sample_scene(
     sizes = np.empty((N_OBJECTS, 2))
     poses = np.empty((N_OBJECTS, 3))
     sizes[TARGET] = cfg.target_size
-    if layout_seed is None:
-        poses[TARGET, :2] = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
-        poses[TARGET, 2] = rng.uniform(-math.pi / 4, math.pi / 4)
-        _place_obstacles(cfg, rng, sizes, poses)
+    # A target drawn near the table's edge may leave no room for large obstacles: then the
+    # whole scene is drawn again (the first draw, which almost always fits, is unchanged).
+    for attempt in range(SCENE_ATTEMPTS):
+        if layout_seed is None:
+            poses[TARGET, :2] = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
+            poses[TARGET, 2] = rng.uniform(-math.pi / 4, math.pi / 4)
+            placed = _place_obstacles(cfg, rng, sizes, poses)
+        else:
+            layout = np.random.default_rng([layout_seed, attempt] if attempt else layout_seed)
+            poses[TARGET, :2] = cfg.target_nominal
+            poses[TARGET, 2] = layout.uniform(-math.pi / 4, math.pi / 4)
+            placed = _place_obstacles(cfg, layout, sizes, poses)
+        if placed:
+            break
     else:
-        layout = np.random.default_rng(layout_seed)
-        poses[TARGET, :2] = cfg.target_nominal
-        poses[TARGET, 2] = layout.uniform(-math.pi / 4, math.pi / 4)
-        _place_obstacles(cfg, layout, sizes, poses)
+        raise RuntimeError(
+            f"sample_scene: no room for the obstacles around the target in {SCENE_ATTEMPTS} "
+            f"scenes (object_size {cfg.object_size} m, obstacle_radius {cfg.obstacle_radius} m)"
+        )
+    if layout_seed is not None:
         radii = np.hypot(sizes[:, 0], sizes[:, 1]) / 2
         for _ in range(1000):
             xy = np.asarray(cfg.target_nominal) + std * rng.standard_normal(2)
@@ -278,7 +290,8 @@ def sample_scene(
 
 def _place_obstacles(
     cfg: GraspConfig, rng: np.random.Generator, sizes: np.ndarray, poses: np.ndarray
-) -> None:
+) -> bool:
+    """Place the obstacles by rejection; False where one finds no room in 1,000 draws."""
     radii = [math.hypot(*sizes[TARGET]) / 2]
     for i in range(1, N_OBJECTS):
         for _ in range(1000):
@@ -298,11 +311,12 @@ def _place_obstacles(
             ):
                 continue
             break
-        else:  # pragma: no cover - the ring always has room for five boxes
-            raise RuntimeError("sample_scene: could not place the obstacles")
+        else:
+            return False
         sizes[i] = side
         poses[i] = (x, y, rng.uniform(-math.pi / 4, math.pi / 4))
         radii.append(r)
+    return True
 
 
 def _on_table(cfg: GraspConfig, x: float, y: float, margin: float = 0.0) -> bool:
