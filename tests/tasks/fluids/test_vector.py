@@ -284,3 +284,15 @@ def test_long_episodes_equal_sync_vector_env(level):
         assert same(out, sync.step(actions))
         ended += int((out[2] | out[3]).sum())
     assert ended >= n
+
+
+def test_disabled_autoreset_refuses_to_step_an_ended_world():
+    vec = make_vec("FLUIDS-v0", 2, **SMALL, autoreset_mode="Disabled", max_episode_steps=2)
+    out = vec.reset(seed=0)
+    for _ in range(2):
+        out = vec.step(out[-1]["supervisor_action"])
+    assert out[3].all()
+    before = [vec.unwrapped.snapshot(i) for i in range(2)]
+    with pytest.raises(RuntimeError, match="reset_mask"):
+        vec.step(out[-1]["supervisor_action"])
+    assert [vec.unwrapped.snapshot(i) for i in range(2)] == before  # no world moved

@@ -117,8 +117,8 @@ class FluidsVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
         self._dict_obs = isinstance(self._obs, dict)
-        self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
-        self._ended = np.zeros(self.num_envs, dtype=np.bool_)  # autoreset due next step
+        self._elapsed = [0] * self.num_envs  # steps in each world's episode (TimeLimit's count)
+        self._ended = [False] * self.num_envs  # each world's episode ended: autoreset next
         self._has_reset = False
 
     # ------------------------------------------------------------------ Gymnasium API
@@ -129,11 +129,10 @@ class FluidsVectorEnv(VectorEnv):
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
         infos: list[dict | None] = [None] * self.num_envs
-        for i in np.flatnonzero(mask):
+        for i in np.flatnonzero(mask).tolist():
             obs, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
             self._write(i, obs)
-        self._elapsed[mask] = 0
-        self._ended[mask] = False
+            self._elapsed[i], self._ended[i] = 0, False
         self._has_reset = True
         return self._observations(), batch_infos(infos, self.num_envs)
 
@@ -142,34 +141,40 @@ class FluidsVectorEnv(VectorEnv):
             raise RuntimeError(f"{WHERE}: step() called before reset()")
         actions = check_batch(WHERE, self.single_action_space, self.num_envs, actions)
         n, limit, mode = self.num_envs, self.max_episode_steps, self.autoreset_mode
-        rewards = np.zeros(n, dtype=np.float64)
-        terminated = np.zeros(n, dtype=np.bool_)
-        truncated = np.zeros(n, dtype=np.bool_)
+        if mode is AutoresetMode.DISABLED and any(self._ended):
+            raise RuntimeError(
+                f"{WHERE}: world {self._ended.index(True)} ended; with autoreset_mode="
+                f"{mode.value!r} reset it with reset(options={{'reset_mask': mask}}) first"
+            )
+        # per-world results in Python lists: cheaper than item-by-item numpy writes
+        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos: list[dict | None] = [None] * n
+        elapsed = self._elapsed
         for i, env in enumerate(self.envs):
-            if self._ended[i]:
-                if mode is not AutoresetMode.NEXT_STEP:
-                    raise RuntimeError(
-                        f"{WHERE}: world {i} ended; with autoreset_mode={mode.value!r} reset it "
-                        'with reset(options={"reset_mask": mask}) before stepping'
-                    )
+            if self._ended[i]:  # next-step autoreset: this step only resets the world
                 obs, infos[i] = env.reset()
-                self._elapsed[i] = 0
+                elapsed[i] = 0
             else:
-                obs, reward, term, trunc, infos[i] = env.step(actions[i])
-                self._elapsed[i] += 1
-                rewards[i], terminated[i] = reward, term
+                obs, rewards[i], term, trunc, infos[i] = env.step(actions[i])
+                elapsed[i] += 1
+                terminated[i] = term
                 # TimeLimit: truncated once the episode has taken max_episode_steps steps
-                truncated[i] = trunc or (limit is not None and self._elapsed[i] >= limit)
-                if mode is AutoresetMode.SAME_STEP and (term or truncated[i]):
+                truncated[i] = trunc = trunc or (limit is not None and elapsed[i] >= limit)
+                if mode is AutoresetMode.SAME_STEP and (term or trunc):
                     infos[i] = {"final_obs": obs, "final_info": infos[i]}
                     obs, reset_info = env.reset()
                     infos[i].update(reset_info)
-                    self._elapsed[i] = 0
+                    elapsed[i] = 0
             self._write(i, obs)
         if mode is not AutoresetMode.SAME_STEP:
-            self._ended = terminated | truncated
-        return self._observations(), rewards, terminated, truncated, batch_infos(infos, n)
+            self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
+        return (
+            self._observations(),
+            np.array(rewards, dtype=np.float64),
+            np.array(terminated, dtype=np.bool_),
+            np.array(truncated, dtype=np.bool_),
+            batch_infos(infos, n),
+        )
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per world (``render_mode="rgb_array"``)."""
@@ -195,7 +200,7 @@ class FluidsVectorEnv(VectorEnv):
         ``gym.make`` env of the same id (restore it there, or here with :meth:`restore`)."""
         env = self.envs[self._index(index)]
         counters = {
-            "TimeLimit": {"_elapsed_steps": int(self._elapsed[index])},
+            "TimeLimit": {"_elapsed_steps": self._elapsed[index]},
             "OrderEnforcing": {"_has_reset": self._has_reset},
             "PassiveEnvChecker": {},
         }
@@ -217,7 +222,7 @@ class FluidsVectorEnv(VectorEnv):
         elapsed = int(counters.get("TimeLimit", {}).get("_elapsed_steps") or 0)
         limit = self.max_episode_steps
         self._elapsed[index] = elapsed
-        self._ended[index] = env._ended or (limit is not None and elapsed >= limit)
+        self._ended[index] = bool(env._ended) or (limit is not None and elapsed >= limit)
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
