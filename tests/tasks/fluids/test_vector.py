@@ -296,3 +296,16 @@ def test_disabled_autoreset_refuses_to_step_an_ended_world():
     with pytest.raises(RuntimeError, match="reset_mask"):
         vec.step(out[-1]["supervisor_action"])
     assert [vec.unwrapped.snapshot(i) for i in range(2)] == before  # no world moved
+
+
+def test_call_and_attributes_as_sync_vector_env():
+    vec = make_vec("FLUIDS-v0", 2, **SMALL)
+    sync = gym.make_vec("FLUIDS-v0", 2, vectorization_mode="sync", **SMALL)
+    vec.reset(seed=1)
+    sync.reset(seed=1)
+    assert same(vec.call("supervisor_action"), sync.call("supervisor_action"))
+    assert vec.get_attr("action_level") == sync.get_attr("action_level") == ("control",) * 2
+    vec.set_attr("marker", [1, 2])
+    assert vec.get_attr("marker") == (1, 2)
+    with pytest.raises(ValueError, match="'values'"):
+        vec.set_attr("marker", [1, 2, 3])

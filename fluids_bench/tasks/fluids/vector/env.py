@@ -63,8 +63,9 @@ class FluidsVectorEnv(VectorEnv):
     count included, as ``TimeLimit``'s); ``restore(i, snap)`` puts such a snapshot, from this
     env or from a scalar env of the same id and kwargs, into world ``i``.
 
-    ``render_mode="rgb_array"``: ``render()`` returns one frame per world. ``num_envs`` is an
-    integer ≥ 1; a bad value raises ``ValueError`` naming it.
+    ``render_mode="rgb_array"``: ``render()`` returns one frame per world. ``call``, ``get_attr``
+    and ``set_attr`` reach each world's ``FluidsEnv`` as ``SyncVectorEnv``'s reach its envs.
+    ``num_envs`` is an integer ≥ 1; a bad value raises ``ValueError`` naming it.
     """
 
     metadata = {
@@ -185,6 +186,25 @@ class FluidsVectorEnv(VectorEnv):
     def close_extras(self, **kwargs: Any) -> None:
         for env in self.envs:
             env.close()
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each world's ``name`` (called with the arguments if it is a method), as
+        ``SyncVectorEnv.call`` gives it."""
+        values = [getattr(env, name) for env in self.envs]
+        return tuple(v(*args, **kwargs) if callable(v) else v for v in values)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        return self.call(name)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
+        else the same value on all (as ``SyncVectorEnv.set_attr``)."""
+        if not isinstance(values, list | tuple):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            fail(WHERE, "values", values, f"one value, or a list of {self.num_envs} values")
+        for env, value in zip(self.envs, values, strict=True):
+            setattr(env, name, value)
 
     # ------------------------------------------------------------------ supervisor and state
     def supervisor_action(self) -> np.ndarray:
