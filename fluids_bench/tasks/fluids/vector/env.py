@@ -110,8 +110,7 @@ class FluidsVectorEnv(VectorEnv):
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         # the first world checks the kwargs (the scalar env's errors); the compiled layout is
         # cached per spec, so every world shares the first one's
-        self.envs = [FluidsEnv(render_mode=render_mode, **kwargs)]
-        self.envs += [FluidsEnv(render_mode=render_mode, **kwargs) for _ in range(num_envs - 1)]
+        self.envs = [FluidsEnv(render_mode=render_mode, **kwargs) for _ in range(self.num_envs)]
         self.single_action_space = self.envs[0].action_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         self.single_observation_space = self.envs[0].observation_space
