@@ -7,15 +7,17 @@ supervisor's label every step, and the ego follows it (control level). Parts:
 * ``batch``: env-steps per CPU-second of the scalar env (``gym.make``), ``SyncVectorEnv`` and
   the vector entry point at each B, and CPU microseconds per agent-step. Each measurement takes
   about ``--steps`` env-steps (``steps / B`` batch steps, at least 8); worlds autoreset when their
-  episode ends (resets are timed, as in every benchmark here).
+  episode ends (resets are timed, as in every benchmark here). Per B, the three run back to
+  back, ``--repeats`` times; the median run counts, and the ratio to the scalar env is the
+  median of the ratios within each block.
 * ``agents``: the vector env at B = ``--agents-batch`` on the two-lane four-way with 5, 10, 20
   and 30 cars (30 is that layout's most with the ego) and 5 pedestrians.
 * ``processes``: one process stepping a batch on one core, then two at once on two cores
   (each pinned to its own); the ratio of their total env-steps per wall-second.
 * ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch``: the world
   step (dynamics, lights, collisions, fault labels), the supervisor (planning and labels), the
-  observation, the scalar env's own glue (actions, rewards, infos) and the vector layer's own
-  overhead. A deterministic profiler inflates Python calls: read fractions, not times.
+  observation, the scalar env's own glue (action checks, rewards, infos) with its resets (new
+  worlds, spawning), and the vector layer's own overhead. A deterministic profiler inflates Python calls: read fractions, not times.
 
 The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
 ``processes`` part: ``nice -n 5 python scripts/benchmarks/bench_vector.py``.
@@ -56,11 +58,12 @@ def make(kind: str, n: int, kwargs: dict):
 class Runner:
     """An env reset (seed 0) and warmed up, so imports, layout caches and compiled kernels are
     paid before the clock starts; ``run(k)`` takes k (batch) steps, every ego following its
-    label (the scalar env restarts with the next seed when its episode ends; a vector env
-    autoresets)."""
+    label. An ended episode restarts from the env's own generator (the scalar env calls
+    ``reset()``, a vector env autoresets), so the scalar env drives exactly world 0's
+    episodes."""
 
     def __init__(self, kind: str, n: int, kwargs: dict) -> None:
-        self.kind, self.env, self.seed = kind, make(kind, n, kwargs), 0
+        self.kind, self.env = kind, make(kind, n, kwargs)
         _, self.info = self.env.reset(seed=0)
         self.run(3)
 
@@ -69,9 +72,40 @@ class Runner:
         for _ in range(steps):
             _, _, term, trunc, info = env.step(info["supervisor_action"])
             if self.kind == "scalar" and (term or trunc):
-                self.seed += 1
-                _, info = env.reset(seed=self.seed)
+                _, info = env.reset()
         self.info = info
+
+
+def median_row(rows: list[dict], ratios: list[float] | None = None) -> dict:
+    """The run with the median env-steps per CPU-second, every run's rate, and the median of
+    the ratios to the scalar env measured next to each run."""
+    rates = [r["steps_per_cpu_s"] for r in rows]
+    out = dict(sorted(rows, key=lambda r: r["steps_per_cpu_s"])[len(rows) // 2])
+    out["runs_steps_per_cpu_s"] = rates
+    if ratios is not None:
+        out["vs_scalar"] = round(float(np.median(ratios)), 3)
+    return out
+
+
+def batch_part(batches: list[int], steps: int, repeats: int) -> list[dict]:
+    """Per B, blocks of scalar, SyncVectorEnv and vector env back to back, ``repeats`` times
+    (the machine's speed drifts: only rates measured side by side compare)."""
+    runs: dict[tuple[str, int], list[dict]] = {}
+    ratios: dict[tuple[str, int], list[float]] = {}
+    for _ in range(repeats):
+        for n in batches:
+            scalar = measure("scalar", 1, S2, steps)
+            runs.setdefault(("scalar", 1), []).append(scalar)
+            for kind in ("sync", "vector"):
+                row = measure(kind, n, S2, steps)
+                runs.setdefault((kind, n), []).append(row)
+                ratios.setdefault((kind, n), []).append(
+                    row["steps_per_cpu_s"] / scalar["steps_per_cpu_s"]
+                )
+    out = [median_row(runs[("scalar", 1)], [1.0])]
+    for n in batches:
+        out += [median_row(runs[(k, n)], ratios[(k, n)]) for k in ("sync", "vector")]
+    return out
 
 
 def measure(kind: str, n: int, kwargs: dict, steps: int) -> dict:
@@ -178,7 +212,7 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
         + _cum(stats, ENV, "supervisor_action", ((ENV, "_info"),)),
         "observation": _cum(stats, ENV, "_observe", SCALAR_CALLS),
     }
-    parts["scalar env glue"] = scalar - sum(parts.values())
+    parts["scalar env glue and resets"] = scalar - sum(parts.values())
     parts["vector layer"] = vector_step - scalar
     return {
         "num_envs": n,
@@ -220,7 +254,10 @@ def plot(data: dict, path: str) -> None:
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("--steps", type=int, default=4000, help="env-steps per measurement")
+    parser.add_argument("--steps", type=int, default=3000, help="env-steps per measurement")
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="blocks of scalar, sync, vector per B (median)"
+    )
     parser.add_argument("--batches", type=int, nargs="+", default=[1, 4, 16, 64, 256])
     parser.add_argument("--cars", type=int, nargs="+", default=[5, 10, 20, 30])
     parser.add_argument("--agents-batch", type=int, default=16, help="B of the agents part")
@@ -234,16 +271,12 @@ def main() -> None:
     parser.add_argument("--image", default=None, help="also plot to this PNG")
     add_results_option(parser)
     args = parser.parse_args()
-    announce(
-        f"~{max(1, round(args.steps * (2 * len(args.batches) + 1 + 3 * len(args.cars)) / 1500 / 60))}"
-        " min on a quiet 2-core machine"
-    )
+    measurements = 3 * len(args.batches) * args.repeats + 3 * len(args.cars)
+    announce(f"~{max(1, round(args.steps * measurements / 2500 / 60))} min on a quiet 2-core machine")
     everywhere = os.sched_getaffinity(0)
     core = max(everywhere) if args.core is None else args.core
     os.sched_setaffinity(0, {core})
-    batch = [measure("scalar", 1, S2, args.steps)]
-    for n in args.batches:
-        batch += [measure("sync", n, S2, args.steps), measure("vector", n, S2, args.steps)]
+    batch = batch_part(args.batches, args.steps, args.repeats)
     agents_rows = [
         measure("vector", args.agents_batch, {**S2, "lanes": 2, "num_cars": c}, args.steps // 2)
         for c in args.cars
@@ -256,7 +289,6 @@ def main() -> None:
         pair = processes(
             args.agents_batch, max(8, args.process_steps // args.agents_batch), S2, cores
         )
-    scalar = batch[0]["steps_per_cpu_s"]
     data = {
         "benchmark": "bench_vector",
         "fluids_bench": fluids_bench.__version__,
@@ -264,11 +296,13 @@ def main() -> None:
         "numpy": np.__version__,
         "env_id": ENV_ID,
         "scene": S2,
-        "seeds": "world i of a batch: seed i (then its own generator on autoreset)",
+        "seeds": "world i of a batch: seed i, then its own generator on autoreset; the scalar "
+        "env: seed 0, then reset() (world 0's episodes)",
         "steps": args.steps,
         "pinned_core": core,
         "agents_batch": args.agents_batch,
-        "batch": [{**r, "vs_scalar": round(r["steps_per_cpu_s"] / scalar, 3)} for r in batch],
+        "repeats": args.repeats,
+        "batch": batch,
         "agents": agents_rows,
         "processes": pair,
         "profile": split,
