@@ -244,7 +244,7 @@ def plot(data: dict, path: str) -> None:
     left.set_title(f"{ENV_ID} S2 with labels")
     pts = [(r["agents"], r["us_per_agent_step"]) for r in data["agents"]]
     right.plot(*zip(*pts, strict=True), marker="o")
-    right.set_xlabel("agents per world (cars + 5 pedestrians)")
+    right.set_xlabel("agents per world (the ego, the cars, 5 pedestrians)")
     right.set_ylabel("CPU µs per agent-step")
     right.set_ylim(bottom=0)
     right.set_title(f"vector entry point, B = {data['agents_batch']}, two-lane four-way")
