@@ -154,9 +154,18 @@ def test_the_batch_equals_sync_vector_env(env_id, mode):
 
 
 def test_every_fluids_id_has_the_vector_entry_point():
+    """Registry-driven: a new FLUIDS id gets the entry point, the scalar env's spaces, its step
+    limit, one shared layout, and a few steps equal to SyncVectorEnv's."""
     for env_id in FLUIDS_IDS:
         vec = make_vec(env_id, 2, **SMALL)
         single = gym.make(env_id, **SMALL)
+        sync = gym.make_vec(env_id, 2, vectorization_mode="sync", **SMALL)
+        out = vec.reset(seed=21)
+        assert same(out, sync.reset(seed=21)), env_id
+        for _ in range(4):
+            actions = out[-1]["supervisor_action"]
+            out = vec.step(actions)
+            assert same(out, sync.step(actions)), env_id
         assert isinstance(vec, FluidsVectorEnv), env_id
         assert vec.metadata["autoreset_mode"] is AutoresetMode.NEXT_STEP
         assert vec.max_episode_steps == gym.spec(env_id).max_episode_steps
