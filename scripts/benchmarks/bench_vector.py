@@ -266,13 +266,18 @@ def main() -> None:
     )
     parser.add_argument("--profile-steps", type=int, default=1000, help="env-steps profiled")
     parser.add_argument(
-        "--core", type=int, default=None, help="core of the single-process parts (default: the last)"
+        "--core",
+        type=int,
+        default=None,
+        help="core of the single-process parts (default: the last)",
     )
     parser.add_argument("--image", default=None, help="also plot to this PNG")
     add_results_option(parser)
     args = parser.parse_args()
     measurements = 3 * len(args.batches) * args.repeats + 3 * len(args.cars)
-    announce(f"~{max(1, round(args.steps * measurements / 2500 / 60))} min on a quiet 2-core machine")
+    announce(
+        f"~{max(1, round(args.steps * measurements / 2500 / 60))} min on a quiet 2-core machine"
+    )
     everywhere = os.sched_getaffinity(0)
     core = max(everywhere) if args.core is None else args.core
     os.sched_setaffinity(0, {core})

@@ -31,17 +31,18 @@ def _batch(data) -> str:
         )
     scene = data["scene"]
     return (
-        "\n".join(out)
-        + f"\n\n`{data['env_id']}` S2: the ego + {scene['num_cars']} cars + "
+        "\n".join(out) + f"\n\n`{data['env_id']}` S2: the ego + {scene['num_cars']} cars + "
         f"{scene['num_pedestrians']} pedestrians ({data['batch'][0]['agents']} agents), "
         f"{scene['obs_type']} observation, {scene['action_level']} level, the ego following the "
-        f"label; pinned to core {data['pinned_core']}. "
-        + machine_line(data)
+        f"label; pinned to core {data['pinned_core']}. " + machine_line(data)
     )
 
 
 def _agents(data) -> str:
-    out = ["| cars | agents | env-steps per CPU-second | CPU µs per agent-step |", "|---|---|---|---|"]
+    out = [
+        "| cars | agents | env-steps per CPU-second | CPU µs per agent-step |",
+        "|---|---|---|---|",
+    ]
     for r in data["agents"]:
         cars = r["agents"] - 1 - data["scene"]["num_pedestrians"]
         out.append(
@@ -60,10 +61,11 @@ def _processes(data) -> str:
         return "(not measured: the run had fewer than two cores)"
     out = ["| processes | cores | env-steps per wall-second |", "|---|---|---|"]
     for r in p["runs"].values():
-        out.append(f"| {r['processes']} | {', '.join(map(str, r['cores']))} | {n(r['steps_per_s'])} |")
+        out.append(
+            f"| {r['processes']} | {', '.join(map(str, r['cores']))} | {n(r['steps_per_s'])} |"
+        )
     return (
-        "\n".join(out)
-        + f"\n\nEach process steps a vector env of B = {p['num_envs']} for "
+        "\n".join(out) + f"\n\nEach process steps a vector env of B = {p['num_envs']} for "
         f"{p['batch_steps_per_process']} batch steps. Two processes give **{p['ratio']:.2f}×** "
         "one (wall-clock, on a machine shared with other jobs: see the load average above)."
     )
@@ -75,8 +77,7 @@ def _profile(data) -> str:
     for k, v in p["fractions"].items():
         out.append(f"| {k} | {100 * v:.1f} % |")
     return (
-        "\n".join(out)
-        + f"\n\ncProfile of the vector entry point at B = {p['num_envs']}, "
+        "\n".join(out) + f"\n\ncProfile of the vector entry point at B = {p['num_envs']}, "
         f"{p['batch_steps']} batch steps (a deterministic profiler inflates Python calls: "
         "read shares, not times)."
     )
