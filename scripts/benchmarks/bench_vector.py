@@ -173,18 +173,31 @@ def processes(n: int, batch_steps: int, kwargs: dict, cores: list[int]) -> dict:
 
 
 # ---------------------------------------------------------------------- profile
-def _cum(stats: pstats.Stats, path: str, name: str, callers: tuple[tuple[str, str], ...] = ()):
-    """Cumulative seconds of ``path:name``, counting only calls from ``callers`` if given."""
-    total = 0.0
+def _cum(
+    stats: pstats.Stats,
+    path: str,
+    name: str,
+    callers: tuple[tuple[str, str], ...] = (),
+    required: bool = True,
+) -> float:
+    """Cumulative seconds of ``path:name``, counting only calls from ``callers`` if given.
+    ``required``: the function must have been called (a renamed or moved function would
+    otherwise silently move its time into the glue)."""
+    total, found = 0.0, False
     for (file, _, func), (_, _, _, ct, by) in stats.stats.items():
         if func != name or not file.endswith(path):
             continue
         if not callers:
-            total += ct
+            total, found = total + ct, True
             continue
         for (cfile, _, cfunc), value in by.items():
             if any(cfile.endswith(p) and cfunc == f for p, f in callers):
-                total += value[3]
+                total, found = total + value[3], True
+    if required and not found:
+        raise RuntimeError(
+            f"bench_vector: the profile has no call of {path}:{name} from {callers or 'anywhere'}; "
+            "update the profile's parts to the code's current names"
+        )
     return total
 
 
@@ -201,8 +214,9 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     prof.disable()
     stats = pstats.Stats(prof)
     vector_step = _cum(stats, VECTOR, "step")
+    # (a world resets inside a vector step only when its episode ended in the window)
     scalar = _cum(stats, ENV, "step", ((VECTOR, "step"),)) + _cum(
-        stats, ENV, "reset", ((VECTOR, "step"),)
+        stats, ENV, "reset", ((VECTOR, "step"),), required=False
     )
     parts = {
         "world step": _cum(stats, "sim/world.py", "step", (("supervisor/stack.py", "execute"),))
