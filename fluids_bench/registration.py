@@ -45,6 +45,10 @@ RL_READY: dict[str, Any] = {
 # yielding supervisor needs with them
 BUSY_SCENE: dict[str, Any] = {"num_pedestrians": 8}
 _FLUIDS = "fluids_bench.tasks.fluids.env:FluidsEnv"
+# every id of the scalar FLUIDS env also has a native vector env: gym.make_vec(id, B,
+# vectorization_mode="vector_entry_point") steps B worlds behind one VectorEnv
+_FLUIDS_VECTOR = "fluids_bench.tasks.fluids.vector.env:FluidsVectorEnv"
+VECTOR_ENTRY_POINTS: dict[str, str] = {_FLUIDS: _FLUIDS_VECTOR}
 
 # id -> (entry point, max_episode_steps, default kwargs)
 ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
@@ -118,6 +122,7 @@ def register_envs() -> None:
             entry_point=entry_point,
             max_episode_steps=max_steps,
             kwargs=dict(kwargs),
+            vector_entry_point=VECTOR_ENTRY_POINTS.get(entry_point),
         )
     for env_id, (factory, kwargs) in PARALLEL_ENV_SPECS.items():
         if env_id in pettingzoo.parallel_registry:

@@ -1,0 +1,92 @@
+"""docs/results/bench_vector.json (scripts/benchmarks/bench_vector.py --results): batched FLUIDS.
+
+Parts: ``batch`` (default: env-steps per CPU-second by B), ``agents`` (scaling in agents),
+``processes`` (one process vs two on two cores), ``profile`` (where a vector step's time goes).
+"""
+
+import sys
+from pathlib import Path
+
+sys.path.insert(0, str(Path(__file__).resolve().parents[1]))  # docs/_gen: benchfmt
+
+from benchfmt import machine_line, n  # noqa: E402
+
+KINDS = {
+    "scalar": "scalar env (`gym.make`)",
+    "sync": "`SyncVectorEnv`",
+    "vector": "vector entry point",
+}
+
+
+def _batch(data) -> str:
+    out = [
+        "| env | B | env-steps per CPU-second | × scalar | CPU µs per agent-step | env-steps timed |",
+        "|---|---|---|---|---|---|",
+    ]
+    for r in data["batch"]:
+        b = "–" if r["env"] == "scalar" else r["num_envs"]
+        out.append(
+            f"| {KINDS[r['env']]} | {b} | {n(r['steps_per_cpu_s'])} | {r['vs_scalar']:.2f} | "
+            f"{r['us_per_agent_step']:.1f} | {r['env_steps']:,} |"
+        )
+    scene = data["scene"]
+    return (
+        "\n".join(out) + f"\n\n`{data['env_id']}` S2: the ego + {scene['num_cars']} cars + "
+        f"{scene['num_pedestrians']} pedestrians ({data['batch'][0]['agents']} agents), "
+        f"{scene['obs_type']} observation, {scene['action_level']} level, the ego following the "
+        f"label; pinned to core {data['pinned_core']}. " + machine_line(data)
+    )
+
+
+def _agents(data) -> str:
+    out = [
+        "| cars | agents | env-steps per CPU-second | CPU µs per agent-step |",
+        "|---|---|---|---|",
+    ]
+    for r in data["agents"]:
+        cars = r["agents"] - 1 - data["scene"]["num_pedestrians"]
+        out.append(
+            f"| {cars} | {r['agents']} | {n(r['steps_per_cpu_s'])} | {r['us_per_agent_step']:.1f} |"
+        )
+    return (
+        "\n".join(out)
+        + f"\n\nVector entry point, B = {data['agents_batch']}, the two-lane four-way (it holds "
+        "31 cars with the ego), plus the ego and 5 pedestrians."
+    )
+
+
+def _processes(data) -> str:
+    p = data.get("processes")
+    if not p:
+        return "(not measured: the run had fewer than two cores)"
+    out = ["| processes | cores | env-steps per wall-second |", "|---|---|---|"]
+    for r in p["runs"].values():
+        out.append(
+            f"| {r['processes']} | {', '.join(map(str, r['cores']))} | {n(r['steps_per_s'])} |"
+        )
+    return (
+        "\n".join(out) + f"\n\nEach process steps a vector env of B = {p['num_envs']} for "
+        f"{p['batch_steps_per_process']} batch steps. Two processes give **{p['ratio']:.2f}×** "
+        "one (wall-clock, on a machine shared with other jobs: see the load average above)."
+    )
+
+
+def _profile(data) -> str:
+    p = data["profile"]
+    out = ["| part of the step | share of the time |", "|---|---|"]
+    for k, v in p["fractions"].items():
+        out.append(f"| {k} | {100 * v:.1f} % |")
+    return (
+        "\n".join(out) + f"\n\ncProfile of the vector entry point at B = {p['num_envs']}, "
+        f"{p['batch_steps']} batch steps (a deterministic profiler inflates Python calls: "
+        "read shares, not times)."
+    )
+
+
+PARTS = {"batch": _batch, "agents": _agents, "processes": _processes, "profile": _profile}
+
+
+def render(data, part: str = "batch", **_) -> str:
+    if part not in PARTS:
+        raise ValueError(f"bench_vector: part is {part!r}; allowed: {sorted(PARTS)}")
+    return PARTS[part](data)

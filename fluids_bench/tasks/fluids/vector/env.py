@@ -1,0 +1,295 @@
+"""FLUIDS as a Gymnasium ``VectorEnv``: ``gym.make_vec(id, B, vectorization_mode="vector_entry_point")``."""
+
+from __future__ import annotations
+
+import inspect
+from typing import Any
+
+import numpy as np
+from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector.utils import batch_space, create_empty_array
+
+from fluids_bench.core.snapshot import WrappedSnapshot
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.core.validation import as_seed, check_int, fail, is_int
+from fluids_bench.tasks.fluids.env import FluidsEnv
+from fluids_bench.tasks.fluids.vector.actions import check_batch
+from fluids_bench.tasks.fluids.vector.infos import batch_infos
+
+WHERE = "FluidsVectorEnv"
+# the vector env's own arguments; every other one goes to each world's FluidsEnv
+OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
+# the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
+# so that core.snapshot.restore can put it into a gym.make env, and back)
+MAKE_WRAPPERS = ("TimeLimit", "OrderEnforcing", "PassiveEnvChecker")
+
+
+def _scalar_arguments() -> list[str]:
+    params = inspect.signature(FluidsEnv.__init__).parameters.values()
+    return [p.name for p in params if p.name != "self" and p.kind == p.POSITIONAL_OR_KEYWORD]
+
+
+class FluidsVectorEnv(VectorEnv):
+    """B independent FLUIDS worlds behind one Gymnasium 1.x ``VectorEnv``.
+
+    Build it with ``gym.make_vec("FLUIDS-v1", num_envs=B, vectorization_mode="vector_entry_point",
+    **kwargs)`` (every single-agent FLUIDS id registers it); ``kwargs`` are the scalar env's
+    (:class:`~fluids_bench.tasks.fluids.env.FluidsEnv`), checked by it with its errors.
+
+    **What it returns.** Batched spaces (``single_action_space`` and ``single_observation_space``
+    are the scalar env's); observations ``(B, ...)``, rewards, ``terminated`` and ``truncated``
+    ``(B,)``; infos as Gymnasium's dict of batched arrays with ``_key`` masks:
+    ``info["supervisor_action"]`` is ``(B, ...)`` (``(B,)`` integers at the behaviour level),
+    ``is_success`` is present (mask) in the worlds whose episode ended this step, ``collisions``
+    holds each world's list of this step's collisions with their fault labels.
+
+    **Equal to the scalar env.** World ``i`` after ``reset(seed=s)`` is the scalar env (``gym.make``
+    of the same id and kwargs) reset with seed ``s + i`` (a list of seeds gives one per world, as
+    ``SyncVectorEnv``), and under the same actions it returns the same observations, rewards,
+    flags, labels and infos bit for bit; the whole batch equals ``SyncVectorEnv`` over the id.
+    ``max_episode_steps`` (the id's step limit, passed by ``make_vec``) truncates each world as
+    ``TimeLimit`` does. ``autoreset_mode``: ``"NextStep"`` (default, as ``metadata`` states),
+    ``"SameStep"`` (``final_obs``/``final_info`` in the info) or ``"Disabled"`` (reset ended
+    worlds with ``reset(options={"reset_mask": mask})``).
+
+    **How it steps.** The worlds are not yet advanced by one compiled call: each world is a
+    scalar ``FluidsEnv`` (no wrapper stack; all share one compiled layout) stepped by its own
+    code in turn, so equality holds by construction. The vector layer checks the whole action
+    batch before any world moves, writes observations into preallocated batched arrays and
+    builds the batched infos key by key for all worlds at once.
+
+    **Snapshots.** ``snapshot(i)`` returns world ``i``'s state as
+    :func:`fluids_bench.core.snapshot.snapshot` returns it for a ``gym.make`` env (its step
+    count included, as ``TimeLimit``'s); ``restore(i, snap)`` puts such a snapshot, from this
+    env or from a scalar env of the same id and kwargs, into world ``i``.
+
+    ``render_mode="rgb_array"``: ``render()`` returns one frame per world. ``call``, ``get_attr``
+    and ``set_attr`` reach each world's ``FluidsEnv`` as ``SyncVectorEnv``'s reach its envs.
+    ``num_envs`` is an integer ≥ 1; a bad value raises ``ValueError`` naming it.
+    """
+
+    metadata = {
+        "render_modes": ["rgb_array"],
+        "render_fps": FluidsEnv.metadata["render_fps"],
+        "autoreset_mode": AutoresetMode.NEXT_STEP,
+    }
+
+    def __init__(
+        self,
+        num_envs: int = 1,
+        max_episode_steps: int | None = None,
+        autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
+        render_mode: str | None = None,
+        **kwargs: Any,
+    ) -> None:
+        self.num_envs = check_int(WHERE, "num_envs", num_envs, 1)
+        if max_episode_steps is not None:
+            max_episode_steps = check_int(WHERE, "max_episode_steps", max_episode_steps, 1)
+        self.max_episode_steps = max_episode_steps
+        modes = [m.value for m in AutoresetMode]
+        try:
+            self.autoreset_mode = AutoresetMode(autoreset_mode)
+        except ValueError:
+            fail(WHERE, "autoreset_mode", autoreset_mode, f"one of {modes} or an AutoresetMode")
+        if render_mode not in (None, *self.metadata["render_modes"]):
+            fail(
+                WHERE,
+                "render_mode",
+                render_mode,
+                f"None or {self.metadata['render_modes']} (to watch one world in a window, "
+                'use gym.make(..., render_mode="human"))',
+            )
+        allowed = _scalar_arguments()
+        unknown = sorted(set(kwargs) - set(allowed))
+        if unknown:
+            raise ValueError(
+                f"{WHERE}: unknown argument(s) {', '.join(map(repr, unknown))}; allowed: "
+                f"{sorted([*allowed, *OWN_ARGUMENTS])}"
+            )
+        self.render_mode = render_mode
+        self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
+        # the first world checks the kwargs (the scalar env's errors); the compiled layout is
+        # cached per spec, so every world shares the first one's
+        self.envs = [FluidsEnv(render_mode=render_mode, **kwargs) for _ in range(self.num_envs)]
+        self.single_action_space = self.envs[0].action_space
+        self.action_space = batch_space(self.single_action_space, self.num_envs)
+        self.single_observation_space = self.envs[0].observation_space
+        self.observation_space = batch_space(self.single_observation_space, self.num_envs)
+        self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
+        self._dict_obs = isinstance(self._obs, dict)
+        self._elapsed = [0] * self.num_envs  # steps in each world's episode (TimeLimit's count)
+        self._ended = [False] * self.num_envs  # each world's episode ended: autoreset next
+        self._has_reset = False
+
+    # ------------------------------------------------------------------ Gymnasium API
+    def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
+        """Reset every world (or those of ``options["reset_mask"]``); see the class docstring
+        for seeds."""
+        seeds = self._seeds(seed)
+        options = dict(options or {})
+        mask = self._reset_mask(options.pop("reset_mask", None))
+        infos: list[dict | None] = [None] * self.num_envs
+        for i in np.flatnonzero(mask).tolist():
+            obs, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
+            self._write(i, obs)
+            self._elapsed[i], self._ended[i] = 0, False
+        self._has_reset = True
+        return self._observations(), batch_infos(infos, self.num_envs)
+
+    def step(self, actions):
+        if not self._has_reset:
+            raise RuntimeError(f"{WHERE}: step() called before reset()")
+        actions = check_batch(WHERE, self.single_action_space, self.num_envs, actions)
+        n, limit, mode = self.num_envs, self.max_episode_steps, self.autoreset_mode
+        if mode is AutoresetMode.DISABLED and any(self._ended):
+            raise RuntimeError(
+                f"{WHERE}: world {self._ended.index(True)} ended; with autoreset_mode="
+                f"{mode.value!r} reset it with reset(options={{'reset_mask': mask}}) first"
+            )
+        # per-world results in Python lists: cheaper than item-by-item numpy writes
+        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
+        infos: list[dict | None] = [None] * n
+        elapsed = self._elapsed
+        for i, env in enumerate(self.envs):
+            if self._ended[i]:  # next-step autoreset: this step only resets the world
+                obs, infos[i] = env.reset()
+                elapsed[i] = 0
+            else:
+                obs, rewards[i], term, trunc, infos[i] = env.step(actions[i])
+                elapsed[i] += 1
+                terminated[i] = term
+                # TimeLimit: truncated once the episode has taken max_episode_steps steps
+                truncated[i] = trunc = trunc or (limit is not None and elapsed[i] >= limit)
+                if mode is AutoresetMode.SAME_STEP and (term or trunc):
+                    infos[i] = {"final_obs": obs, "final_info": infos[i]}
+                    obs, reset_info = env.reset()
+                    infos[i].update(reset_info)
+                    elapsed[i] = 0
+            self._write(i, obs)
+        if mode is not AutoresetMode.SAME_STEP:
+            self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
+        return (
+            self._observations(),
+            np.array(rewards, dtype=np.float64),
+            np.array(terminated, dtype=np.bool_),
+            np.array(truncated, dtype=np.bool_),
+            batch_infos(infos, n),
+        )
+
+    def render(self) -> tuple[np.ndarray, ...] | None:
+        """One frame per world (``render_mode="rgb_array"``)."""
+        if self.render_mode is None:
+            return self.envs[0].render()  # the scalar env's warning, and None
+        return tuple(env.render() for env in self.envs)
+
+    def close_extras(self, **kwargs: Any) -> None:
+        for env in self.envs:
+            env.close()
+
+    def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
+        """Each world's ``name`` (called with the arguments if it is a method), as
+        ``SyncVectorEnv.call`` gives it."""
+        values = [getattr(env, name) for env in self.envs]
+        return tuple(v(*args, **kwargs) if callable(v) else v for v in values)
+
+    def get_attr(self, name: str) -> tuple[Any, ...]:
+        return self.call(name)
+
+    def set_attr(self, name: str, values: Any) -> None:
+        """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
+        else the same value on all (as ``SyncVectorEnv.set_attr``)."""
+        if not isinstance(values, list | tuple):
+            values = [values] * self.num_envs
+        if len(values) != self.num_envs:
+            fail(WHERE, "values", values, f"one value, or a list of {self.num_envs} values")
+        for env, value in zip(self.envs, values, strict=True):
+            setattr(env, name, value)
+
+    # ------------------------------------------------------------------ supervisor and state
+    def supervisor_action(self) -> np.ndarray:
+        """Every world's supervisor label in its current state, batched like
+        ``info["supervisor_action"]``."""
+        labels = [env.supervisor_action() for env in self.envs]
+        return batch_infos([{SUPERVISOR_ACTION_KEY: a} for a in labels], self.num_envs)[
+            SUPERVISOR_ACTION_KEY
+        ]
+
+    def snapshot(self, index: int) -> WrappedSnapshot:
+        """World ``index``'s state, as :func:`fluids_bench.core.snapshot.snapshot` gives it for a
+        ``gym.make`` env of the same id (restore it there, or here with :meth:`restore`)."""
+        env = self.envs[self._index(index)]
+        counters = {
+            "TimeLimit": {"_elapsed_steps": self._elapsed[index]},
+            "OrderEnforcing": {"_has_reset": self._has_reset},
+            "PassiveEnvChecker": {},
+        }
+        names = MAKE_WRAPPERS if self.max_episode_steps is not None else MAKE_WRAPPERS[1:]
+        return WrappedSnapshot(env.snapshot(), tuple((k, counters[k]) for k in names))
+
+    def restore(self, index: int, snap: WrappedSnapshot) -> None:
+        """Continue world ``index`` from ``snap`` (from :meth:`snapshot` or from
+        :func:`fluids_bench.core.snapshot.snapshot` of a ``gym.make`` env of the same id and
+        kwargs); its next step is the one that env would take."""
+        env = self.envs[self._index(index)]
+        if not isinstance(snap, WrappedSnapshot):
+            raise TypeError(
+                f"{WHERE}.restore: snap is {type(snap).__name__}; allowed: a WrappedSnapshot "
+                "from FluidsVectorEnv.snapshot(i) or fluids_bench.core.snapshot.snapshot(env)"
+            )
+        env.restore(snap.env)
+        counters = dict(snap.wrappers)
+        elapsed = int(counters.get("TimeLimit", {}).get("_elapsed_steps") or 0)
+        limit = self.max_episode_steps
+        self._elapsed[index] = elapsed
+        self._ended[index] = bool(env._ended) or (limit is not None and elapsed >= limit)
+        self._has_reset = True
+
+    # ------------------------------------------------------------------ helpers
+    def _index(self, index: Any) -> int:
+        if not is_int(index) or not 0 <= index < self.num_envs:
+            fail(WHERE, "index", index, f"an integer in [0, {self.num_envs - 1}]")
+        return int(index)
+
+    def _seeds(self, seed: Any) -> list[int | None]:
+        seed = as_seed(seed)
+        if seed is None:
+            return [None] * self.num_envs
+        if isinstance(seed, int) and not isinstance(seed, bool):
+            return [seed + i for i in range(self.num_envs)]
+        if isinstance(seed, list | tuple) and len(seed) == self.num_envs:
+            return [as_seed(s) for s in seed]
+        fail(
+            WHERE,
+            "seed",
+            seed,
+            f"None, an integer (world i gets seed + i) or a list of {self.num_envs} seeds",
+        )
+
+    def _reset_mask(self, mask: Any) -> np.ndarray:
+        if mask is None:
+            return np.ones(self.num_envs, dtype=np.bool_)
+        if (
+            not isinstance(mask, np.ndarray)
+            or mask.dtype != np.bool_
+            or mask.shape != (self.num_envs,)
+            or not mask.any()
+        ):
+            fail(
+                WHERE,
+                'options["reset_mask"]',
+                mask,
+                f"a numpy bool array of shape ({self.num_envs},) with at least one True",
+            )
+        return mask
+
+    def _write(self, i: int, obs: Any) -> None:
+        if self._dict_obs:
+            for key, value in obs.items():
+                self._obs[key][i] = value
+        else:
+            self._obs[i] = obs
+
+    def _observations(self):
+        if self._dict_obs:
+            return {key: value.copy() for key, value in self._obs.items()}
+        return self._obs.copy()

@@ -1,0 +1,335 @@
+"""Batched FLUIDS throughput, as JSON: the scalar env, SyncVectorEnv and the native vector env.
+
+The scene is S2 on ``FLUIDS-v1`` (``bench_sim.py``'s S2 with v1's rules): the four-way, the ego
+plus 10 supervised cars and 5 pedestrians (16 agents), the explicit observation, the
+supervisor's label every step, and the ego follows it (control level). Parts:
+
+* ``batch``: env-steps per CPU-second of the scalar env (``gym.make``), ``SyncVectorEnv`` and
+  the vector entry point at each B, and CPU microseconds per agent-step. Each measurement takes
+  about ``--steps`` env-steps (``steps / B`` batch steps, at least 8); worlds autoreset when their
+  episode ends (resets are timed, as in every benchmark here). Per B, the three run back to
+  back, ``--repeats`` times; the median run counts, and the ratio to the scalar env is the
+  median of the ratios within each block.
+* ``agents``: the vector env at B = ``--agents-batch`` on the two-lane four-way with 5, 10, 20
+  and 30 cars (30 is that layout's most with the ego) and 5 pedestrians.
+* ``processes``: one process stepping a batch on one core, then two at once on two cores
+  (each pinned to its own); the ratio of their total env-steps per wall-second.
+* ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch``: the world
+  step (dynamics, lights, collisions, fault labels), the supervisor (planning and labels), the
+  observation, the scalar env's own glue (action checks, rewards, infos) with its resets (new
+  worlds, spawning), and the vector layer's own overhead. A deterministic profiler inflates Python calls: read fractions, not times.
+
+The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
+``processes`` part: ``nice -n 5 python scripts/benchmarks/bench_vector.py``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import cProfile
+import multiprocessing as mp
+import os
+import platform
+import pstats
+import time
+
+import gymnasium as gym
+import numpy as np
+from _results import add_results_option, emit
+
+import fluids_bench
+from fluids_bench.core.provenance import announce
+
+ENV_ID = "FLUIDS-v1"
+S2 = {"num_cars": 10, "num_pedestrians": 5, "action_level": "control", "obs_type": "explicit"}
+
+
+def agents(kwargs: dict) -> int:
+    return 1 + kwargs["num_cars"] + kwargs["num_pedestrians"]
+
+
+def make(kind: str, n: int, kwargs: dict):
+    if kind == "scalar":
+        return gym.make(ENV_ID, **kwargs)
+    mode = "sync" if kind == "sync" else "vector_entry_point"
+    return gym.make_vec(ENV_ID, n, vectorization_mode=mode, **kwargs)
+
+
+class Runner:
+    """An env reset (seed 0) and warmed up, so imports, layout caches and compiled kernels are
+    paid before the clock starts; ``run(k)`` takes k (batch) steps, every ego following its
+    label. An ended episode restarts from the env's own generator (the scalar env calls
+    ``reset()``, a vector env autoresets), so the scalar env drives exactly world 0's
+    episodes."""
+
+    def __init__(self, kind: str, n: int, kwargs: dict) -> None:
+        self.kind, self.env = kind, make(kind, n, kwargs)
+        _, self.info = self.env.reset(seed=0)
+        self.run(3)
+
+    def run(self, steps: int) -> None:
+        env, info = self.env, self.info
+        for _ in range(steps):
+            _, _, term, trunc, info = env.step(info["supervisor_action"])
+            if self.kind == "scalar" and (term or trunc):
+                _, info = env.reset()
+        self.info = info
+
+
+def median_row(rows: list[dict], ratios: list[float] | None = None) -> dict:
+    """The run with the median env-steps per CPU-second, every run's rate, and the median of
+    the ratios to the scalar env measured next to each run."""
+    rates = [r["steps_per_cpu_s"] for r in rows]
+    out = dict(sorted(rows, key=lambda r: r["steps_per_cpu_s"])[len(rows) // 2])
+    out["runs_steps_per_cpu_s"] = rates
+    if ratios is not None:
+        out["vs_scalar"] = round(float(np.median(ratios)), 3)
+    return out
+
+
+def batch_part(batches: list[int], steps: int, repeats: int) -> list[dict]:
+    """Per B, blocks of scalar, SyncVectorEnv and vector env back to back, ``repeats`` times
+    (the machine's speed drifts: only rates measured side by side compare)."""
+    runs: dict[tuple[str, int], list[dict]] = {}
+    ratios: dict[tuple[str, int], list[float]] = {}
+    for _ in range(repeats):
+        for n in batches:
+            scalar = measure("scalar", 1, S2, steps)
+            runs.setdefault(("scalar", 1), []).append(scalar)
+            for kind in ("sync", "vector"):
+                row = measure(kind, n, S2, steps)
+                runs.setdefault((kind, n), []).append(row)
+                ratios.setdefault((kind, n), []).append(
+                    row["steps_per_cpu_s"] / scalar["steps_per_cpu_s"]
+                )
+    out = [median_row(runs[("scalar", 1)], [1.0])]
+    for n in batches:
+        out += [median_row(runs[(k, n)], ratios[(k, n)]) for k in ("sync", "vector")]
+    return out
+
+
+def measure(kind: str, n: int, kwargs: dict, steps: int) -> dict:
+    runner = Runner(kind, n, kwargs)
+    batch_steps = steps if kind == "scalar" else max(8, steps // n)
+    t0, c0 = time.perf_counter(), time.process_time()
+    runner.run(batch_steps)
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
+    runner.env.close()
+    env_steps = batch_steps * (1 if kind == "scalar" else n)
+    return {
+        "env": kind,
+        "num_envs": n,
+        "agents": agents(kwargs),
+        "env_steps": env_steps,
+        "cpu_seconds": round(cpu, 3),
+        "seconds": round(wall, 3),
+        "steps_per_cpu_s": round(env_steps / cpu, 1),
+        "steps_per_s": round(env_steps / wall, 1),
+        "us_per_agent_step": round(1e6 * cpu / env_steps / agents(kwargs), 2),
+    }
+
+
+# ---------------------------------------------------------------------- two processes
+def _worker(core: int, n: int, batch_steps: int, kwargs: dict, barrier, out) -> None:
+    os.sched_setaffinity(0, {core})
+    runner = Runner("vector", n, kwargs)
+    barrier.wait()
+    t0, c0 = time.perf_counter(), time.process_time()
+    runner.run(batch_steps)
+    out.put((core, time.perf_counter() - t0, time.process_time() - c0))
+
+
+def processes(n: int, batch_steps: int, kwargs: dict, cores: list[int]) -> dict:
+    """Env-steps per wall-second of one process alone, then of ``len(cores)`` at once."""
+    ctx = mp.get_context("fork")
+    runs = {}
+    for count in (1, len(cores)):
+        barrier, out = ctx.Barrier(count), ctx.Queue()
+        procs = [
+            ctx.Process(target=_worker, args=(c, n, batch_steps, kwargs, barrier, out))
+            for c in cores[:count]
+        ]
+        for p in procs:
+            p.start()
+        results = [out.get() for _ in procs]
+        for p in procs:
+            p.join()
+        wall = max(r[1] for r in results)
+        env_steps = n * batch_steps * count
+        runs[str(count)] = {
+            "processes": count,
+            "cores": cores[:count],
+            "env_steps": env_steps,
+            "seconds": round(wall, 3),
+            "cpu_seconds": [round(r[2], 3) for r in results],
+            "steps_per_s": round(env_steps / wall, 1),
+        }
+    return {
+        "num_envs": n,
+        "batch_steps_per_process": batch_steps,
+        "runs": runs,
+        "ratio": round(runs[str(len(cores))]["steps_per_s"] / runs["1"]["steps_per_s"], 3),
+    }
+
+
+# ---------------------------------------------------------------------- profile
+def _cum(
+    stats: pstats.Stats,
+    path: str,
+    name: str,
+    callers: tuple[tuple[str, str], ...] = (),
+    required: bool = True,
+) -> float:
+    """Cumulative seconds of ``path:name``, counting only calls from ``callers`` if given.
+    ``required``: the function must have been called (a renamed or moved function would
+    otherwise silently move its time into the glue)."""
+    total, found = 0.0, False
+    for (file, _, func), (_, _, _, ct, by) in stats.stats.items():
+        if func != name or not file.endswith(path):
+            continue
+        if not callers:
+            total, found = total + ct, True
+            continue
+        for (cfile, _, cfunc), value in by.items():
+            if any(cfile.endswith(p) and cfunc == f for p, f in callers):
+                total, found = total + value[3], True
+    if required and not found:
+        raise RuntimeError(
+            f"bench_vector: the profile has no call of {path}:{name} from {callers or 'anywhere'}; "
+            "update the profile's parts to the code's current names"
+        )
+    return total
+
+
+ENV = "fluids/env.py"
+VECTOR = "fluids/vector/env.py"
+SCALAR_CALLS = ((ENV, "step"), (ENV, "reset"))
+
+
+def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
+    runner = Runner("vector", n, kwargs)
+    prof = cProfile.Profile()
+    prof.enable()
+    runner.run(batch_steps)
+    prof.disable()
+    stats = pstats.Stats(prof)
+    vector_step = _cum(stats, VECTOR, "step")
+    # (a world resets inside a vector step only when its episode ended in the window)
+    scalar = _cum(stats, ENV, "step", ((VECTOR, "step"),)) + _cum(
+        stats, ENV, "reset", ((VECTOR, "step"),), required=False
+    )
+    parts = {
+        "world step": _cum(stats, "sim/world.py", "step", (("supervisor/stack.py", "execute"),))
+        + _cum(stats, "sim/fault.py", "update", SCALAR_CALLS),
+        "supervisor": _cum(stats, "supervisor/stack.py", "prepare", SCALAR_CALLS)
+        + _cum(stats, "fluids/levels.py", "controls", SCALAR_CALLS)
+        + _cum(stats, ENV, "supervisor_action", ((ENV, "_info"),)),
+        "observation": _cum(stats, ENV, "_observe", SCALAR_CALLS),
+    }
+    parts["scalar env glue and resets"] = scalar - sum(parts.values())
+    parts["vector layer"] = vector_step - scalar
+    return {
+        "num_envs": n,
+        "batch_steps": batch_steps,
+        "profiled_seconds": round(vector_step, 3),
+        "fractions": {k: round(v / vector_step, 4) for k, v in parts.items()},
+    }
+
+
+# ---------------------------------------------------------------------- plot
+def plot(data: dict, path: str) -> None:
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    fig, (left, right) = plt.subplots(1, 2, figsize=(10, 3.8))
+    rows = data["batch"]
+    scalar = next(r for r in rows if r["env"] == "scalar")
+    for kind, label in (("sync", "SyncVectorEnv"), ("vector", "vector entry point")):
+        pts = [(r["num_envs"], r["steps_per_cpu_s"]) for r in rows if r["env"] == kind]
+        left.plot(*zip(*pts, strict=True), marker="o", label=label)
+    left.axhline(scalar["steps_per_cpu_s"], color="grey", ls="--", label="scalar env")
+    left.set_xscale("log", base=2)
+    left.set_xlabel("worlds per batch (B)")
+    left.set_ylabel("env-steps per CPU-second")
+    left.set_ylim(bottom=0)
+    left.legend()
+    left.set_title(f"{ENV_ID} S2 with labels")
+    pts = [(r["agents"], r["us_per_agent_step"]) for r in data["agents"]]
+    right.plot(*zip(*pts, strict=True), marker="o")
+    right.set_xlabel("agents per world (the ego, the cars, 5 pedestrians)")
+    right.set_ylabel("CPU µs per agent-step")
+    right.set_ylim(bottom=0)
+    right.set_title(f"vector entry point, B = {data['agents_batch']}, two-lane four-way")
+    fig.tight_layout()
+    fig.savefig(path, dpi=100)
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--steps", type=int, default=3000, help="env-steps per measurement")
+    parser.add_argument(
+        "--repeats", type=int, default=3, help="blocks of scalar, sync, vector per B (median)"
+    )
+    parser.add_argument("--batches", type=int, nargs="+", default=[1, 4, 16, 64, 256])
+    parser.add_argument("--cars", type=int, nargs="+", default=[5, 10, 20, 30])
+    parser.add_argument("--agents-batch", type=int, default=16, help="B of the agents part")
+    parser.add_argument(
+        "--process-steps", type=int, default=4000, help="env-steps per process (processes part)"
+    )
+    parser.add_argument("--profile-steps", type=int, default=1000, help="env-steps profiled")
+    parser.add_argument(
+        "--core",
+        type=int,
+        default=None,
+        help="core of the single-process parts (default: the last)",
+    )
+    parser.add_argument("--image", default=None, help="also plot to this PNG")
+    add_results_option(parser)
+    args = parser.parse_args()
+    measurements = 3 * len(args.batches) * args.repeats + 3 * len(args.cars)
+    announce(
+        f"~{max(1, round(args.steps * measurements / 2500 / 60))} min on a quiet 2-core machine"
+    )
+    everywhere = os.sched_getaffinity(0)
+    core = max(everywhere) if args.core is None else args.core
+    os.sched_setaffinity(0, {core})
+    batch = batch_part(args.batches, args.steps, args.repeats)
+    agents_rows = [
+        measure("vector", args.agents_batch, {**S2, "lanes": 2, "num_cars": c}, args.steps // 2)
+        for c in args.cars
+    ]
+    split = profile(args.agents_batch, max(4, args.profile_steps // args.agents_batch), S2)
+    os.sched_setaffinity(0, everywhere)
+    cores = sorted(everywhere)[:2]
+    pair = None
+    if len(cores) == 2:
+        pair = processes(
+            args.agents_batch, max(8, args.process_steps // args.agents_batch), S2, cores
+        )
+    data = {
+        "benchmark": "bench_vector",
+        "fluids_bench": fluids_bench.__version__,
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+        "env_id": ENV_ID,
+        "scene": S2,
+        "seeds": "world i of a batch: seed i, then its own generator on autoreset; the scalar "
+        "env: seed 0, then reset() (world 0's episodes)",
+        "steps": args.steps,
+        "pinned_core": core,
+        "agents_batch": args.agents_batch,
+        "repeats": args.repeats,
+        "batch": batch,
+        "agents": agents_rows,
+        "processes": pair,
+        "profile": split,
+    }
+    if args.image:
+        plot(data, args.image)
+    emit(data, args)
+
+
+if __name__ == "__main__":
+    main()
