@@ -19,6 +19,40 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
+def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
+    """Agent ``i``'s swept box (lo_x, hi_x, lo_y, hi_y): every candidate, every projected time
+    and its position now, grown by its bounding-circle radius ``bound[i]`` (m)."""
+    x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
+    for a in range(px.shape[1]):
+        for t in range(px.shape[2]):
+            x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
+            y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
+    return x0 - bound[i], x1 + bound[i], y0 - bound[i], y1 + bound[i]
+
+
+@njit(cache=True, nogil=True)
+def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
+    """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
+    at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
+    the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
+    for t in range(px.shape[2]):
+        dx = px[i, a, t] - px[j, b, t]
+        dy = py[i, a, t] - py[j, b, t]
+        if not dx * dx + dy * dy < reach2:
+            continue
+        # the nearest pair of circles is too close iff any pair is: stop at the first
+        for ci in range(3):
+            xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
+            yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
+            for cj in range(3):
+                ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
+                ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
+                if ex * ex + ey * ey < thresh2:
+                    return True
+    return False
+
+
+@njit(cache=True, nogil=True)
 def conflict_tables(
     px, py, ux, uy, now_x, now_y, bound, offs, first, second, reach2, thresh2
 ):  # pragma: no cover (compiled)
@@ -32,44 +66,20 @@ def conflict_tables(
     clearance between footprint circles (narrow phase). Pairs whose swept boxes (every
     candidate, every time, and now) do not overlap are skipped.
     """
-    n_agents, n_cand, n_t = px.shape
-    lo_x, hi_x = np.empty(n_agents), np.empty(n_agents)
-    lo_y, hi_y = np.empty(n_agents), np.empty(n_agents)
+    n_agents, n_cand = px.shape[0], px.shape[1]
+    box = np.empty((n_agents, 4))
     for i in range(n_agents):
-        x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
-        for a in range(n_cand):
-            for t in range(n_t):
-                x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
-                y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
-        lo_x[i], hi_x[i], lo_y[i], hi_y[i] = (
-            x0 - bound[i],
-            x1 + bound[i],
-            y0 - bound[i],
-            y1 + bound[i],
-        )
+        box[i, 0], box[i, 1], box[i, 2], box[i, 3] = swept_box(px, py, now_x, now_y, bound, i)
     out = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
     for p in range(len(first)):
         i, j = first[p], second[p]
-        if lo_x[i] > hi_x[j] or lo_x[j] > hi_x[i] or lo_y[i] > hi_y[j] or lo_y[j] > hi_y[i]:
+        if box[i, 0] > box[j, 1] or box[j, 0] > box[i, 1]:
+            continue
+        if box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3]:
             continue
         for a in range(n_cand):
             for b in range(n_cand):
-                for t in range(n_t):
-                    dx = px[i, a, t] - px[j, b, t]
-                    dy = py[i, a, t] - py[j, b, t]
-                    if not dx * dx + dy * dy < reach2[p]:
-                        continue
-                    nearest = np.float32(np.inf)
-                    for ci in range(3):
-                        xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
-                        yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
-                        for cj in range(3):
-                            ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
-                            ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
-                            nearest = min(nearest, ex * ex + ey * ey)
-                    if nearest < thresh2[p]:
-                        out[p, a, b] = True
-                        break
+                out[p, a, b] = too_close(px, py, ux, uy, offs, i, a, j, b, reach2[p], thresh2[p])
     return out
 
 
@@ -166,6 +176,24 @@ def pid_controls(
 
 
 @njit(cache=True, nogil=True)
+def hold_then_brake_into(
+    out, a, k, s0, v0, target, hold, steps, every, dt, max_accel, decel, gain
+):  # pragma: no cover (compiled)
+    """One row of :func:`hold_then_brake`, written into ``out[a, k]``: start at ``s0`` (m) and
+    ``v0`` (m/s), track ``target`` for ``hold`` steps, then brake."""
+    v, travelled = v0, 0.0
+    for m in range(1, steps + 1):
+        goal = target if m <= hold else 0.0
+        dv = gain * (goal - v)
+        dv = min(max(dv, -decel), max_accel)
+        nv = max(v + dv * dt, 0.0)
+        travelled += 0.5 * (v + nv) * dt
+        v = nv
+        if m % every == 0:
+            out[a, k, m // every - 1] = s0 + travelled
+
+
+@njit(cache=True, nogil=True)
 def hold_then_brake(
     s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
@@ -183,14 +211,8 @@ def hold_then_brake(
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
     for a in range(n_agents):
         for k in range(n_cand):
-            v, travelled = v0[a], 0.0
-            for m in range(1, steps + 1):
-                target = targets[a, k] if m <= hold[a, k] else 0.0
-                dv = gain[a] * (target - v)
-                dv = min(max(dv, -decel[a]), max_accel)
-                nv = max(v + dv * dt, 0.0)
-                travelled += 0.5 * (v + nv) * dt
-                v = nv
-                if m % every == 0:
-                    out[a, k, m // every - 1] = s0[a] + travelled
+            hold_then_brake_into(
+                out, a, k, s0[a], v0[a], targets[a, k], hold[a, k], steps, every, dt,
+                max_accel, decel[a], gain[a],
+            )  # fmt: skip
     return out

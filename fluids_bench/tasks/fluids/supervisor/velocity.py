@@ -50,9 +50,9 @@ from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, t
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     conflict_tables,
-    hold_then_brake,
     projected_arc_lengths,
 )
 
@@ -121,14 +121,6 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     return offs, radius
 
 
-def _relative(world: World, f: np.ndarray, ld: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Agent ``ld``'s position in agent ``f``'s frame (complex: along + 1j * across) and
-    whether the two head within 45° of each other (agent indices, elementwise)."""
-    th = world.state[f, 2]
-    dth = (world.state[ld, 2] - th + np.pi) % (2 * np.pi) - np.pi
-    return (world.position[ld] - world.position[f]) * np.exp(-1j * th), np.abs(dth) < np.pi / 4
-
-
 def _hold_before(stop: np.ndarray, reach: np.ndarray) -> np.ndarray:
     """allowed[a, k]: False where candidate k takes agent a past its stop arc length ``stop``
     (``inf``: none) within the horizon (``reach``, (A, K)), unless even braking (k = 0) does."""
@@ -155,17 +147,6 @@ class VelocityPlanner:
         curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
         out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
         return np.where(world.is_car[agents], out, world.max_speed[agents])
-
-    def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.ndarray:
-        """The lowest speed each of ``agents`` will be allowed over the next ``metres`` of its
-        route (curves and speed limits), so that a projection held at it is not optimistic."""
-        look = np.arange(0, int(round(metres / PATH_SPACING)) + 1)
-        r, k = self._path_ahead(world, agents, look)
-        routes = world.layout.routes
-        kappa = routes.curvature[r[:, None], k]
-        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
-        slowest = np.minimum(routes.speed_limit[r[:, None], k], curve).min(axis=1)
-        return np.where(world.is_car[agents], np.minimum(world.max_speed[agents], slowest), np.inf)
 
     @staticmethod
     def _path_ahead(world: World, agents: np.ndarray, look: np.ndarray):
@@ -379,219 +360,82 @@ class VelocityPlanner:
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
         uncontrolled agent (``wild``, positions in ``agents``) that brakes as hard as it can
         now or at any of a few later steps before the next plan (holding its speed until then).
+        Guarding against every uncontrolled agent keeping its speed was tried: supervised cars
+        then hesitated so much that a supervisor-driven ego timed out in 1-2% of episodes; the
+        give-way rule below does it only toward one with the right of way.
 
         Pairs in which the uncontrolled agent follows the supervised one (within 45° of its
-        heading, behind it) are skipped: a rear-end is the follower's fault. Braking now
-        (candidate 0) is never pruned, so the CSP stays feasible.
+        heading, behind it) are skipped: a rear-end is the follower's fault. The clearance is
+        the full one, not relaxed to the distance now: positions are path samples
+        (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step at a
+        time, into an uncontrolled one already near it. Braking now (candidate 0) is never
+        pruned, so the CSP stays feasible.
 
-        Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
-        supervised one also allows for it driving on: see :meth:`_give_way`, which needs the
-        supervised agents' ``hold_lines`` (route arc lengths of the stop lines they will hold
-        before, as :meth:`plan` finds them with the domains; default: none).
-        """
-        cfg, dt = self.config, world.dt
-        allowed = np.ones(targets.shape, dtype=bool)
-        tame = ~wild
-        cars = world.is_car[agents]
-        ii, jj = self._pairs(len(agents))
-        pair = (wild[ii] != wild[jj]) & (cars[ii] | cars[jj])
-        ii, jj = ii[pair], jj[pair]
-        if not len(ii):
-            return allowed
-        # skip pairs where the uncontrolled agent is behind the supervised one, same way
-        ahead, aligned = _relative(
-            world, agents[np.where(wild[ii], ii, jj)], agents[np.where(wild[ii], jj, ii)]
-        )
-        follows = aligned & (ahead.real > 0)
-        ii, jj = ii[~follows], jj[~follows]
-        if not len(ii):
-            return allowed
-        k = targets.shape[1]
-        steps = int(round(cfg.horizon / dt))
-        v = world.state[agents, 3]
-        hold = np.full(targets.shape, cfg.period, dtype=np.int64)
-        # uncontrolled: hold the current speed for 0 … period steps, then brake at the limit.
-        # (Guarding against every uncontrolled agent keeping its speed was tried: supervised
-        # cars then hesitated so much that a supervisor-driven ego timed out in 1-2% of
-        # episodes; _give_way does it only toward one with the right of way.)
-        hold[wild] = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
-        goal = np.where(wild[:, None], v[:, None], targets)
-        car = world.scene.car
-        limit = np.where(
-            world.is_car[agents],
-            car.max_brake_force / world.params[agents, 0],
-            world.scene.pedestrian.max_accel,
-        )
-        decel = np.where(wild, limit, cfg.max_decel)
-        gain = np.where(wild, 1.0 / dt, cfg.speed_gain)
-        s_def = hold_then_brake(
-            world.s[agents],
-            v,
-            goal,
-            hold,
-            steps,
-            cfg.sample_every,
-            dt,
-            cfg.max_accel,
-            decel,
-            gain,
-        )
-        # full clearance, not relaxed to the distance now: positions are path samples
-        # (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step
-        # at a time, into an uncontrolled one already near it; braking is never pruned anyway
-        conflict = self._conflict_tables(world, agents, s_def, ii, jj, relax=False)
-        bad_i = conflict.any(axis=2)  # (P, K): candidate of ii against any scenario of jj
-        bad_j = conflict.any(axis=1)
-        forbid = np.zeros(targets.shape, dtype=bool)
-        np.logical_or.at(forbid, ii[tame[ii]], bad_i[tame[ii]])
-        np.logical_or.at(forbid, jj[tame[jj]], bad_j[tame[jj]])
-        forbid |= self._follow_supervised(world, agents, targets, wild, s_def)
-        if hold_lines is None:
-            hold_lines = np.full(len(agents), np.inf)
-        give_way = self._give_way(world, agents, targets, wild, ii, jj, hold_lines)
-        # braking now is unsafe both ways (it cannot stop short of where the uncontrolled
-        # agent may stop, and it would stop in the path of one that keeps going) while
-        # going on clears that path: it clears the crossing rather than stop in it
-        clear = forbid[:, 0] & give_way[:, 0]
-        forbid[clear] = False
-        forbid |= give_way
-        forbid[:, 0] = False
-        return allowed & ~forbid
+        Followers: with uncontrolled agents about, a supervised leader may have to brake at
+        once, which its followers' plans did not foresee; a supervised car behind another in its
+        lane (within 45°, less than 2 m aside) may not take a candidate that runs into the
+        leader braking now, unless none helps any more.
 
-    def _follow_supervised(
-        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray, s_def
-    ) -> np.ndarray:
-        """forbid[a, k]: supervised follower a's candidate k (hold until the next plan, then
-        brake) would run into the supervised car ahead of it in its lane if that one braked
-        now: with uncontrolled agents about, a supervised leader may have to brake at once
-        (its defensive constraints), which its followers' plans did not foresee."""
-        forbid = np.zeros(targets.shape, dtype=bool)
-        cars = world.is_car[agents] & ~wild
-        idx = cars.nonzero()[0]
-        if len(idx) < 2:
-            return forbid
-        a, b = np.meshgrid(idx, idx, indexing="ij")
-        a, b = a.ravel(), b.ravel()
-        keep = a != b
-        f, ld = a[keep], b[keep]
-        ahead, aligned = _relative(world, agents[f], agents[ld])
-        behind = aligned & (ahead.real > 0) & (np.abs(ahead.imag) < 2.0)
-        f, ld = f[behind], ld[behind]
-        if not len(f):
-            return forbid
-        cfg, dt = self.config, world.dt
-        # only the agents of those pairs are projected (positions in ``sub``)
-        sub, pos = np.unique(np.concatenate([f, ld]), return_inverse=True)
-        fs, ls = pos[: len(f)], pos[len(f) :]
-        brake = s_def[sub]  # followers: hold their candidate until the next plan, then brake
-        lead = np.unique(ls)
-        on = agents[sub[lead]]
-        brake[lead] = hold_then_brake(  # leaders: brake now
-            world.s[on],
-            world.state[on, 3],
-            targets[sub[lead]],
-            np.zeros((len(lead), targets.shape[1]), dtype=np.int64),
-            s_def.shape[2] * cfg.sample_every,
-            cfg.sample_every,
-            dt,
-            cfg.max_accel,
-            np.full(len(lead), cfg.max_decel),
-            np.full(len(lead), cfg.speed_gain),
-        )
-        conflict = self._conflict_tables(world, agents[sub], brake, fs, ls, relax=False)
-        bad = conflict[:, :, 0]  # the leader braking now (its candidate 0 scenario)
-        np.logical_or.at(forbid, f, bad)
-        forbid[forbid.all(axis=1)] = False  # cannot help any more
-        return forbid
-
-    def _right_of_way(self, world: World, agents: np.ndarray, t: np.ndarray, w: np.ndarray):
-        """Whether uncontrolled ``w`` has the right of way over supervised ``t`` (positions in
-        ``agents``, elementwise) by the rules that assign fault (:mod:`..sim.fault`): it
-        entered its shared zone first (rule 7), or it comes the other way and goes straight
-        while ``t`` turns across its path (rule 6)."""
-        entered = world.entered[agents]
-        first = (entered[w] >= 0) & ((entered[t] < 0) | (entered[w] < entered[t]))
-        routes = world.route[agents]
-        return first | turns_across(*self._turns, routes[t], routes[w])
-
-    def _give_way(
-        self,
-        world: World,
-        agents: np.ndarray,
-        targets: np.ndarray,
-        wild: np.ndarray,
-        ii: np.ndarray,
-        jj: np.ndarray,
-        hold_lines: np.ndarray,
-    ) -> np.ndarray:
-        """forbid[a, k]: True where supervised agent a's candidate k could run into an
-        uncontrolled agent with the right of way over it that keeps going (a crawler
-        creeping on into a roundabout, an oncoming car going straight through a left turn).
-
-        A candidate is safe if, holding it until the next plan and then braking, the agent
+        Giving way: toward an uncontrolled agent with the right of way over it by the rules that
+        assign fault (:mod:`..sim.fault`: it entered its shared zone first, rule 7, or it comes
+        the other way and goes straight while the supervised one turns across its path, rule
+        6), a candidate is safe if, holding it until the next plan and then braking, the agent
         stops short of that agent's path, or if, holding it, it clears the path before that
         agent gets there (gap acceptance), whether that agent keeps its speed or speeds up (at
         the controller's acceleration, to the fastest speed allowed to it; one at rest is taken
         to stay there, so that a waiting ego and a waiting car do not deadlock). Both scenarios
-        end at the agent's hold line (a red light, an occupied crosswalk): it does not enter
-        a crossing that it would have to stop in (don't block the box).
-        Everything is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning
-        from rest to clear a crossing, and the agent keeps a planning period to spare before
+        end at the agent's hold line (``hold_lines``: route arc lengths of the stop lines it
+        will hold before, as :meth:`plan` finds them with the domains; default: none): it does
+        not enter a crossing that it would have to stop in (don't block the box). Everything
+        is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning from rest to
+        clear a crossing, and going on it slows for the curves of the next
+        :data:`GIVE_WAY_LOOK_AHEAD` metres; the agent keeps a planning period to spare before
         it brakes. Where no candidate keeps the full clearance both ways, the candidates that
         at least do not touch that agent either way are kept; an agent with none at all (it is
-        already in the way) is left as it is: stopping there would not help.
+        already in the way) is left as it is. Braking now that is unsafe both ways (it cannot
+        stop short of where the uncontrolled agent may stop, and it would stop in the path of
+        one that keeps going) while going on clears that path: it clears the crossing rather
+        than stop in it.
+
+        One compiled call (:func:`defensive_kernels.defensive_forbid`).
         """
-        forbid = np.zeros(targets.shape, dtype=bool)
-        t = np.where(wild[ii], jj, ii)
-        w = np.where(wild[ii], ii, jj)
-        row = self._right_of_way(world, agents, t, w)
-        if not row.any():
-            return forbid
-        # only the agents of those pairs are projected (positions in ``sub``)
-        sub, pos = np.unique(np.concatenate([t[row], w[row]]), return_inverse=True)
-        n = int(row.sum())
-        ts, ws = pos[:n], pos[n:]
-        cfg, dt = self.config, world.dt
-        steps = int(round(GIVE_WAY_HORIZON / dt))
-        s0, v, cand = world.s[agents[sub]], world.state[agents[sub], 3], targets[sub]
-        decel = np.full(len(sub), cfg.max_decel)
-        gain = np.full(len(sub), cfg.speed_gain)
-        args = (steps, cfg.sample_every, dt, cfg.max_accel, decel, gain)
-        hold = np.full(cand.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
-        stop = hold_then_brake(s0, v, cand, hold, *args)
-        hold[:] = steps
-        # going on, it slows for the curves ahead (turning into a roundabout's ring)
-        slowest = self._slowest_ahead(world, agents[sub], GIVE_WAY_LOOK_AHEAD)
-        go = hold_then_brake(s0, v, np.minimum(cand, slowest[:, None]), hold, *args)
-        line = (hold_lines[sub] - world.offset[agents[sub]] - self._front[agents[sub]])[
-            :, None, None
-        ]
-        stop, go = np.minimum(stop, line), np.minimum(go, line)  # it stops at its hold line
-        # the uncontrolled agent, if moving, keeps its speed or speeds up towards the fastest
-        # speed allowed to it (its candidates' scenarios span the two); at rest, it stays
-        moving = v > STATIONARY_SPEED
-        faster = np.maximum(cand[:, -1] - v, 0.0)[:, None] * self.fractions[None, :]
-        goal = np.where(moving[:, None], v[:, None] + faster, 0.0)
-        wild_go = hold_then_brake(s0, v, goal, hold, *args)
-        stop[ws], go[ws] = wild_go[ws], wild_go[ws]
-        on = agents[sub]
-        stop_fails = self._conflict_tables(world, on, stop, ts, ws, relax=False).any(axis=2)
-        clear_fails = self._conflict_tables(world, on, go, ts, ws, relax=False).any(axis=2)
-        np.logical_or.at(forbid, t[row], stop_fails & clear_fails)
-        stuck = forbid.all(axis=1)
-        if stuck.any():
-            # no candidate keeps the full clearance both ways (a close pass counts, and a merge
-            # is close): keep the candidates that at least do not touch that agent either way
-            # (an agent taken to stay at rest that set off, met side by side at a merge)
-            mine = stuck[t[row]]  # only the stuck agents' pairs
-            ts_, ws_ = ts[mine], ws[mine]
-            stop_t = self._conflict_tables(world, on, stop, ts_, ws_, relax=False, contact=True)
-            go_t = self._conflict_tables(world, on, go, ts_, ws_, relax=False, contact=True)
-            touch = np.zeros(targets.shape, dtype=bool)
-            np.logical_or.at(touch, t[row][mine], stop_t.any(axis=2) & go_t.any(axis=2))
-            forbid[stuck] = touch[stuck]
-        forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
-        return forbid
+        self._bind(world)
+        if hold_lines is None:
+            hold_lines = np.full(len(agents), np.inf)
+        routes, scene = world.layout.routes, world.scene
+        forbid = defensive_forbid(
+            agents,
+            np.ascontiguousarray(wild, dtype=np.bool_),
+            np.ascontiguousarray(targets, dtype=np.float64),
+            np.ascontiguousarray(hold_lines, dtype=np.float64),
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.entered,
+            world.route,
+            world.max_speed,
+            np.where(
+                world.is_car,
+                scene.car.max_brake_force / world.params[:, 0],
+                scene.pedestrian.max_accel,
+            ),  # fmt: skip
+            self._offs32,
+            self._radius,
+            self._reach,
+            world.path_c64,
+            world.path_dir,
+            routes.enter_s,
+            self._across,
+            routes.curvature,
+            routes.speed_limit,
+            self.fractions,
+            self._hold_wild,
+            self._ints,
+            self._floats,
+        )
+        return ~forbid
 
     def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
         if n not in self._pair_cache:
@@ -624,6 +468,36 @@ class VelocityPlanner:
         steps = int(round(self.config.horizon / world.dt))
         self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
             -steps, steps + 1, dtype=float
+        )
+        # the defensive kernel's tables: route pairs where the first turns across the second
+        n_routes = len(self._turns[0])
+        ra, rb = np.meshgrid(np.arange(n_routes), np.arange(n_routes), indexing="ij")
+        self._across = np.ascontiguousarray(turns_across(*self._turns, ra, rb))
+        cfg, k = self.config, len(self.fractions)
+        # an uncontrolled agent holds its speed 0 … period steps, then brakes at its limit
+        self._hold_wild = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
+        self._ints = np.array(
+            [
+                cfg.period,
+                steps,
+                int(round(GIVE_WAY_HORIZON / world.dt)),
+                cfg.sample_every,
+                int(round(GIVE_WAY_LOOK_AHEAD / PATH_SPACING)),
+            ],
+            dtype=np.int64,
+        )
+        self._floats = np.array(
+            [
+                world.dt,
+                cfg.max_accel,
+                cfg.max_decel,
+                cfg.speed_gain,
+                cfg.margin,
+                cfg.pedestrian_margin,
+                cfg.lateral_accel,
+                PATH_SPACING,
+                STATIONARY_SPEED,
+            ]
         )
 
     def plan(self, world: World, uncontrolled: np.ndarray | None = None) -> np.ndarray:
