@@ -26,8 +26,10 @@ from numba import njit
 
 from fluids_bench.tasks.fluids.sim.dynamics import wrap_angle
 from fluids_bench.tasks.fluids.supervisor.kernels import (
+    boxes_apart,
     hold_then_brake_into,
-    swept_box,
+    path_samples,
+    swept_boxes,
     too_close,
 )
 
@@ -43,53 +45,9 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
 
 
 @njit(cache=True, nogil=True)
-def _path_samples(
-    path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy
-):  # pragma: no cover (compiled)
-    """Points and unit tangents (float32) of each agent in ``rows`` (positions in ``agents``) at
-    the arc lengths ``proj`` (A, K, T), written into px, py, ux, uy (as World.path_samples)."""
-    width = path_c64.shape[1]
-    for a in rows:
-        agent = agents[a]
-        for k in range(proj.shape[1]):
-            for t in range(proj.shape[2]):
-                i = np.int64(np.rint(proj[a, k, t] * inv_spacing))
-                i = min(max(i, 0), width - 1)
-                px[a, k, t], py[a, k, t] = path_c64[agent, i].real, path_c64[agent, i].imag
-                ux[a, k, t], uy[a, k, t] = path_dir[agent, i].real, path_dir[agent, i].imag
-
-
-@njit(cache=True, nogil=True)
-def _samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
-    shape = proj.shape
-    px, py = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
-    ux, uy = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
-    _path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy)
-    return px, py, ux, uy
-
-
-@njit(cache=True, nogil=True)
-def _boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
-    box = np.zeros((px.shape[0], 4))
-    for a in rows:
-        box[a, 0], box[a, 1], box[a, 2], box[a, 3] = swept_box(px, py, now_x, now_y, bound, a)
-    return box
-
-
-@njit(cache=True, nogil=True)
-def _apart(box, i, j):  # pragma: no cover (compiled)
-    """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
-    return (
-        box[i, 0] > box[j, 1]
-        or box[j, 0] > box[i, 1]
-        or (box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3])
-    )
-
-
-@njit(cache=True, nogil=True)
 def _any_conflict(samples, offs, box, i, a, j, reach2, thresh2):  # pragma: no cover
     """Agent ``i`` at candidate ``a`` comes too close to ``j`` at any of its candidates."""
-    if _apart(box, i, j):
+    if boxes_apart(box, i, j):
         return False
     px, py, ux, uy = samples
     for b in range(px.shape[1]):
@@ -102,7 +60,7 @@ def _any_conflict(samples, offs, box, i, a, j, reach2, thresh2):  # pragma: no c
 def _any_conflict_second(samples, offs, box, i, j, b, reach2, thresh2):  # pragma: no cover
     """Agent ``j`` at candidate ``b`` comes too close to ``i`` at any of its candidates
     (conflict[p, :, b].any(): the pair's table seen from its second agent)."""
-    if _apart(box, i, j):
+    if boxes_apart(box, i, j):
         return False
     px, py, ux, uy = samples
     for a in range(px.shape[1]):
@@ -200,8 +158,8 @@ def defensive_forbid(
                     dt, max_accel, max_decel, gain,
                 )  # fmt: skip
     all_rows = np.arange(n_agents)
-    samples = _samples(path_c64, path_dir, agents, s_def, all_rows, inv_spacing)
-    box = _boxes(samples[0], samples[1], now_x, now_y, bound, all_rows)
+    samples = path_samples(path_c64, path_dir, agents, s_def, all_rows, inv_spacing)
+    box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, all_rows)
     for p in range(len(first)):
         i, j = first[p], second[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, i, j, margin, ped_margin, False)
@@ -272,15 +230,15 @@ def _follow_supervised(
                     brake, a, k, s[ag], state[ag, 3], 0.0, 0, s_def.shape[2] * every, every,
                     dt, max_accel, max_decel, gain,
                 )  # fmt: skip
-    samples = _samples(path_c64, path_dir, agents, brake, rows, inv_spacing)
-    box = _boxes(samples[0], samples[1], now_x, now_y, bound, rows)
+    samples = path_samples(path_c64, path_dir, agents, brake, rows, inv_spacing)
+    box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, rows)
     px, py, ux, uy = samples
     for p in range(len(fs)):
         f, ld = fs[p], ls[p]
         reach2, thresh2 = _pair_limits(
             radius_a, bound, crossing, f, ld, floats[4], floats[5], False
         )
-        if _apart(box, f, ld):
+        if boxes_apart(box, f, ld):
             continue
         for k in range(n_cand):
             if not forbid[f, k]:  # against the leader's candidate 0 (all brake now alike)
@@ -378,10 +336,10 @@ def _give_way(
                 stop[a, k, t] = min(stop[a, k, t], line)
                 go[a, k, t] = min(go[a, k, t], line)
     inv_spacing = 1.0 / spacing
-    s_stop = _samples(path_c64, path_dir, agents, stop, rows, inv_spacing)
-    s_go = _samples(path_c64, path_dir, agents, go, rows, inv_spacing)
-    box_stop = _boxes(s_stop[0], s_stop[1], now_x, now_y, bound, rows)
-    box_go = _boxes(s_go[0], s_go[1], now_x, now_y, bound, rows)
+    s_stop = path_samples(path_c64, path_dir, agents, stop, rows, inv_spacing)
+    s_go = path_samples(path_c64, path_dir, agents, go, rows, inv_spacing)
+    box_stop = swept_boxes(s_stop[0], s_stop[1], now_x, now_y, bound, rows)
+    box_go = swept_boxes(s_go[0], s_go[1], now_x, now_y, bound, rows)
     for p in range(len(ts)):
         t, w = ts[p], ws[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, t, w, margin, ped_margin, False)

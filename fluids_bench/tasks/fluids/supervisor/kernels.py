@@ -53,34 +53,49 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
 
 
 @njit(cache=True, nogil=True)
-def conflict_tables(
-    px, py, ux, uy, now_x, now_y, bound, offs, first, second, reach2, thresh2
+def path_samples_into(
+    path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy
 ):  # pragma: no cover (compiled)
-    """conflict[p, a, b]: agents ``first[p]`` at candidate a and ``second[p]`` at candidate b
-    come too close at some projected time.
+    """Points and unit tangents (float32) of each agent in ``rows`` (positions in ``agents``) at
+    the arc lengths ``proj`` (A, K, T), written into px, py, ux, uy (as World.path_samples)."""
+    width = path_c64.shape[1]
+    for a in rows:
+        agent = agents[a]
+        for k in range(proj.shape[1]):
+            for t in range(proj.shape[2]):
+                i = np.int64(np.rint(proj[a, k, t] * inv_spacing))
+                i = min(max(i, 0), width - 1)
+                px[a, k, t], py[a, k, t] = path_c64[agent, i].real, path_c64[agent, i].imag
+                ux[a, k, t], uy[a, k, t] = path_dir[agent, i].real, path_dir[agent, i].imag
 
-    px, py, ux, uy: (A, K, T) float32 positions and unit tangents of the projections; now_x,
-    now_y: (A,) float32 positions now; bound: (A,) bounding-circle radius (m); offs: (A, 3)
-    float32 offsets of each agent's footprint circles along its heading; reach2: (P,) float32
-    squared bounding-circle reach of each pair (broad phase); thresh2: (P,) float64 squared
-    clearance between footprint circles (narrow phase). Pairs whose swept boxes (every
-    candidate, every time, and now) do not overlap are skipped.
-    """
-    n_agents, n_cand = px.shape[0], px.shape[1]
-    box = np.empty((n_agents, 4))
-    for i in range(n_agents):
-        box[i, 0], box[i, 1], box[i, 2], box[i, 3] = swept_box(px, py, now_x, now_y, bound, i)
-    out = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
-    for p in range(len(first)):
-        i, j = first[p], second[p]
-        if box[i, 0] > box[j, 1] or box[j, 0] > box[i, 1]:
-            continue
-        if box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3]:
-            continue
-        for a in range(n_cand):
-            for b in range(n_cand):
-                out[p, a, b] = too_close(px, py, ux, uy, offs, i, a, j, b, reach2[p], thresh2[p])
-    return out
+
+@njit(cache=True, nogil=True)
+def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
+    """(px, py, ux, uy): :func:`path_samples_into` into new zeroed arrays."""
+    shape = proj.shape
+    px, py = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    ux, uy = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    path_samples_into(path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy)
+    return px, py, ux, uy
+
+
+@njit(cache=True, nogil=True)
+def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
+    """(A, 4) :func:`swept_box` of each agent in ``rows`` (zeros elsewhere)."""
+    box = np.zeros((px.shape[0], 4))
+    for a in rows:
+        box[a, 0], box[a, 1], box[a, 2], box[a, 3] = swept_box(px, py, now_x, now_y, bound, a)
+    return box
+
+
+@njit(cache=True, nogil=True)
+def boxes_apart(box, i, j):  # pragma: no cover (compiled)
+    """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
+    return (
+        box[i, 0] > box[j, 1]
+        or box[j, 0] > box[i, 1]
+        or (box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3])
+    )
 
 
 @njit(cache=True, nogil=True)
@@ -216,3 +231,61 @@ def hold_then_brake(
                 max_accel, decel[a], gain[a],
             )  # fmt: skip
     return out
+
+
+@njit(cache=True, nogil=True)
+def plan_conflicts(
+    agents, s_proj, first, second, d_now,
+    state, s, offset, front, is_car, route, enter_s,
+    offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """The CSP's binary constraints: pairs (P', 2) of positions in ``agents`` and their
+    conflict[p, a, b] (P', K, K), only the pairs with some conflict once both braking (0, 0)
+    is allowed (so the CSP stays feasible).
+
+    first, second (P,): the candidate pairs (positions in ``agents``, each with a car);
+    d_now (P,) float32: the distance now between their nearest footprint circles (m; computed
+    by the caller with numpy's complex arithmetic). Projections ``s_proj`` (A, K, T) are
+    sampled on the agents' paths (complex64 points and tangents, ``inv_spacing`` samples per
+    metre). A pair already closer than its clearance conflicts only where it gets closer
+    still: the clearance is ``min(clearance, d_now - 0.05)``, floored at 0. The clearance is
+    the footprint circles' radii plus ``margin`` (m), or ``pedestrian_margin`` once a walker of
+    the pair is on its crossing (its front past its route's ``enter_s``). World arrays (N, ...)
+    as :func:`defensive_kernels.defensive_forbid` takes them.
+    """
+    n_agents, n_cand = s_proj.shape[0], s_proj.shape[1]
+    rows = np.arange(n_agents)
+    px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
+    now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
+    crossing = np.zeros(n_agents, np.bool_)
+    for a in range(n_agents):
+        ag = agents[a]
+        now_x[a], now_y[a] = np.float32(state[ag, 0]), np.float32(state[ag, 1])
+        r = route[ag] if route[ag] >= 0 else route[ag] + len(enter_s)
+        crossing[a] = not is_car[ag] and s[ag] + offset[ag] + front[ag] >= enter_s[r]
+    offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
+    box = swept_boxes(px, py, now_x, now_y, bound, rows)
+    table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
+    keep = np.zeros(len(first), dtype=np.bool_)
+    for p in range(len(first)):
+        i, j = first[p], second[p]
+        if boxes_apart(box, i, j):
+            continue
+        m = pedestrian_margin if crossing[i] or crossing[j] else margin
+        # float32 as numpy computes d_now - 0.05 for a float32 array
+        thresh = max(min(radius_a[i] + radius_a[j] + m, d_now[p] - np.float32(0.05)), 0.0)
+        reach2 = np.float32((bound[i] + bound[j]) * (bound[i] + bound[j]))
+        for a in range(n_cand):
+            for b in range(n_cand):
+                if a == 0 and b == 0:
+                    continue  # both braking is always allowed
+                hit = too_close(px, py, ux, uy, offs_a, i, a, j, b, reach2, thresh * thresh)
+                table[p, a, b] = hit
+                keep[p] |= hit
+    out = np.empty((keep.sum(), 2), dtype=np.int64)
+    q = 0
+    for p in range(len(first)):
+        if keep[p]:
+            out[q, 0], out[q, 1] = first[p], second[p]
+            q += 1
+    return out, table[keep]

@@ -51,10 +51,7 @@ from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
-from fluids_bench.tasks.fluids.supervisor.kernels import (
-    conflict_tables,
-    projected_arc_lengths,
-)
+from fluids_bench.tasks.fluids.supervisor.kernels import plan_conflicts, projected_arc_lengths
 
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
@@ -281,8 +278,13 @@ class VelocityPlanner:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
 
-        Only pairs with a car are checked (pedestrians step round each other). The per-pair,
-        per-candidate, per-time loop is compiled (:func:`kernels.conflict_tables`).
+        Only pairs with a car are checked (pedestrians step round each other). A pair already
+        closer than its clearance conflicts only where it gets closer still, so that braking
+        stays feasible for the CSP; the smaller car-pedestrian clearance applies once the
+        walker is on the crossing (so a car can creep past it), a walker still at the kerb
+        keeps the full one. The per-pair, per-candidate, per-time loop is compiled
+        (:func:`kernels.plan_conflicts`); the distance now between footprint circles stays
+        numpy's complex arithmetic (its vectorised complex abs is the reference).
         """
         k = len(self.fractions)
         empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
@@ -292,60 +294,32 @@ class VelocityPlanner:
         ii, jj = ii[with_car], jj[with_car]
         if not len(ii):
             return empty
-        conflict = self._conflict_tables(world, agents, s_proj, ii, jj)
-        conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
-        keep = conflict.reshape(len(ii), -1).any(axis=1)
-        return np.column_stack([ii, jj])[keep], conflict[keep]
-
-    def _conflict_tables(
-        self,
-        world: World,
-        agents: np.ndarray,
-        s_proj: np.ndarray,
-        ii: np.ndarray,
-        jj: np.ndarray,
-        relax: bool = True,
-        contact: bool = False,
-    ) -> np.ndarray:
-        """conflict[p, a, b] (P, K, K) for the pairs (``ii[p]``, ``jj[p]``) of positions in
-        ``agents`` projected to ``s_proj`` (A, K, T). ``relax``: a pair already closer than its
-        clearance conflicts only where it gets closer still (so that braking stays feasible
-        for the CSP); without it, wherever it stays inside the clearance. ``contact``: the
-        clearance is the footprints' own (no margin): where they would touch."""
-        cars = world.is_car[agents]
-        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
-        bound = self._reach[agents]
         pos = world.position[agents].astype(np.complex64)
-        offs, radius = self._offs32[agents], self._radius[agents]
-        now = (
-            pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]
-        )  # (A, 3)
+        heading = np.exp(1j * world.state[agents, 2]).astype(np.complex64)
+        now = pos[:, None] + self._offs32[agents] * heading[:, None]  # (A, 3) circle centres
         d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
-        # the smaller car-pedestrian clearance applies once the walker is on the crossing
-        # (so a car can creep past it); a walker still at the kerb keeps the full one
-        crossing = ~cars & (
-            world.route_s[agents] + self._front[agents]
-            >= world.layout.routes.enter_s[world.route[agents]]
-        )
-        margin = np.where(
-            crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
-        )
-        clearance = radius[ii] + radius[jj] + (0.0 if contact else margin)
-        thresh = np.maximum(np.minimum(clearance, d_now - 0.05), 0.0) if relax else clearance
-        reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
-        return conflict_tables(
-            pts.real,
-            pts.imag,
-            dirs.real,
-            dirs.imag,
-            pos.real,
-            pos.imag,
-            bound,
-            offs,
+        cfg = self.config
+        return plan_conflicts(
+            agents,
+            s_proj,
             ii,
             jj,
-            reach2,
-            thresh * thresh,
+            d_now,
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.route,
+            world.layout.routes.enter_s,
+            self._offs32,
+            self._radius,
+            self._reach,
+            world.path_c64,
+            world.path_dir,
+            1.0 / PATH_SPACING,
+            cfg.margin,
+            cfg.pedestrian_margin,
         )
 
     def defensive_domains(

@@ -3,8 +3,8 @@
 (the planner's methods as they were, taking the planner as ``self``): a reference for
 ``test_defensive_kernel.py``.
 
-They call the planner's ``_conflict_tables`` (whose kernel ``test_supervisor_kernels.py``
-checks against its own numpy reference) and ``hold_then_brake``.
+Their pairwise tables come from :func:`conflict_tables_of`, whole numpy arrays (the broad and
+narrow phases of the planner's kernels in float32, as they compute them).
 """
 
 from __future__ import annotations
@@ -98,7 +98,7 @@ def reference_defensive_domains(
     # full clearance, not relaxed to the distance now: positions are path samples
     # (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step
     # at a time, into an uncontrolled one already near it; braking is never pruned anyway
-    conflict = self._conflict_tables(world, agents, s_def, ii, jj, relax=False)
+    conflict = conflict_tables_of(self, world, agents, s_def, ii, jj, relax=False)
     bad_i = conflict.any(axis=2)  # (P, K): candidate of ii against any scenario of jj
     bad_j = conflict.any(axis=1)
     forbid = np.zeros(targets.shape, dtype=bool)
@@ -158,7 +158,7 @@ def _follow_supervised(
         np.full(len(lead), cfg.max_decel),
         np.full(len(lead), cfg.speed_gain),
     )
-    conflict = self._conflict_tables(world, agents[sub], brake, fs, ls, relax=False)
+    conflict = conflict_tables_of(self, world, agents[sub], brake, fs, ls, relax=False)
     bad = conflict[:, :, 0]  # the leader braking now (its candidate 0 scenario)
     np.logical_or.at(forbid, f, bad)
     forbid[forbid.all(axis=1)] = False  # cannot help any more
@@ -235,8 +235,8 @@ def _give_way(
     wild_go = hold_then_brake(s0, v, goal, hold, *args)
     stop[ws], go[ws] = wild_go[ws], wild_go[ws]
     on = agents[sub]
-    stop_fails = self._conflict_tables(world, on, stop, ts, ws, relax=False).any(axis=2)
-    clear_fails = self._conflict_tables(world, on, go, ts, ws, relax=False).any(axis=2)
+    stop_fails = conflict_tables_of(self, world, on, stop, ts, ws, relax=False).any(axis=2)
+    clear_fails = conflict_tables_of(self, world, on, go, ts, ws, relax=False).any(axis=2)
     np.logical_or.at(forbid, t[row], stop_fails & clear_fails)
     stuck = forbid.all(axis=1)
     if stuck.any():
@@ -245,8 +245,8 @@ def _give_way(
         # (an agent taken to stay at rest that set off, met side by side at a merge)
         mine = stuck[t[row]]  # only the stuck agents' pairs
         ts_, ws_ = ts[mine], ws[mine]
-        stop_t = self._conflict_tables(world, on, stop, ts_, ws_, relax=False, contact=True)
-        go_t = self._conflict_tables(world, on, go, ts_, ws_, relax=False, contact=True)
+        stop_t = conflict_tables_of(self, world, on, stop, ts_, ws_, relax=False, contact=True)
+        go_t = conflict_tables_of(self, world, on, go, ts_, ws_, relax=False, contact=True)
         touch = np.zeros(targets.shape, dtype=bool)
         np.logical_or.at(touch, t[row][mine], stop_t.any(axis=2) & go_t.any(axis=2))
         forbid[stuck] = touch[stuck]
@@ -264,3 +264,50 @@ def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.
     curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
     slowest = np.minimum(routes.speed_limit[r[:, None], k], curve).min(axis=1)
     return np.where(world.is_car[agents], np.minimum(world.max_speed[agents], slowest), np.inf)
+
+
+def conflict_tables_of(
+    self,
+    world: World,
+    agents: np.ndarray,
+    s_proj: np.ndarray,
+    ii: np.ndarray,
+    jj: np.ndarray,
+    relax: bool = True,
+    contact: bool = False,
+) -> np.ndarray:
+    """conflict[p, a, b] (P, K, K) for the pairs (``ii[p]``, ``jj[p]``) of positions in
+    ``agents`` projected to ``s_proj`` (A, K, T), as whole (P, K, K, T, 3, 3) numpy arrays.
+    ``relax``: a pair already closer than its clearance conflicts only where it gets closer
+    still; without it, wherever it stays inside the clearance. ``contact``: the clearance is
+    the footprints' own (no margin)."""
+    cars = world.is_car[agents]
+    pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
+    bound = self._reach[agents]
+    pos = world.position[agents].astype(np.complex64)
+    offs, radius = self._offs32[agents], self._radius[agents]
+    now = pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]
+    d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
+    crossing = ~cars & (
+        world.route_s[agents] + self._front[agents]
+        >= world.layout.routes.enter_s[world.route[agents]]
+    )
+    margin = np.where(
+        crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
+    )
+    clearance = radius[ii] + radius[jj] + (0.0 if contact else margin)
+    thresh = np.maximum(np.minimum(clearance, d_now - 0.05), 0.0) if relax else clearance
+    reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
+    # broad phase: swept boxes (every candidate, every time, and now) that do not overlap
+    flat = np.concatenate([pts.reshape(len(agents), -1), pos[:, None]], axis=1)
+    lo_x, hi_x = flat.real.min(1) - bound, flat.real.max(1) + bound
+    lo_y, hi_y = flat.imag.min(1) - bound, flat.imag.max(1) + bound
+    apart = (lo_x[ii] > hi_x[jj]) | (lo_x[jj] > hi_x[ii]) | (lo_y[ii] > hi_y[jj])
+    apart |= lo_y[jj] > hi_y[ii]
+    diff = pts[ii][:, :, None] - pts[jj][:, None, :]  # (P, K, K, T)
+    near = diff.real**2 + diff.imag**2 < reach2[:, None, None, None]
+    circles = pts[..., None] + offs[:, None, None, :] * dirs[..., None]  # (A, K, T, 3)
+    dd = circles[ii][:, :, None, :, :, None] - circles[jj][:, None, :, :, None, :]
+    d2 = (dd.real**2 + dd.imag**2).min(axis=(-2, -1))  # (P, K, K, T)
+    hit = near & (d2 < (thresh * thresh)[:, None, None, None])
+    return hit.any(axis=3) & ~apart[:, None, None]
