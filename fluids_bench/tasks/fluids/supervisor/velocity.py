@@ -40,18 +40,13 @@ from constraint import FunctionConstraint, OptimizedBacktrackingSolver, Problem
 
 from fluids_bench.core.validation import check_bool
 from fluids_bench.tasks.fluids.sim.config import check_range
-from fluids_bench.tasks.fluids.sim.crosswalks import (
-    committed_crosswalks,
-    crosswalks_of,
-    next_occupied_enter,
-    occupied,
-)
+from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import plan_conflicts, projected_arc_lengths
+from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
@@ -116,14 +111,6 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     offs = np.where(world.is_car[:, None], offs, 0.0)
     radius = np.where(world.is_car, np.hypot(world.length / 6, world.width / 2), world.width / 2)
     return offs, radius
-
-
-def _hold_before(stop: np.ndarray, reach: np.ndarray) -> np.ndarray:
-    """allowed[a, k]: False where candidate k takes agent a past its stop arc length ``stop``
-    (``inf``: none) within the horizon (``reach``, (A, K)), unless even braking (k = 0) does."""
-    blocked = reach > stop[:, None]
-    can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
-    return ~(blocked & can_stop[:, None])
 
 
 class VelocityPlanner:
@@ -193,85 +180,65 @@ class VelocityPlanner:
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`domains`, and the route arc length (A,) of the first stop line each agent
         will hold before (one it can still stop for; ``inf`` where none)."""
-        allowed = np.ones(s_proj.shape[:2], dtype=bool)
-        line = np.full(len(agents), np.inf)
-        reach = s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
-        for stop in self._stop_lines(world, agents, uncontrolled):
-            allowed &= _hold_before(stop, reach)
-            line = np.minimum(line, np.where(reach[:, 0] <= stop, stop, np.inf))
+        allowed, line, _ = self._stop_lines(
+            world, agents, self._front[agents], s_proj, uncontrolled
+        )
         return allowed, line
 
-    def _stop_lines(self, world: World, agents: np.ndarray, uncontrolled=None) -> list:
-        """Route arc lengths at which each agent's front must hold, one array per kind of
-        stop (red and yellow lights; with ``yield_to_pedestrians``, occupied crosswalks and,
-        for walkers, the kerb); ``inf`` where none holds it."""
-        front = self._front[agents]
-        stops = []
-        light = self._light_stops(world, agents, front)
-        if light is not None:
-            stops.append(light)
-        if self.config.yield_to_pedestrians and self._crosswalks.count:
-            occ = occupied(world, self._crosswalks)
-            if occ.any():
-                stops.append(next_occupied_enter(world, agents, occ, front))
-            stops.append(self._kerb_stops(world, agents, uncontrolled))
-        return stops
-
-    def _kerb_stops(self, world: World, agents: np.ndarray, uncontrolled=None) -> np.ndarray:
-        """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
-        while a car is committed to that crosswalk (too close to stop for them, see
-        :func:`~fluids_bench.tasks.fluids.sim.crosswalks.stopping_reach`), so a car that
-        yields is not cut off by a walker stepping out in front of it; and while a supervised
-        car turning left is inside the junction on its way out across it, so that a walker
-        does not strand it across the oncoming lane (``uncontrolled``, (N,) bool: the cars
-        that do not count; a learner's ego still has to stop for a walker who steps out)."""
-        cw = self._crosswalks
-        walk_cw = cw.walk_crosswalk[world.route[agents]]
-        kerb = cw.walk_enter[world.route[agents]]
-        waiting = (walk_cw >= 0) & (world.route_s[agents] + self._front[agents] < kerb)
-        if not waiting.any():
-            return np.full(len(agents), np.inf)
-        route = np.maximum(world.route, 0)
-        turning_out = self._turns[1][route] & (world.route >= 0) & world.is_car
-        if uncontrolled is not None:
-            turning_out &= ~uncontrolled
-        busy = committed_crosswalks(world, self._front, turning_out)
-        return np.where(waiting & busy[np.maximum(walk_cw, 0)], kerb, np.inf)
+    def _stop_lines(self, world: World, agents, front, s_proj, uncontrolled=None):
+        """(allowed, line, stops) of :func:`stop_line_kernels.stop_lines`: the stop lines each
+        of ``agents`` (fronts ``front``, m) must hold at (its light: red; yellow if it can
+        still brake comfortably, and so, with ``yield_to_pedestrians``, a walker's white
+        light that turns red before it would reach its crosswalk at its speed, or half a
+        walking pace from rest, plus a planning period: the flashing "don't walk" crosswalk
+        lights lack; with ``yield_to_pedestrians``, a crosswalk with a walker on it ahead of
+        a car, and for a walker the kerb while a car is committed to that crosswalk or a
+        supervised car turning left is inside the junction on its way out across it, so that
+        a car that yields is not cut off and a walker does not strand a car across the
+        oncoming lane; ``uncontrolled`` (N,) bool: the cars that do not count for that)."""
+        lights, routes, cw = world.lights, world.layout.routes, self._crosswalks
+        if uncontrolled is None:
+            uncontrolled = np.zeros(world.n, dtype=bool)
+        return stop_lines(
+            agents,
+            np.ascontiguousarray(front, dtype=np.float64),
+            s_proj,
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.active,
+            world.width,
+            world.route,
+            world.entered,
+            world.max_speed,
+            uncontrolled,
+            routes.light,
+            routes.stop_s,
+            world.light_state,
+            lights.ends,
+            lights.cycle,
+            lights.offset,
+            world.time,
+            cw.centre,
+            cw.axis,
+            cw.half,
+            cw.car_enter,
+            cw.walk_crosswalk,
+            cw.walk_enter,
+            self._turns[1],
+            self.config.max_decel,
+            self.config.yield_to_pedestrians,
+            self.config.period * world.dt,
+        )
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
-        """Each agent's stop line where its light holds it (red; yellow if it can still brake
-        comfortably, and so, with ``yield_to_pedestrians``, a walker's white light about to
-        turn red: :meth:`_dont_walk`), ``inf`` where none does; None when no light holds
-        anyone."""
-        routes = world.layout.routes
-        r = world.route[agents]
-        light = routes.light[r]
-        if not len(world.light_state) or (light < 0).all():
-            return None
-        stop_s = routes.stop_s[r]
-        gap = stop_s - (world.route_s[agents] + front)
-        state = world.light_state[np.maximum(light, 0)]
-        v = world.state[agents, 3]
-        brake = v**2 / (2 * 0.6 * self.config.max_decel)  # comfortable braking distance
-        caution = state == CAUTION
-        if self.config.yield_to_pedestrians:
-            caution |= self._dont_walk(world, agents, light, state, gap)
-        holds = (light >= 0) & (gap > -0.5) & ((state == STOP) | (caution & (brake < gap)))
-        if not holds.any():
-            return None
-        return np.where(holds, stop_s, np.inf)
-
-    def _dont_walk(self, world: World, agents: np.ndarray, light, state, gap) -> np.ndarray:
-        """Walkers whose white light turns red before they would reach their crosswalk (at
-        their speed, or half a walking pace from rest, plus a planning period): a flashing
-        "don't walk" that crosswalk lights lack; without it, a walker just short of the
-        kerb when the light turns red cannot stop and enters on red."""
-        walker = ~world.is_car[agents] & (light >= 0) & (state != STOP) & (gap > 0)
-        if not walker.any():
-            return walker
-        left = world.lights.time_to_change(world.time)[np.maximum(light, 0)]
-        pace = np.maximum(world.state[agents, 3], 0.5 * world.max_speed[agents])
-        return walker & (left < gap / pace + self.config.period * world.dt)
+        """Each agent's stop line where its light holds it (see :meth:`_stop_lines`), ``inf``
+        where none does; None when no light holds anyone."""
+        horizon = np.zeros((len(agents), 1, 1))  # no candidate to prune: the lines only
+        stops = self._stop_lines(world, agents, front, horizon)[2][0]
+        return stops if np.isfinite(stops).any() else None
 
     def conflicts(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray
