@@ -289,3 +289,66 @@ def plan_conflicts(
             out[q, 0], out[q, 1] = first[p], second[p]
             q += 1
     return out, table[keep]
+
+
+@njit(cache=True, nogil=True)
+def allowed_speeds(
+    agents, s, offset, route, is_car, max_speed, curvature, speed_limit, look, lateral_accel,
+    spacing,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Speed (m/s) each of ``agents`` may drive at now: its maximum, its lane's limit at its
+    path sample, and the sharpest curvature of the next ``look`` samples of its route (at
+    ``lateral_accel`` m/s²); a walker's maximum."""
+    out = np.empty(len(agents))
+    last = curvature.shape[1] - 1
+    for a in range(len(agents)):
+        ag = agents[a]
+        r = route[ag] if route[ag] >= 0 else route[ag] + curvature.shape[0]
+        k0 = np.int64(np.rint((s[ag] + offset[ag]) / spacing))
+        kappa = -np.inf
+        for m in range(look):
+            kappa = max(kappa, curvature[r, min(max(k0 + m, 0), last)])
+        limit = speed_limit[r, min(max(k0, 0), last)]
+        curve = np.sqrt(lateral_accel / max(kappa, 1e-6))
+        out[a] = min(max_speed[ag], min(limit, curve)) if is_car[ag] else max_speed[ag]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def circle_gaps(agents, state, is_car, offs):  # pragma: no cover (compiled)
+    """The planner's candidate pairs and how far apart their footprint circles are now.
+
+    Returns (first, second) (P,): the pairs of positions i < j in ``agents`` with a car, in
+    row order; and gaps (P, 9) complex64: each circle of ``first`` minus each of ``second``
+    (circle centres at ``offs`` (N, 3) float32 m along the heading, in complex64 as numpy
+    computes ``pos + offs * exp(1j·θ)``). Their lengths are left to numpy's complex abs, which
+    the planner's reference uses (its vector loop and the C library's hypotf differ in the
+    last bit).
+    """
+    n = len(agents)
+    now = np.empty((n, 3), np.complex64)
+    for a in range(n):
+        ag = agents[a]
+        heading = np.complex64(np.exp(1j * state[ag, 2]))
+        x, y = np.float32(state[ag, 0]), np.float32(state[ag, 1])
+        for c in range(3):
+            now[a, c] = np.complex64(
+                complex(x + offs[ag, c] * heading.real, y + offs[ag, c] * heading.imag)
+            )
+    count = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            count += is_car[agents[i]] or is_car[agents[j]]
+    first, second = np.empty(count, np.int64), np.empty(count, np.int64)
+    gaps = np.empty((count, 9), np.complex64)
+    p = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not (is_car[agents[i]] or is_car[agents[j]]):
+                continue
+            first[p], second[p] = i, j
+            for ci in range(3):
+                for cj in range(3):
+                    gaps[p, 3 * ci + cj] = now[i, ci] - now[j, cj]
+            p += 1
+    return first, second, gaps

@@ -45,9 +45,15 @@ from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, t
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
-from fluids_bench.tasks.fluids.supervisor.kernels import plan_conflicts, projected_arc_lengths
+from fluids_bench.tasks.fluids.supervisor.kernels import (
+    allowed_speeds,
+    circle_gaps,
+    plan_conflicts,
+    projected_arc_lengths,
+)
 from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
+CURVE_LOOK_AHEAD = 24  # path samples (12 m) ahead whose curvature limits the speed now
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
 
@@ -119,25 +125,24 @@ class VelocityPlanner:
     def __init__(self, config: VelocityPlannerConfig | None = None) -> None:
         self.config = config or VelocityPlannerConfig()
         self.fractions = np.asarray(self.config.fractions)
-        self._pair_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
         curvature of the next 12 m of its route."""
-        r, k = self._path_ahead(world, agents, self._look)
         routes = world.layout.routes
-        kappa = routes.curvature[r[:, None], k].max(axis=1)
-        limit = routes.speed_limit[r, k[:, 0]]
-        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
-        out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
-        return np.where(world.is_car[agents], out, world.max_speed[agents])
-
-    @staticmethod
-    def _path_ahead(world: World, agents: np.ndarray, look: np.ndarray):
-        """Each agent's route (A,) and the indices (A, L) of its path samples ``look`` ahead."""
-        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
-        last = world.layout.routes.path.shape[1] - 1
-        return world.route[agents], np.minimum(np.maximum(k0[:, None] + look, 0), last)
+        return allowed_speeds(
+            agents,
+            world.s,
+            world.offset,
+            world.route,
+            world.is_car,
+            world.max_speed,
+            routes.curvature,
+            routes.speed_limit,
+            CURVE_LOOK_AHEAD,
+            self.config.lateral_accel,
+            PATH_SPACING,
+        )
 
     # ------------------------------------------------------------------ projection
     def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -254,17 +259,10 @@ class VelocityPlanner:
         numpy's complex arithmetic (its vectorised complex abs is the reference).
         """
         k = len(self.fractions)
-        empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
-        cars = world.is_car[agents]
-        ii, jj = self._pairs(len(agents))
-        with_car = cars[ii] | cars[jj]
-        ii, jj = ii[with_car], jj[with_car]
+        ii, jj, gaps = circle_gaps(agents, world.state, world.is_car, self._offs32)
         if not len(ii):
-            return empty
-        pos = world.position[agents].astype(np.complex64)
-        heading = np.exp(1j * world.state[agents, 2]).astype(np.complex64)
-        now = pos[:, None] + self._offs32[agents] * heading[:, None]  # (A, 3) circle centres
-        d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
+            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
+        d_now = np.abs(gaps).min(axis=1)  # numpy's complex abs: see circle_gaps
         cfg = self.config
         return plan_conflicts(
             agents,
@@ -378,11 +376,6 @@ class VelocityPlanner:
         )
         return ~forbid
 
-    def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        if n not in self._pair_cache:
-            self._pair_cache[n] = np.triu_indices(n, k=1)
-        return self._pair_cache[n]
-
     def priority(self, world: World, agents: np.ndarray) -> list[int]:
         """Positions in ``agents`` in the order the solver assigns them (right of way first)."""
         enter = world.layout.routes.enter_s[world.route[agents]]
@@ -405,7 +398,6 @@ class VelocityPlanner:
         self._front = world.front
         self._crosswalks = crosswalks_of(world.layout)
         self._turns = route_turns(world.layout.routes)
-        self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
         steps = int(round(self.config.horizon / world.dt))
         self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
             -steps, steps + 1, dtype=float

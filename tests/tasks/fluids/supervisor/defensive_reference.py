@@ -52,7 +52,7 @@ def reference_defensive_domains(
     allowed = np.ones(targets.shape, dtype=bool)
     tame = ~wild
     cars = world.is_car[agents]
-    ii, jj = self._pairs(len(agents))
+    ii, jj = np.triu_indices(len(agents), k=1)
     pair = (wild[ii] != wild[jj]) & (cars[ii] | cars[jj])
     ii, jj = ii[pair], jj[pair]
     if not len(ii):
@@ -258,7 +258,7 @@ def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.
     """The lowest speed each of ``agents`` will be allowed over the next ``metres`` of its
     route (curves and speed limits), so that a projection held at it is not optimistic."""
     look = np.arange(0, int(round(metres / PATH_SPACING)) + 1)
-    r, k = self._path_ahead(world, agents, look)
+    r, k = _path_ahead(world, agents, look)
     routes = world.layout.routes
     kappa = routes.curvature[r[:, None], k]
     curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
@@ -311,3 +311,10 @@ def conflict_tables_of(
     d2 = (dd.real**2 + dd.imag**2).min(axis=(-2, -1))  # (P, K, K, T)
     hit = near & (d2 < (thresh * thresh)[:, None, None, None])
     return hit.any(axis=3) & ~apart[:, None, None]
+
+
+def _path_ahead(world: World, agents: np.ndarray, look: np.ndarray):
+    """Each agent's route (A,) and the indices (A, L) of its path samples ``look`` ahead."""
+    k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
+    last = world.layout.routes.path.shape[1] - 1
+    return world.route[agents], np.minimum(np.maximum(k0[:, None] + look, 0), last)
