@@ -144,19 +144,19 @@ def defensive_forbid(
     # the uncontrolled agent brakes as hard as it can now or a few steps from now; the
     # supervised one holds its candidate until the next plan, then brakes
     s_def = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    hold_tame = np.full(n_cand, period)
     for a in range(n_agents):
-        ag = agents[a]
-        for k in range(n_cand):
-            if wild[a]:
-                hold_then_brake_into(
-                    s_def, a, k, s[ag], state[ag, 3], state[ag, 3], hold_wild[k], steps,
-                    every, dt, max_accel, brake_limit[ag], 1.0 / dt,
-                )  # fmt: skip
-            else:
-                hold_then_brake_into(
-                    s_def, a, k, s[ag], state[ag, 3], targets[a, k], period, steps, every,
-                    dt, max_accel, max_decel, gain,
-                )  # fmt: skip
+        ag, v = agents[a], state[agents[a], 3]
+        if wild[a]:
+            hold_then_brake_into(
+                s_def, a, s[ag], v, np.full(n_cand, v), hold_wild, steps, every, dt, max_accel,
+                brake_limit[ag], 1.0 / dt,
+            )  # fmt: skip
+        else:
+            hold_then_brake_into(
+                s_def, a, s[ag], v, targets[a], hold_tame, steps, every, dt, max_accel,
+                max_decel, gain,
+            )  # fmt: skip
     all_rows = np.arange(n_agents)
     samples = path_samples(path_c64, path_dir, agents, s_def, all_rows, inv_spacing)
     box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, all_rows)
@@ -222,14 +222,14 @@ def _follow_supervised(
         involved[fs[p]] = involved[ls[p]] = leader[ls[p]] = True
     rows = involved.nonzero()[0]
     brake = s_def.copy()  # followers hold their candidate until the next plan, then brake
+    now = np.zeros(n_cand, np.int64)
     for a in rows:
         if leader[a]:  # leaders brake now
             ag = agents[a]
-            for k in range(n_cand):
-                hold_then_brake_into(
-                    brake, a, k, s[ag], state[ag, 3], 0.0, 0, s_def.shape[2] * every, every,
-                    dt, max_accel, max_decel, gain,
-                )  # fmt: skip
+            hold_then_brake_into(
+                brake, a, s[ag], state[ag, 3], np.zeros(n_cand), now, s_def.shape[2] * every,
+                every, dt, max_accel, max_decel, gain,
+            )  # fmt: skip
     samples = path_samples(path_c64, path_dir, agents, brake, rows, inv_spacing)
     box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, rows)
     px, py, ux, uy = samples
@@ -302,6 +302,7 @@ def _give_way(
     n_t = (gw_steps - every) // every + 1
     stop = np.zeros((n_agents, n_cand, n_t))
     go = np.zeros((n_agents, n_cand, n_t))
+    hold_on, hold_spare = np.full(n_cand, gw_steps), np.full(n_cand, 2 * period)
     for a in rows:
         ag = agents[a]
         s0, v = s[ag], state[ag, 3]
@@ -309,29 +310,31 @@ def _give_way(
             # it keeps its speed or speeds up towards the fastest speed allowed to it (its
             # candidates' scenarios span the two); at rest, it stays
             faster = max(targets[a, n_cand - 1] - v, 0.0)
+            goal = np.zeros(n_cand)
             for k in range(n_cand):
-                goal = v + faster * fractions[k] if v > stationary else 0.0
-                hold_then_brake_into(
-                    go, a, k, s0, v, goal, gw_steps, gw_steps, every, dt, max_accel,
-                    max_decel, gain,
-                )  # fmt: skip
-                stop[a, k, :] = go[a, k, :]
+                goal[k] = v + faster * fractions[k] if v > stationary else 0.0
+            hold_then_brake_into(
+                go, a, s0, v, goal, hold_on, gw_steps, every, dt, max_accel, max_decel, gain
+            )
+            stop[a] = go[a]
             continue
         slowest = _slowest_ahead(
             ag, s, offset, route, is_car, max_speed, curvature, speed_limit, look,
             lateral_accel, spacing,
         )  # fmt: skip
         line = hold_lines[a] - offset[ag] - front[ag]  # it stops at its hold line
+        hold_then_brake_into(
+            stop, a, s0, v, targets[a], hold_spare, gw_steps, every, dt, max_accel, max_decel,
+            gain,
+        )  # fmt: skip
+        # going on, it slows for the curves ahead (turning into a roundabout's ring)
+        going = np.empty(n_cand)
         for k in range(n_cand):
-            hold_then_brake_into(
-                stop, a, k, s0, v, targets[a, k], 2 * period, gw_steps, every, dt, max_accel,
-                max_decel, gain,
-            )  # fmt: skip
-            # going on, it slows for the curves ahead (turning into a roundabout's ring)
-            hold_then_brake_into(
-                go, a, k, s0, v, min(targets[a, k], slowest), gw_steps, gw_steps, every, dt,
-                max_accel, max_decel, gain,
-            )  # fmt: skip
+            going[k] = min(targets[a, k], slowest)
+        hold_then_brake_into(
+            go, a, s0, v, going, hold_on, gw_steps, every, dt, max_accel, max_decel, gain
+        )
+        for k in range(n_cand):
             for t in range(n_t):
                 stop[a, k, t] = min(stop[a, k, t], line)
                 go[a, k, t] = min(go[a, k, t], line)

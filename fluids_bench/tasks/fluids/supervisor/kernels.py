@@ -192,20 +192,28 @@ def pid_controls(
 
 @njit(cache=True, nogil=True)
 def hold_then_brake_into(
-    out, a, k, s0, v0, target, hold, steps, every, dt, max_accel, decel, gain
+    out, a, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
-    """One row of :func:`hold_then_brake`, written into ``out[a, k]``: start at ``s0`` (m) and
-    ``v0`` (m/s), track ``target`` for ``hold`` steps, then brake."""
-    v, travelled = v0, 0.0
+    """One agent's rows of :func:`hold_then_brake`, written into ``out[a]``: start at ``s0``
+    (m) and ``v0`` (m/s), track ``targets[k]`` for ``hold[k]`` steps, then brake.
+
+    The K candidates are stepped side by side (time outer, candidate inner): each is its own
+    chain of dependent operations, so interleaving them keeps the CPU busy; each candidate's
+    arithmetic is unchanged."""
+    n_cand = len(targets)
+    v = np.full(n_cand, v0)
+    travelled = np.zeros(n_cand)
     for m in range(1, steps + 1):
-        goal = target if m <= hold else 0.0
-        dv = gain * (goal - v)
-        dv = min(max(dv, -decel), max_accel)
-        nv = max(v + dv * dt, 0.0)
-        travelled += 0.5 * (v + nv) * dt
-        v = nv
+        for k in range(n_cand):
+            goal = targets[k] if m <= hold[k] else 0.0
+            dv = gain * (goal - v[k])
+            dv = min(max(dv, -decel), max_accel)
+            nv = max(v[k] + dv * dt, 0.0)
+            travelled[k] += 0.5 * (v[k] + nv) * dt
+            v[k] = nv
         if m % every == 0:
-            out[a, k, m // every - 1] = s0 + travelled
+            for k in range(n_cand):
+                out[a, k, m // every - 1] = s0 + travelled[k]
 
 
 @njit(cache=True, nogil=True)
@@ -225,11 +233,10 @@ def hold_then_brake(
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
     for a in range(n_agents):
-        for k in range(n_cand):
-            hold_then_brake_into(
-                out, a, k, s0[a], v0[a], targets[a, k], hold[a, k], steps, every, dt,
-                max_accel, decel[a], gain[a],
-            )  # fmt: skip
+        hold_then_brake_into(
+            out, a, s0[a], v0[a], targets[a], hold[a], steps, every, dt, max_accel, decel[a],
+            gain[a],
+        )  # fmt: skip
     return out
 
 
