@@ -4,7 +4,9 @@ For every agent and every candidate target velocity (fractions of what its path 
 the planner projects the agent forward along its path for ``horizon`` seconds under the same
 speed law the controller follows. Pairs of agents whose projections at a pair of candidates come
 closer than their footprints allow are a binary constraint; lights and crosswalks prune the
-domains (unary constraints). python-constraint2 then assigns every agent a velocity.
+domains (unary constraints). A backtracking solver then assigns every agent a velocity
+(:mod:`.csp_kernels`: compiled, the same search as python-constraint2's
+``OptimizedBacktrackingSolver``, which the tests keep as its reference).
 
 * Higher velocities first: domains are listed ascending, and the solver tries a domain's values
   from the end.
@@ -36,7 +38,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from constraint import FunctionConstraint, OptimizedBacktrackingSolver, Problem
 
 from fluids_bench.core.validation import check_bool
 from fluids_bench.tasks.fluids.sim.config import check_range
@@ -44,6 +45,7 @@ from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.csp_kernels import choose, priority_order
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     allowed_speeds,
@@ -91,24 +93,6 @@ class VelocityPlannerConfig:
                 f"VelocityPlannerConfig: field 'fractions' is {fr!r}; allowed: "
                 "ascending distinct values in [0, 1] starting at 0.0"
             )
-
-
-class _PrioritySolver(OptimizedBacktrackingSolver):
-    """Backtracking with a caller-given variable order (the priority order).
-
-    python-constraint2 has no public way to fix the order in which variables are assigned; its
-    ``OptimizedBacktrackingSolver`` asks ``getSortedVariables`` for it, which we override. The
-    pin in pyproject.toml (>=2.9, <3) covers the versions this was checked on, and
-    ``test_priority_order_is_honoured_by_the_installed_solver`` fails if a release stops
-    consulting the override.
-    """
-
-    def __init__(self, order: list[int]) -> None:
-        super().__init__()
-        self.order = order
-
-    def getSortedVariables(self, domains, vconstraints):  # noqa: N802 (library's name)
-        return [v for v in self.order if v in domains]
 
 
 def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
@@ -376,15 +360,6 @@ class VelocityPlanner:
         )
         return ~forbid
 
-    def priority(self, world: World, agents: np.ndarray) -> list[int]:
-        """Positions in ``agents`` in the order the solver assigns them (right of way first)."""
-        enter = world.layout.routes.enter_s[world.route[agents]]
-        rs = world.route_s[agents] + self._front[agents]
-        inside = rs >= enter
-        key_inside = np.where(inside, enter - rs, np.inf)  # furthest past the entry first
-        key_out = np.where(inside, -np.inf, enter - rs)  # then nearest to it
-        return np.lexsort((agents, key_out, key_inside, ~inside)).tolist()
-
     # ------------------------------------------------------------------ solve
     def _bind(self, world: World) -> None:
         """Per-world constants (footprint circles), computed once."""
@@ -449,24 +424,12 @@ class VelocityPlanner:
         if uncontrolled is not None and uncontrolled[agents].any():
             allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
-        k = len(self.fractions)
-        choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
-        # the CSP only matters when some constraint binds at everyone's fastest allowed speed
-        if (
-            len(pairs)
-            and conflict[np.arange(len(pairs)), choice[pairs[:, 0]], choice[pairs[:, 1]]].any()
-        ):
-            problem = Problem(_PrioritySolver(self.priority(world, agents)))
-            for a in np.unique(pairs).tolist():
-                problem.addVariable(a, allowed[a].nonzero()[0].tolist())
-            for (a, b), table in zip(pairs.tolist(), conflict.tolist(), strict=True):
-                problem.addConstraint(
-                    FunctionConstraint(lambda x, y, bad=table: not bad[x][y]), [a, b]
-                )
-            solution = problem.getSolution()
-            if solution is None:  # cannot happen (all-stop is feasible); fail loudly if it does
-                raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
-            for a, c in solution.items():
-                choice[a] = c
+        # the fastest allowed candidates, or, where a constraint binds there, the CSP's answer
+        priority = priority_order(
+            agents, world.s, world.offset, self._front, world.route, world.layout.routes.enter_s
+        )
+        choice, solved = choose(priority, allowed, pairs, conflict)
+        if not solved:  # cannot happen (all-stop is feasible); fail loudly if it does
+            raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
         out[agents] = targets[np.arange(len(agents)), choice]
         return out
