@@ -205,11 +205,8 @@ def _before(a, b, agents, inside, key_in, key_out):  # pragma: no cover (compile
 
 
 @njit(cache=True, nogil=True)
-def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
-    """Each agent's candidate (A,): its fastest allowed one, unless a binding constraint
-    (``pairs`` (P, 2) positions, ``conflict`` (P, K, K)) clashes there; then the CSP's solution
-    (:func:`solve`, variables: the agents in some pair, in the ``priority`` order, added in
-    ascending position as their domains). Returns (choice, solved)."""
+def _fastest_allowed(allowed):  # pragma: no cover (compiled)
+    """Each agent's highest allowed candidate (the last one where none is)."""
     n, k = allowed.shape
     choice = np.full(n, k - 1)
     for a in range(n):
@@ -217,11 +214,24 @@ def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
             if allowed[a, x]:
                 choice[a] = x
                 break
-    binds = False
+    return choice
+
+
+@njit(cache=True, nogil=True)
+def _binds(choice, pairs, conflict):  # pragma: no cover (compiled)
+    """Some constraint clashes at ``choice``: the CSP matters."""
     for p in range(len(pairs)):
-        binds |= conflict[p, choice[pairs[p, 0]], choice[pairs[p, 1]]]
-    if not binds:
-        return choice, True
+        if conflict[p, choice[pairs[p, 0]], choice[pairs[p, 1]]]:
+            return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
+    """The CSP's solution written into ``choice`` (:func:`solve`; variables: the agents in
+    some pair, in the ``priority`` order, added in ascending position as their domains);
+    False where it has none."""
+    n, k = allowed.shape
     index = np.full(n, -1)
     count = 0
     for a in range(n):  # the variables in ascending position: python-constraint2's dict order
@@ -241,4 +251,28 @@ def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
     for a in range(n):
         if index[a] >= 0:
             choice[a] = value[index[a]]
-    return choice, found
+    return found
+
+
+@njit(cache=True, nogil=True)
+def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
+    """Each agent's candidate (A,): its fastest allowed one, unless a binding constraint
+    (``pairs`` (P, 2) positions, ``conflict`` (P, K, K)) clashes there; then the CSP's solution
+    with the variables in the ``priority`` order. Returns (choice, solved)."""
+    choice = _fastest_allowed(allowed)
+    if not _binds(choice, pairs, conflict):
+        return choice, True
+    return choice, _solve_into(choice, priority, allowed, pairs, conflict)
+
+
+@njit(cache=True, nogil=True)
+def plan_choice(
+    agents, s, offset, front, route, enter_s, allowed, pairs, conflict
+):  # pragma: no cover (compiled)
+    """:func:`choose` for ``agents`` (world indices), with the priority order
+    (:func:`priority_order`) worked out only when a constraint binds."""
+    choice = _fastest_allowed(allowed)
+    if not _binds(choice, pairs, conflict):
+        return choice, True
+    priority = priority_order(agents, s, offset, front, route, enter_s)
+    return choice, _solve_into(choice, priority, allowed, pairs, conflict)

@@ -45,7 +45,7 @@ from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.csp_kernels import choose, priority_order
+from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     allowed_speeds,
@@ -425,10 +425,17 @@ class VelocityPlanner:
             allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
         # the fastest allowed candidates, or, where a constraint binds there, the CSP's answer
-        priority = priority_order(
-            agents, world.s, world.offset, self._front, world.route, world.layout.routes.enter_s
+        choice, solved = plan_choice(
+            agents,
+            world.s,
+            world.offset,
+            self._front,
+            world.route,
+            world.layout.routes.enter_s,
+            allowed,
+            pairs,
+            conflict,
         )
-        choice, solved = choose(priority, allowed, pairs, conflict)
         if not solved:  # cannot happen (all-stop is feasible); fail loudly if it does
             raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
         out[agents] = targets[np.arange(len(agents)), choice]

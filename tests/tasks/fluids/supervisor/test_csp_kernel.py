@@ -14,35 +14,33 @@ from csp_reference import reference_choice, reference_priority
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.fluids.supervisor import velocity
-from fluids_bench.tasks.fluids.supervisor.csp_kernels import choose, priority_order
+from fluids_bench.tasks.fluids.supervisor.csp_kernels import choose, plan_choice, priority_order
 
 
 def _recorded(env_id: str, layout: str, seed: int, steps: int = 600):
     """(priority, allowed, pairs, conflict) of every plan of a noisy supervised episode, with
-    the priority order checked against the numpy lexsort on the way."""
+    the priority order checked against the numpy lexsort, and the planner's plan_choice
+    against choose() with that order, on the way."""
     instances = []
 
-    def record(priority, allowed, pairs, conflict):
-        instances.append((priority.copy(), allowed.copy(), pairs.copy(), conflict.copy()))
-        return choose(priority, allowed, pairs, conflict)
+    def record(agents, s, offset, front, route, enter_s, allowed, pairs, conflict):
+        priority = priority_order(agents, s, offset, front, route, enter_s)
+        u = env.unwrapped
+        assert priority.tolist() == reference_priority(u.supervisor.planner, u.world, agents)
+        instances.append((priority, allowed.copy(), pairs.copy(), conflict.copy()))
+        got = plan_choice(agents, s, offset, front, route, enter_s, allowed, pairs, conflict)
+        want = choose(priority, allowed, pairs, conflict)
+        np.testing.assert_array_equal(got[0], want[0])
+        assert got[1] == want[1]
+        return got
 
     env = gym.make(env_id, layout=layout, num_cars=10, num_pedestrians=5)
     rng = np.random.default_rng(seed)
     mp = pytest.MonkeyPatch()
-    mp.setattr(velocity, "choose", record)
+    mp.setattr(velocity, "plan_choice", record)
     try:
         _, info = env.reset(seed=seed)
         for step in range(steps):
-            u = env.unwrapped
-            if u.world.steps % u.supervisor.config.velocity.period == 0:
-                agents = u.world.active.nonzero()[0]
-                planner = u.supervisor.planner
-                planner._bind(u.world)
-                got = priority_order(
-                    agents, u.world.s, u.world.offset, planner._front, u.world.route,
-                    u.world.layout.routes.enter_s,
-                )  # fmt: skip
-                assert got.tolist() == reference_priority(planner, u.world, agents)
             action = info["supervisor_action"] + rng.normal(0.0, 0.3, 2)
             _, _, term, trunc, info = env.step(np.clip(action, -1.0, 1.0).astype(np.float32))
             if term or trunc:
