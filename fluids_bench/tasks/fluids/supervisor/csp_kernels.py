@@ -73,7 +73,9 @@ def _check(
             continue
         u = b if assigned[a] else a
         if dlen[u]:
-            snapshot = dom[u, : dlen[u]].copy()
+            snapshot = np.empty(dlen[u], np.int64)
+            for i in range(dlen[u]):
+                snapshot[i] = dom[u, i]
             for x in snapshot:
                 clash = bad[c, value[a], x] if u == b else bad[c, x, value[b]]
                 if clash:
@@ -125,10 +127,12 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
         if var < 0:
             return True, value  # every variable assigned
         n_values = dlen[var]
-        values[:n_values] = dom[var, :n_values]
+        for i in range(n_values):
+            values[i] = dom[var, i]
+        forward = False
         for v in range(n):
             push[v] = not assigned[v] and v != var
-        forward = push.any()
+            forward |= push[v]
         while True:
             if n_values == 0:  # back to the last level with values left
                 assigned[var] = False
@@ -137,10 +141,12 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
                     depth -= 1
                     var = q_var[depth]
                     n_values = q_len[depth]
-                    values[:n_values] = q_values[depth, :n_values]
-                    push[:] = q_push[depth]
-                    forward = push.any()
+                    for i in range(n_values):
+                        values[i] = q_values[depth, i]
+                    forward = False
                     for v in range(n):
+                        push[v] = q_push[depth, v]
+                        forward |= push[v]
                         if push[v]:
                             _pop(states, slen, dom, dlen, hid, hlen, v)
                     if n_values:
@@ -162,8 +168,10 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
                     _pop(states, slen, dom, dlen, hid, hlen, v)
         q_var[depth] = var
         q_len[depth] = n_values
-        q_values[depth, :n_values] = values[:n_values]
-        q_push[depth] = push
+        for i in range(n_values):
+            q_values[depth, i] = values[i]
+        for v in range(n):
+            q_push[depth, v] = push[v]
         depth += 1
 
 
@@ -243,10 +251,16 @@ def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover
     domains = np.zeros((count, k), np.bool_)
     for a in range(n):
         if index[a] >= 0:
-            domains[index[a]] = allowed[a]
-    order = np.array([index[a] for a in priority if index[a] >= 0])
-    first = np.array([index[pairs[p, 0]] for p in range(len(pairs))])
-    second = np.array([index[pairs[p, 1]] for p in range(len(pairs))])
+            for x in range(k):
+                domains[index[a], x] = allowed[a, x]
+    order, m = np.empty(count, np.int64), 0
+    for a in priority:
+        if index[a] >= 0:
+            order[m] = index[a]
+            m += 1
+    first, second = np.empty(len(pairs), np.int64), np.empty(len(pairs), np.int64)
+    for p in range(len(pairs)):
+        first[p], second[p] = index[pairs[p, 0]], index[pairs[p, 1]]
     found, value = solve(order, domains, first, second, conflict)
     for a in range(n):
         if index[a] >= 0:

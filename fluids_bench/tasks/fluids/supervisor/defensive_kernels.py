@@ -85,7 +85,8 @@ def _clear_row_if_all(forbid, a):  # pragma: no cover (compiled)
     for k in range(forbid.shape[1]):
         if not forbid[a, k]:
             return
-    forbid[a, :] = False
+    for k in range(forbid.shape[1]):
+        forbid[a, k] = False
 
 
 @njit(cache=True, nogil=True)
@@ -119,9 +120,9 @@ def defensive_forbid(
     forbid = np.zeros((n_agents, n_cand), dtype=np.bool_)
     # pairs of one supervised and one uncontrolled agent, with a car, where the uncontrolled one
     # does not follow the supervised one (a rear-end is the follower's fault)
-    first, second = [0], [0]
-    first.pop()
-    second.pop()
+    first = np.empty(n_agents * (n_agents - 1) // 2, np.int64)
+    second = np.empty_like(first)
+    n_pairs = 0
     for i in range(n_agents):
         for j in range(i + 1, n_agents):
             if wild[i] == wild[j] or not (is_car[agents[i]] or is_car[agents[j]]):
@@ -129,10 +130,11 @@ def defensive_forbid(
             f, ld = (agents[i], agents[j]) if wild[i] else (agents[j], agents[i])
             along, _, aligned = _relative(state, f, ld)
             if not (aligned and along > 0):
-                first.append(i)
-                second.append(j)
-    if len(first) == 0:
+                first[n_pairs], second[n_pairs] = i, j
+                n_pairs += 1
+    if n_pairs == 0:
         return forbid
+    first, second = first[:n_pairs], second[:n_pairs]
     now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
     crossing = np.zeros(n_agents, np.bool_)  # a walker on its crossing: smaller car clearance
     for a in range(n_agents):
@@ -182,7 +184,8 @@ def defensive_forbid(
             forbid[a, k] |= follow[a, k]
         # braking now is unsafe both ways while going on clears the path: it goes on
         if forbid[a, 0] and give_way[a, 0]:
-            forbid[a, :] = False
+            for k in range(n_cand):
+                forbid[a, k] = False
         for k in range(n_cand):
             forbid[a, k] |= give_way[a, k]
         forbid[a, 0] = False
@@ -200,22 +203,28 @@ def _follow_supervised(
     dt, max_accel, max_decel, gain = floats[0], floats[1], floats[2], floats[3]
     n_agents, n_cand = s_def.shape[0], s_def.shape[1]
     forbid = np.zeros((n_agents, n_cand), dtype=np.bool_)
-    idx = [a for a in range(n_agents) if is_car[agents[a]] and not wild[a]]
+    idx, n_idx = np.empty(n_agents, np.int64), 0
+    for a in range(n_agents):
+        if is_car[agents[a]] and not wild[a]:
+            idx[n_idx] = a
+            n_idx += 1
+    idx = idx[:n_idx]
     if len(idx) < 2:
         return forbid
-    fs, ls = [0], [0]
-    fs.pop()
-    ls.pop()
+    fs = np.empty(len(idx) * len(idx), np.int64)
+    ls = np.empty_like(fs)
+    n_pairs = 0
     for f in idx:
         for ld in idx:
             if f == ld:
                 continue
             along, across, aligned = _relative(state, agents[f], agents[ld])
             if aligned and along > 0 and abs(across) < 2.0:
-                fs.append(f)
-                ls.append(ld)
-    if len(fs) == 0:
+                fs[n_pairs], ls[n_pairs] = f, ld
+                n_pairs += 1
+    if n_pairs == 0:
         return forbid
+    fs, ls = fs[:n_pairs], ls[:n_pairs]
     involved = np.zeros(n_agents, np.bool_)
     leader = np.zeros(n_agents, np.bool_)
     for p in range(len(fs)):
@@ -282,19 +291,19 @@ def _give_way(
     n_agents, n_cand = targets.shape
     n_routes = across.shape[0]
     forbid = np.zeros((n_agents, n_cand), dtype=np.bool_)
-    ts, ws = [0], [0]
-    ts.pop()
-    ws.pop()
+    ts, ws = np.empty(len(first), np.int64), np.empty(len(first), np.int64)
+    n_pairs = 0
     for p in range(len(first)):
         t, w = (second[p], first[p]) if wild[first[p]] else (first[p], second[p])
         et, ew = entered[agents[t]], entered[agents[w]]
         rt, rw = route[agents[t]], route[agents[w]]
         rt, rw = (rt if rt >= 0 else rt + n_routes), (rw if rw >= 0 else rw + n_routes)
         if (ew >= 0 and (et < 0 or ew < et)) or across[rt, rw]:
-            ts.append(t)
-            ws.append(w)
-    if len(ts) == 0:
+            ts[n_pairs], ws[n_pairs] = t, w
+            n_pairs += 1
+    if n_pairs == 0:
         return forbid
+    ts, ws = ts[:n_pairs], ws[:n_pairs]
     involved = np.zeros(n_agents, np.bool_)
     for p in range(len(ts)):
         involved[ts[p]] = involved[ws[p]] = True
@@ -316,7 +325,9 @@ def _give_way(
             hold_then_brake_into(
                 go, a, s0, v, goal, hold_on, gw_steps, every, dt, max_accel, max_decel, gain
             )
-            stop[a] = go[a]
+            for k in range(n_cand):
+                for t in range(n_t):
+                    stop[a, k, t] = go[a, k, t]
             continue
         slowest = _slowest_ahead(
             ag, s, offset, route, is_car, max_speed, curvature, speed_limit, look,
@@ -352,11 +363,13 @@ def _give_way(
                     s_stop, offs_a, box_stop, t, k, w, reach2, thresh2
                 ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
     stuck = np.zeros(n_agents, np.bool_)
+    any_stuck = False
     for a in rows:
         stuck[a] = not wild[a]
         for k in range(n_cand):
             stuck[a] &= forbid[a, k]
-    if stuck.any():
+        any_stuck |= stuck[a]
+    if any_stuck:
         # no candidate keeps the full clearance both ways (a close pass counts, and a merge
         # is close): keep the candidates that at least do not touch that agent either way
         touch = np.zeros((n_agents, n_cand), dtype=np.bool_)
@@ -374,7 +387,8 @@ def _give_way(
                     ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
         for a in rows:
             if stuck[a]:
-                forbid[a, :] = touch[a, :]
+                for k in range(n_cand):
+                    forbid[a, k] = touch[a, k]
     for a in range(n_agents):
         _clear_row_if_all(forbid, a)  # no candidate helps: it is already in the way
     return forbid

@@ -289,13 +289,19 @@ def plan_conflicts(
                 hit = too_close(px, py, ux, uy, offs_a, i, a, j, b, reach2, thresh * thresh)
                 table[p, a, b] = hit
                 keep[p] |= hit
-    out = np.empty((keep.sum(), 2), dtype=np.int64)
+    count = 0
+    for p in range(len(first)):
+        count += keep[p]
+    out, kept = np.empty((count, 2), dtype=np.int64), np.empty((count, n_cand, n_cand), np.bool_)
     q = 0
     for p in range(len(first)):
         if keep[p]:
             out[q, 0], out[q, 1] = first[p], second[p]
+            for a in range(n_cand):
+                for b in range(n_cand):
+                    kept[q, a, b] = table[p, a, b]
             q += 1
-    return out, table[keep]
+    return out, kept
 
 
 @njit(cache=True, nogil=True)
