@@ -3,6 +3,8 @@
 S1: four-way with lights, 4 supervised cars + 2 pedestrians, no observation (world + supervisor).
 S2: FLUIDS-v0, ego + 10 supervised cars + 5 pedestrians, explicit observation, the supervisor's
     label every step (the ego follows it).
+S2v1: the same scene as FLUIDS-v1 (background drivers defensive toward the ego, lights obeyed,
+    cars yield to pedestrians): what the defensive planner costs next to S2.
 S3: 20 supervised cars + 10 pedestrians on the two-lane four-way, no observation.
 
 Episodes restart (new seed) whenever they end; resets are part of the measured time. One-time
@@ -63,8 +65,8 @@ def bench_world(scene: SceneConfig, steps: int, period: int) -> dict:
     return _result(done, seed, t0, c0)
 
 
-def bench_env(kwargs: dict, steps: int) -> dict:
-    env = gym.make("FLUIDS-v0", **kwargs)
+def bench_env(kwargs: dict, steps: int, env_id: str = "FLUIDS-v0") -> dict:
+    env = gym.make(env_id, **kwargs)
     _warm_up(lambda: env.step(env.reset(seed=10**6)[1]["supervisor_action"]))
     done, seed, t0, c0 = 0, 0, time.perf_counter(), time.process_time()
     while done < steps:
@@ -84,7 +86,9 @@ def main() -> None:
     parser.add_argument(
         "--period", type=int, default=None, help="velocity-planner period (default: the env's)"
     )
-    parser.add_argument("--only", nargs="*", default=None, help="scenario names to run (S1 S2 S3)")
+    parser.add_argument(
+        "--only", nargs="*", default=None, help="scenario names to run (S1 S2 S2v1 S3)"
+    )
     add_results_option(parser)
     args = parser.parse_args()
     print(
@@ -94,14 +98,13 @@ def main() -> None:
     period = args.period
     env_period = {} if period is None else {"planner_period": period}
     world_period = period if period is not None else VelocityPlannerConfig().period
+    s2 = {"num_cars": 10, "num_pedestrians": 5, "action_level": "control", **env_period}
     scenarios = {
         "S1": lambda: bench_world(
             SceneConfig(num_cars=4, num_pedestrians=2), args.steps, world_period
         ),
-        "S2": lambda: bench_env(
-            {"num_cars": 10, "num_pedestrians": 5, "action_level": "control", **env_period},
-            args.steps,
-        ),
+        "S2": lambda: bench_env(s2, args.steps),
+        "S2v1": lambda: bench_env(s2, args.steps, "FLUIDS-v1"),
         "S3": lambda: bench_world(
             SceneConfig(lanes=2, num_cars=20, num_pedestrians=10), args.steps, world_period
         ),

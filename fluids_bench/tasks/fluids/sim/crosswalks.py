@@ -130,17 +130,6 @@ def occupied(world, cw: Crosswalks | None = None) -> np.ndarray:
     return out
 
 
-def next_occupied_enter(world, agents: np.ndarray, occ: np.ndarray, front: np.ndarray):
-    """For each of ``agents``: the route arc length at which its front reaches the nearest
-    occupied crosswalk (``occ``) still ahead of its front, ``inf`` if none."""
-    cw = crosswalks_of(world.layout)
-    r = np.maximum(world.route[agents], 0)
-    enter = cw.car_enter[r][:, occ]  # (A, occupied)
-    at = world.route_s[agents] + front
-    enter = np.where((enter > at[:, None]) & (world.route[agents] >= 0)[:, None], enter, np.inf)
-    return enter.min(axis=1) if enter.shape[1] else np.full(len(agents), np.inf)
-
-
 @njit(cache=True)
 def record_yield_step(
     route_s, front, route, active, is_car, car_enter, prev_at, prev_occ, warned, failed,
@@ -187,14 +176,28 @@ def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | Non
     ``turning_out`` (bool (N,); default none), already inside the junction on its way out
     across it, so that a walker stepping out does not strand such a car in the box."""
     cw = crosswalks_of(world.layout)
-    cars = np.flatnonzero(world.is_car & world.active & (world.route >= 0))
-    if not len(cars) or not cw.count:
-        return np.zeros(cw.count, dtype=bool)
-    r = world.route[cars]
-    at = world.route_s[cars] + front[cars]
-    gap = cw.car_enter[r] - at[:, None]
-    v = world.state[cars, 3]
-    near = gap < stopping_reach(v)[:, None]
-    if turning_out is not None:  # inside the junction: its front has reached its zone
-        near |= ((world.entered[cars] >= 0) & turning_out[cars])[:, None]
-    return ((gap > 0) & near).any(axis=0)
+    if turning_out is None:
+        turning_out = np.zeros(world.n, dtype=bool)
+    return committed_to(
+        world.state, world.s, world.offset, front, world.is_car, world.active, world.route,
+        world.entered, turning_out, cw.car_enter,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def committed_to(
+    state, s, offset, front, is_car, active, route, entered, turning_out, car_enter
+):  # pragma: no cover (compiled)
+    """:func:`committed_crosswalks` over the world's arrays (``car_enter`` (R, C): where each
+    car route meets each crosswalk)."""
+    busy = np.zeros(car_enter.shape[1], np.bool_)
+    for i in range(len(s)):
+        if not (is_car[i] and active[i] and route[i] >= 0):
+            continue
+        at = s[i] + offset[i] + front[i]
+        reach = stopping_reach(state[i, 3])
+        inside = entered[i] >= 0 and turning_out[i]
+        for c in range(car_enter.shape[1]):
+            gap = car_enter[route[i], c] - at
+            busy[c] |= gap > 0 and (gap < reach or inside)
+    return busy

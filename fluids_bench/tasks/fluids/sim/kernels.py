@@ -114,6 +114,16 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
 
 
 @njit(cache=True, nogil=True)
+def mark_arrived(s, path_len, length, tolerance, active, reached):  # pragma: no cover
+    """In place: each active agent whose front is within ``tolerance`` (m) of its path's end
+    (``s >= path_len - length / 2 - tolerance``) has reached it and is no longer active."""
+    for i in range(s.shape[0]):
+        if active[i] and s[i] >= path_len[i] - length[i] / 2 - tolerance:
+            reached[i] = True
+            active[i] = False
+
+
+@njit(cache=True, nogil=True)
 def mark_entered(s, offset, front, route, enter_s, active, entered, step):  # pragma: no cover
     """In place: ``entered[i] = step`` for each active agent on a route whose front has reached
     its route's ``enter_s`` and that had not entered before (:attr:`World.entered`)."""

@@ -222,9 +222,9 @@ class World:
         self.light_state = self.lights.states(self.time)
         self._update_progress()
         self._update_entered()
-        arrived = act & (self.s >= self.path_len - self.length / 2 - GOAL_TOLERANCE)
-        self.reached |= arrived
-        self.active &= ~arrived
+        kernels.mark_arrived(
+            self.s, self.path_len, self.length, GOAL_TOLERANCE, self.active, self.reached
+        )
         events = self._collisions()
         self.log.extend(events)
         return events

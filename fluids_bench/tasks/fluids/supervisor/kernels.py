@@ -19,58 +19,83 @@ from numba import njit
 
 
 @njit(cache=True, nogil=True)
-def conflict_tables(
-    px, py, ux, uy, now_x, now_y, bound, offs, first, second, reach2, thresh2
-):  # pragma: no cover (compiled)
-    """conflict[p, a, b]: agents ``first[p]`` at candidate a and ``second[p]`` at candidate b
-    come too close at some projected time.
+def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
+    """Agent ``i``'s swept box (lo_x, hi_x, lo_y, hi_y): every candidate, every projected time
+    and its position now, grown by its bounding-circle radius ``bound[i]`` (m)."""
+    x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
+    for a in range(px.shape[1]):
+        for t in range(px.shape[2]):
+            x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
+            y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
+    return x0 - bound[i], x1 + bound[i], y0 - bound[i], y1 + bound[i]
 
-    px, py, ux, uy: (A, K, T) float32 positions and unit tangents of the projections; now_x,
-    now_y: (A,) float32 positions now; bound: (A,) bounding-circle radius (m); offs: (A, 3)
-    float32 offsets of each agent's footprint circles along its heading; reach2: (P,) float32
-    squared bounding-circle reach of each pair (broad phase); thresh2: (P,) float64 squared
-    clearance between footprint circles (narrow phase). Pairs whose swept boxes (every
-    candidate, every time, and now) do not overlap are skipped.
-    """
-    n_agents, n_cand, n_t = px.shape
-    lo_x, hi_x = np.empty(n_agents), np.empty(n_agents)
-    lo_y, hi_y = np.empty(n_agents), np.empty(n_agents)
-    for i in range(n_agents):
-        x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
-        for a in range(n_cand):
-            for t in range(n_t):
-                x0, x1 = min(x0, px[i, a, t]), max(x1, px[i, a, t])
-                y0, y1 = min(y0, py[i, a, t]), max(y1, py[i, a, t])
-        lo_x[i], hi_x[i], lo_y[i], hi_y[i] = (
-            x0 - bound[i],
-            x1 + bound[i],
-            y0 - bound[i],
-            y1 + bound[i],
-        )
-    out = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
-    for p in range(len(first)):
-        i, j = first[p], second[p]
-        if lo_x[i] > hi_x[j] or lo_x[j] > hi_x[i] or lo_y[i] > hi_y[j] or lo_y[j] > hi_y[i]:
+
+@njit(cache=True, nogil=True)
+def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
+    """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
+    at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
+    the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
+    for t in range(px.shape[2]):
+        dx = px[i, a, t] - px[j, b, t]
+        dy = py[i, a, t] - py[j, b, t]
+        if not dx * dx + dy * dy < reach2:
             continue
-        for a in range(n_cand):
-            for b in range(n_cand):
-                for t in range(n_t):
-                    dx = px[i, a, t] - px[j, b, t]
-                    dy = py[i, a, t] - py[j, b, t]
-                    if not dx * dx + dy * dy < reach2[p]:
-                        continue
-                    nearest = np.float32(np.inf)
-                    for ci in range(3):
-                        xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
-                        yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
-                        for cj in range(3):
-                            ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
-                            ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
-                            nearest = min(nearest, ex * ex + ey * ey)
-                    if nearest < thresh2[p]:
-                        out[p, a, b] = True
-                        break
-    return out
+        # the nearest pair of circles is too close iff any pair is: stop at the first
+        for ci in range(3):
+            xi = px[i, a, t] + offs[i, ci] * ux[i, a, t]
+            yi = py[i, a, t] + offs[i, ci] * uy[i, a, t]
+            for cj in range(3):
+                ex = xi - (px[j, b, t] + offs[j, cj] * ux[j, b, t])
+                ey = yi - (py[j, b, t] + offs[j, cj] * uy[j, b, t])
+                if ex * ex + ey * ey < thresh2:
+                    return True
+    return False
+
+
+@njit(cache=True, nogil=True)
+def path_samples_into(
+    path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy
+):  # pragma: no cover (compiled)
+    """Points and unit tangents (float32) of each agent in ``rows`` (positions in ``agents``) at
+    the arc lengths ``proj`` (A, K, T), written into px, py, ux, uy (as World.path_samples)."""
+    width = path_c64.shape[1]
+    for a in rows:
+        agent = agents[a]
+        for k in range(proj.shape[1]):
+            for t in range(proj.shape[2]):
+                i = np.int64(np.rint(proj[a, k, t] * inv_spacing))
+                i = min(max(i, 0), width - 1)
+                px[a, k, t], py[a, k, t] = path_c64[agent, i].real, path_c64[agent, i].imag
+                ux[a, k, t], uy[a, k, t] = path_dir[agent, i].real, path_dir[agent, i].imag
+
+
+@njit(cache=True, nogil=True)
+def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
+    """(px, py, ux, uy): :func:`path_samples_into` into new zeroed arrays."""
+    shape = proj.shape
+    px, py = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    ux, uy = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    path_samples_into(path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy)
+    return px, py, ux, uy
+
+
+@njit(cache=True, nogil=True)
+def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
+    """(A, 4) :func:`swept_box` of each agent in ``rows`` (zeros elsewhere)."""
+    box = np.zeros((px.shape[0], 4))
+    for a in rows:
+        box[a, 0], box[a, 1], box[a, 2], box[a, 3] = swept_box(px, py, now_x, now_y, bound, a)
+    return box
+
+
+@njit(cache=True, nogil=True)
+def boxes_apart(box, i, j):  # pragma: no cover (compiled)
+    """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
+    return (
+        box[i, 0] > box[j, 1]
+        or box[j, 0] > box[i, 1]
+        or (box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3])
+    )
 
 
 @njit(cache=True, nogil=True)
@@ -166,6 +191,32 @@ def pid_controls(
 
 
 @njit(cache=True, nogil=True)
+def hold_then_brake_into(
+    out, a, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+):  # pragma: no cover (compiled)
+    """One agent's rows of :func:`hold_then_brake`, written into ``out[a]``: start at ``s0``
+    (m) and ``v0`` (m/s), track ``targets[k]`` for ``hold[k]`` steps, then brake.
+
+    The K candidates are stepped side by side (time outer, candidate inner): each is its own
+    chain of dependent operations, so interleaving them keeps the CPU busy; each candidate's
+    arithmetic is unchanged."""
+    n_cand = len(targets)
+    v = np.full(n_cand, v0)
+    travelled = np.zeros(n_cand)
+    for m in range(1, steps + 1):
+        for k in range(n_cand):
+            goal = targets[k] if m <= hold[k] else 0.0
+            dv = gain * (goal - v[k])
+            dv = min(max(dv, -decel), max_accel)
+            nv = max(v[k] + dv * dt, 0.0)
+            travelled[k] += 0.5 * (v[k] + nv) * dt
+            v[k] = nv
+        if m % every == 0:
+            for k in range(n_cand):
+                out[a, k, m // every - 1] = s0 + travelled[k]
+
+
+@njit(cache=True, nogil=True)
 def hold_then_brake(
     s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
@@ -182,15 +233,135 @@ def hold_then_brake(
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
     for a in range(n_agents):
-        for k in range(n_cand):
-            v, travelled = v0[a], 0.0
-            for m in range(1, steps + 1):
-                target = targets[a, k] if m <= hold[a, k] else 0.0
-                dv = gain[a] * (target - v)
-                dv = min(max(dv, -decel[a]), max_accel)
-                nv = max(v + dv * dt, 0.0)
-                travelled += 0.5 * (v + nv) * dt
-                v = nv
-                if m % every == 0:
-                    out[a, k, m // every - 1] = s0[a] + travelled
+        hold_then_brake_into(
+            out, a, s0[a], v0[a], targets[a], hold[a], steps, every, dt, max_accel, decel[a],
+            gain[a],
+        )  # fmt: skip
     return out
+
+
+@njit(cache=True, nogil=True)
+def plan_conflicts(
+    agents, s_proj, first, second, d_now,
+    state, s, offset, front, is_car, route, enter_s,
+    offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """The CSP's binary constraints: pairs (P', 2) of positions in ``agents`` and their
+    conflict[p, a, b] (P', K, K), only the pairs with some conflict once both braking (0, 0)
+    is allowed (so the CSP stays feasible).
+
+    first, second (P,): the candidate pairs (positions in ``agents``, each with a car);
+    d_now (P,) float32: the distance now between their nearest footprint circles (m; computed
+    by the caller with numpy's complex arithmetic). Projections ``s_proj`` (A, K, T) are
+    sampled on the agents' paths (complex64 points and tangents, ``inv_spacing`` samples per
+    metre). A pair already closer than its clearance conflicts only where it gets closer
+    still: the clearance is ``min(clearance, d_now - 0.05)``, floored at 0. The clearance is
+    the footprint circles' radii plus ``margin`` (m), or ``pedestrian_margin`` once a walker of
+    the pair is on its crossing (its front past its route's ``enter_s``). World arrays (N, ...)
+    as :func:`defensive_kernels.defensive_forbid` takes them.
+    """
+    n_agents, n_cand = s_proj.shape[0], s_proj.shape[1]
+    rows = np.arange(n_agents)
+    px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
+    now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
+    crossing = np.zeros(n_agents, np.bool_)
+    for a in range(n_agents):
+        ag = agents[a]
+        now_x[a], now_y[a] = np.float32(state[ag, 0]), np.float32(state[ag, 1])
+        r = route[ag] if route[ag] >= 0 else route[ag] + len(enter_s)
+        crossing[a] = not is_car[ag] and s[ag] + offset[ag] + front[ag] >= enter_s[r]
+    offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
+    box = swept_boxes(px, py, now_x, now_y, bound, rows)
+    table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
+    keep = np.zeros(len(first), dtype=np.bool_)
+    for p in range(len(first)):
+        i, j = first[p], second[p]
+        if boxes_apart(box, i, j):
+            continue
+        m = pedestrian_margin if crossing[i] or crossing[j] else margin
+        # float32 as numpy computes d_now - 0.05 for a float32 array
+        thresh = max(min(radius_a[i] + radius_a[j] + m, d_now[p] - np.float32(0.05)), 0.0)
+        reach2 = np.float32((bound[i] + bound[j]) * (bound[i] + bound[j]))
+        for a in range(n_cand):
+            for b in range(n_cand):
+                if a == 0 and b == 0:
+                    continue  # both braking is always allowed
+                hit = too_close(px, py, ux, uy, offs_a, i, a, j, b, reach2, thresh * thresh)
+                table[p, a, b] = hit
+                keep[p] |= hit
+    count = 0
+    for p in range(len(first)):
+        count += keep[p]
+    out, kept = np.empty((count, 2), dtype=np.int64), np.empty((count, n_cand, n_cand), np.bool_)
+    q = 0
+    for p in range(len(first)):
+        if keep[p]:
+            out[q, 0], out[q, 1] = first[p], second[p]
+            for a in range(n_cand):
+                for b in range(n_cand):
+                    kept[q, a, b] = table[p, a, b]
+            q += 1
+    return out, kept
+
+
+@njit(cache=True, nogil=True)
+def allowed_speeds(
+    agents, s, offset, route, is_car, max_speed, curvature, speed_limit, look, lateral_accel,
+    spacing,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Speed (m/s) each of ``agents`` may drive at now: its maximum, its lane's limit at its
+    path sample, and the sharpest curvature of the next ``look`` samples of its route (at
+    ``lateral_accel`` m/s²); a walker's maximum."""
+    out = np.empty(len(agents))
+    last = curvature.shape[1] - 1
+    for a in range(len(agents)):
+        ag = agents[a]
+        r = route[ag] if route[ag] >= 0 else route[ag] + curvature.shape[0]
+        k0 = np.int64(np.rint((s[ag] + offset[ag]) / spacing))
+        kappa = -np.inf
+        for m in range(look):
+            kappa = max(kappa, curvature[r, min(max(k0 + m, 0), last)])
+        limit = speed_limit[r, min(max(k0, 0), last)]
+        curve = np.sqrt(lateral_accel / max(kappa, 1e-6))
+        out[a] = min(max_speed[ag], min(limit, curve)) if is_car[ag] else max_speed[ag]
+    return out
+
+
+@njit(cache=True, nogil=True)
+def circle_gaps(agents, state, is_car, offs):  # pragma: no cover (compiled)
+    """The planner's candidate pairs and how far apart their footprint circles are now.
+
+    Returns (first, second) (P,): the pairs of positions i < j in ``agents`` with a car, in
+    row order; and gaps (P, 9) complex64: each circle of ``first`` minus each of ``second``
+    (circle centres at ``offs`` (N, 3) float32 m along the heading, in complex64 as numpy
+    computes ``pos + offs * exp(1j·θ)``). Their lengths are left to numpy's complex abs, which
+    the planner's reference uses (its vector loop and the C library's hypotf differ in the
+    last bit).
+    """
+    n = len(agents)
+    now = np.empty((n, 3), np.complex64)
+    for a in range(n):
+        ag = agents[a]
+        heading = np.complex64(np.exp(1j * state[ag, 2]))
+        x, y = np.float32(state[ag, 0]), np.float32(state[ag, 1])
+        for c in range(3):
+            now[a, c] = np.complex64(
+                complex(x + offs[ag, c] * heading.real, y + offs[ag, c] * heading.imag)
+            )
+    count = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            count += is_car[agents[i]] or is_car[agents[j]]
+    first, second = np.empty(count, np.int64), np.empty(count, np.int64)
+    gaps = np.empty((count, 9), np.complex64)
+    p = 0
+    for i in range(n):
+        for j in range(i + 1, n):
+            if not (is_car[agents[i]] or is_car[agents[j]]):
+                continue
+            first[p], second[p] = i, j
+            for ci in range(3):
+                for cj in range(3):
+                    gaps[p, 3 * ci + cj] = now[i, ci] - now[j, cj]
+            p += 1
+    return first, second, gaps

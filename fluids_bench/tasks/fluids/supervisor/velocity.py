@@ -4,7 +4,9 @@ For every agent and every candidate target velocity (fractions of what its path 
 the planner projects the agent forward along its path for ``horizon`` seconds under the same
 speed law the controller follows. Pairs of agents whose projections at a pair of candidates come
 closer than their footprints allow are a binary constraint; lights and crosswalks prune the
-domains (unary constraints). python-constraint2 then assigns every agent a velocity.
+domains (unary constraints). A backtracking solver then assigns every agent a velocity
+(:mod:`.csp_kernels`: compiled, the same search as python-constraint2's
+``OptimizedBacktrackingSolver``, which the tests keep as its reference).
 
 * Higher velocities first: domains are listed ascending, and the solver tries a domain's values
   from the end.
@@ -36,26 +38,24 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
-from constraint import FunctionConstraint, OptimizedBacktrackingSolver, Problem
 
 from fluids_bench.core.validation import check_bool
 from fluids_bench.tasks.fluids.sim.config import check_range
-from fluids_bench.tasks.fluids.sim.crosswalks import (
-    committed_crosswalks,
-    crosswalks_of,
-    next_occupied_enter,
-    occupied,
-)
+from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
+from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
-    conflict_tables,
-    hold_then_brake,
+    allowed_speeds,
+    circle_gaps,
+    plan_conflicts,
     projected_arc_lengths,
 )
+from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
+CURVE_LOOK_AHEAD = 24  # path samples (12 m) ahead whose curvature limits the speed now
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
 
@@ -95,24 +95,6 @@ class VelocityPlannerConfig:
             )
 
 
-class _PrioritySolver(OptimizedBacktrackingSolver):
-    """Backtracking with a caller-given variable order (the priority order).
-
-    python-constraint2 has no public way to fix the order in which variables are assigned; its
-    ``OptimizedBacktrackingSolver`` asks ``getSortedVariables`` for it, which we override. The
-    pin in pyproject.toml (>=2.9, <3) covers the versions this was checked on, and
-    ``test_priority_order_is_honoured_by_the_installed_solver`` fails if a release stops
-    consulting the override.
-    """
-
-    def __init__(self, order: list[int]) -> None:
-        super().__init__()
-        self.order = order
-
-    def getSortedVariables(self, domains, vconstraints):  # noqa: N802 (library's name)
-        return [v for v in self.order if v in domains]
-
-
 def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     """Three circles per agent along its length: offsets (N, 3) and radius (N,)."""
     offs = np.column_stack([-world.length / 3, np.zeros(world.n), world.length / 3])
@@ -121,58 +103,30 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     return offs, radius
 
 
-def _relative(world: World, f: np.ndarray, ld: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Agent ``ld``'s position in agent ``f``'s frame (complex: along + 1j * across) and
-    whether the two head within 45° of each other (agent indices, elementwise)."""
-    th = world.state[f, 2]
-    dth = (world.state[ld, 2] - th + np.pi) % (2 * np.pi) - np.pi
-    return (world.position[ld] - world.position[f]) * np.exp(-1j * th), np.abs(dth) < np.pi / 4
-
-
-def _hold_before(stop: np.ndarray, reach: np.ndarray) -> np.ndarray:
-    """allowed[a, k]: False where candidate k takes agent a past its stop arc length ``stop``
-    (``inf``: none) within the horizon (``reach``, (A, K)), unless even braking (k = 0) does."""
-    blocked = reach > stop[:, None]
-    can_stop = ~blocked[:, 0]  # the slowest candidate stops in time
-    return ~(blocked & can_stop[:, None])
-
-
 class VelocityPlanner:
     """Assigns every active agent a target velocity (m/s) each planning tick."""
 
     def __init__(self, config: VelocityPlannerConfig | None = None) -> None:
         self.config = config or VelocityPlannerConfig()
         self.fractions = np.asarray(self.config.fractions)
-        self._pair_cache: dict[int, tuple[np.ndarray, np.ndarray]] = {}
 
     def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
         """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
         curvature of the next 12 m of its route."""
-        r, k = self._path_ahead(world, agents, self._look)
         routes = world.layout.routes
-        kappa = routes.curvature[r[:, None], k].max(axis=1)
-        limit = routes.speed_limit[r, k[:, 0]]
-        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
-        out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
-        return np.where(world.is_car[agents], out, world.max_speed[agents])
-
-    def _slowest_ahead(self, world: World, agents: np.ndarray, metres: float) -> np.ndarray:
-        """The lowest speed each of ``agents`` will be allowed over the next ``metres`` of its
-        route (curves and speed limits), so that a projection held at it is not optimistic."""
-        look = np.arange(0, int(round(metres / PATH_SPACING)) + 1)
-        r, k = self._path_ahead(world, agents, look)
-        routes = world.layout.routes
-        kappa = routes.curvature[r[:, None], k]
-        curve = np.sqrt(self.config.lateral_accel / np.maximum(kappa, 1e-6))
-        slowest = np.minimum(routes.speed_limit[r[:, None], k], curve).min(axis=1)
-        return np.where(world.is_car[agents], np.minimum(world.max_speed[agents], slowest), np.inf)
-
-    @staticmethod
-    def _path_ahead(world: World, agents: np.ndarray, look: np.ndarray):
-        """Each agent's route (A,) and the indices (A, L) of its path samples ``look`` ahead."""
-        k0 = np.rint(world.route_s[agents] / PATH_SPACING).astype(np.int64)
-        last = world.layout.routes.path.shape[1] - 1
-        return world.route[agents], np.minimum(np.maximum(k0[:, None] + look, 0), last)
+        return allowed_speeds(
+            agents,
+            world.s,
+            world.offset,
+            world.route,
+            world.is_car,
+            world.max_speed,
+            routes.curvature,
+            routes.speed_limit,
+            CURVE_LOOK_AHEAD,
+            self.config.lateral_accel,
+            PATH_SPACING,
+        )
 
     # ------------------------------------------------------------------ projection
     def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
@@ -215,156 +169,106 @@ class VelocityPlanner:
     ) -> tuple[np.ndarray, np.ndarray]:
         """:meth:`domains`, and the route arc length (A,) of the first stop line each agent
         will hold before (one it can still stop for; ``inf`` where none)."""
-        allowed = np.ones(s_proj.shape[:2], dtype=bool)
-        line = np.full(len(agents), np.inf)
-        reach = s_proj[:, :, -1] + (world.offset[agents] + self._front[agents])[:, None]
-        for stop in self._stop_lines(world, agents, uncontrolled):
-            allowed &= _hold_before(stop, reach)
-            line = np.minimum(line, np.where(reach[:, 0] <= stop, stop, np.inf))
+        allowed, line, _ = self._stop_lines(
+            world, agents, self._front[agents], s_proj, uncontrolled
+        )
         return allowed, line
 
-    def _stop_lines(self, world: World, agents: np.ndarray, uncontrolled=None) -> list:
-        """Route arc lengths at which each agent's front must hold, one array per kind of
-        stop (red and yellow lights; with ``yield_to_pedestrians``, occupied crosswalks and,
-        for walkers, the kerb); ``inf`` where none holds it."""
-        front = self._front[agents]
-        stops = []
-        light = self._light_stops(world, agents, front)
-        if light is not None:
-            stops.append(light)
-        if self.config.yield_to_pedestrians and self._crosswalks.count:
-            occ = occupied(world, self._crosswalks)
-            if occ.any():
-                stops.append(next_occupied_enter(world, agents, occ, front))
-            stops.append(self._kerb_stops(world, agents, uncontrolled))
-        return stops
-
-    def _kerb_stops(self, world: World, agents: np.ndarray, uncontrolled=None) -> np.ndarray:
-        """Walkers wait at the kerb (where their disc would start to overlap the crosswalk)
-        while a car is committed to that crosswalk (too close to stop for them, see
-        :func:`~fluids_bench.tasks.fluids.sim.crosswalks.stopping_reach`), so a car that
-        yields is not cut off by a walker stepping out in front of it; and while a supervised
-        car turning left is inside the junction on its way out across it, so that a walker
-        does not strand it across the oncoming lane (``uncontrolled``, (N,) bool: the cars
-        that do not count; a learner's ego still has to stop for a walker who steps out)."""
-        cw = self._crosswalks
-        walk_cw = cw.walk_crosswalk[world.route[agents]]
-        kerb = cw.walk_enter[world.route[agents]]
-        waiting = (walk_cw >= 0) & (world.route_s[agents] + self._front[agents] < kerb)
-        if not waiting.any():
-            return np.full(len(agents), np.inf)
-        route = np.maximum(world.route, 0)
-        turning_out = self._turns[1][route] & (world.route >= 0) & world.is_car
-        if uncontrolled is not None:
-            turning_out &= ~uncontrolled
-        busy = committed_crosswalks(world, self._front, turning_out)
-        return np.where(waiting & busy[np.maximum(walk_cw, 0)], kerb, np.inf)
+    def _stop_lines(self, world: World, agents, front, s_proj, uncontrolled=None):
+        """(allowed, line, stops) of :func:`stop_line_kernels.stop_lines`: the stop lines each
+        of ``agents`` (fronts ``front``, m) must hold at (its light: red; yellow if it can
+        still brake comfortably, and so, with ``yield_to_pedestrians``, a walker's white
+        light that turns red before it would reach its crosswalk at its speed, or half a
+        walking pace from rest, plus a planning period: the flashing "don't walk" crosswalk
+        lights lack; with ``yield_to_pedestrians``, a crosswalk with a walker on it ahead of
+        a car, and for a walker the kerb while a car is committed to that crosswalk or a
+        supervised car turning left is inside the junction on its way out across it, so that
+        a car that yields is not cut off and a walker does not strand a car across the
+        oncoming lane; ``uncontrolled`` (N,) bool: the cars that do not count for that)."""
+        lights, routes, cw = world.lights, world.layout.routes, self._crosswalks
+        if uncontrolled is None:
+            uncontrolled = np.zeros(world.n, dtype=bool)
+        return stop_lines(
+            agents,
+            np.ascontiguousarray(front, dtype=np.float64),
+            s_proj,
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.active,
+            world.width,
+            world.route,
+            world.entered,
+            world.max_speed,
+            uncontrolled,
+            routes.light,
+            routes.stop_s,
+            world.light_state,
+            lights.ends,
+            lights.cycle,
+            lights.offset,
+            world.time,
+            cw.centre,
+            cw.axis,
+            cw.half,
+            cw.car_enter,
+            cw.walk_crosswalk,
+            cw.walk_enter,
+            self._turns[1],
+            self.config.max_decel,
+            self.config.yield_to_pedestrians,
+            self.config.period * world.dt,
+        )
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
-        """Each agent's stop line where its light holds it (red; yellow if it can still brake
-        comfortably, and so, with ``yield_to_pedestrians``, a walker's white light about to
-        turn red: :meth:`_dont_walk`), ``inf`` where none does; None when no light holds
-        anyone."""
-        routes = world.layout.routes
-        r = world.route[agents]
-        light = routes.light[r]
-        if not len(world.light_state) or (light < 0).all():
-            return None
-        stop_s = routes.stop_s[r]
-        gap = stop_s - (world.route_s[agents] + front)
-        state = world.light_state[np.maximum(light, 0)]
-        v = world.state[agents, 3]
-        brake = v**2 / (2 * 0.6 * self.config.max_decel)  # comfortable braking distance
-        caution = state == CAUTION
-        if self.config.yield_to_pedestrians:
-            caution |= self._dont_walk(world, agents, light, state, gap)
-        holds = (light >= 0) & (gap > -0.5) & ((state == STOP) | (caution & (brake < gap)))
-        if not holds.any():
-            return None
-        return np.where(holds, stop_s, np.inf)
-
-    def _dont_walk(self, world: World, agents: np.ndarray, light, state, gap) -> np.ndarray:
-        """Walkers whose white light turns red before they would reach their crosswalk (at
-        their speed, or half a walking pace from rest, plus a planning period): a flashing
-        "don't walk" that crosswalk lights lack; without it, a walker just short of the
-        kerb when the light turns red cannot stop and enters on red."""
-        walker = ~world.is_car[agents] & (light >= 0) & (state != STOP) & (gap > 0)
-        if not walker.any():
-            return walker
-        left = world.lights.time_to_change(world.time)[np.maximum(light, 0)]
-        pace = np.maximum(world.state[agents, 3], 0.5 * world.max_speed[agents])
-        return walker & (left < gap / pace + self.config.period * world.dt)
+        """Each agent's stop line where its light holds it (see :meth:`_stop_lines`), ``inf``
+        where none does; None when no light holds anyone."""
+        horizon = np.zeros((len(agents), 1, 1))  # no candidate to prune: the lines only
+        stops = self._stop_lines(world, agents, front, horizon)[2][0]
+        return stops if np.isfinite(stops).any() else None
 
     def conflicts(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
         """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
 
-        Only pairs with a car are checked (pedestrians step round each other). The per-pair,
-        per-candidate, per-time loop is compiled (:func:`kernels.conflict_tables`).
+        Only pairs with a car are checked (pedestrians step round each other). A pair already
+        closer than its clearance conflicts only where it gets closer still, so that braking
+        stays feasible for the CSP; the smaller car-pedestrian clearance applies once the
+        walker is on the crossing (so a car can creep past it), a walker still at the kerb
+        keeps the full one. The per-pair, per-candidate, per-time loop is compiled
+        (:func:`kernels.plan_conflicts`); the distance now between footprint circles stays
+        numpy's complex arithmetic (its vectorised complex abs is the reference).
         """
         k = len(self.fractions)
-        empty = np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
-        cars = world.is_car[agents]
-        ii, jj = self._pairs(len(agents))
-        with_car = cars[ii] | cars[jj]
-        ii, jj = ii[with_car], jj[with_car]
+        ii, jj, gaps = circle_gaps(agents, world.state, world.is_car, self._offs32)
         if not len(ii):
-            return empty
-        conflict = self._conflict_tables(world, agents, s_proj, ii, jj)
-        conflict[:, 0, 0] = False  # both braking is always allowed: the CSP stays feasible
-        keep = conflict.reshape(len(ii), -1).any(axis=1)
-        return np.column_stack([ii, jj])[keep], conflict[keep]
-
-    def _conflict_tables(
-        self,
-        world: World,
-        agents: np.ndarray,
-        s_proj: np.ndarray,
-        ii: np.ndarray,
-        jj: np.ndarray,
-        relax: bool = True,
-        contact: bool = False,
-    ) -> np.ndarray:
-        """conflict[p, a, b] (P, K, K) for the pairs (``ii[p]``, ``jj[p]``) of positions in
-        ``agents`` projected to ``s_proj`` (A, K, T). ``relax``: a pair already closer than its
-        clearance conflicts only where it gets closer still (so that braking stays feasible
-        for the CSP); without it, wherever it stays inside the clearance. ``contact``: the
-        clearance is the footprints' own (no margin): where they would touch."""
-        cars = world.is_car[agents]
-        pts, dirs = world.path_samples(s_proj, agents)  # (A, K, T) complex64 each
-        bound = self._reach[agents]
-        pos = world.position[agents].astype(np.complex64)
-        offs, radius = self._offs32[agents], self._radius[agents]
-        now = (
-            pos[:, None] + offs * np.exp(1j * world.state[agents, 2]).astype(np.complex64)[:, None]
-        )  # (A, 3)
-        d_now = np.abs(now[ii][:, :, None] - now[jj][:, None, :]).min(axis=(1, 2))
-        # the smaller car-pedestrian clearance applies once the walker is on the crossing
-        # (so a car can creep past it); a walker still at the kerb keeps the full one
-        crossing = ~cars & (
-            world.route_s[agents] + self._front[agents]
-            >= world.layout.routes.enter_s[world.route[agents]]
-        )
-        margin = np.where(
-            crossing[ii] | crossing[jj], self.config.pedestrian_margin, self.config.margin
-        )
-        clearance = radius[ii] + radius[jj] + (0.0 if contact else margin)
-        thresh = np.maximum(np.minimum(clearance, d_now - 0.05), 0.0) if relax else clearance
-        reach2 = ((bound[ii] + bound[jj]) ** 2).astype(np.float32)
-        return conflict_tables(
-            pts.real,
-            pts.imag,
-            dirs.real,
-            dirs.imag,
-            pos.real,
-            pos.imag,
-            bound,
-            offs,
+            return np.zeros((0, 2), dtype=np.int64), np.zeros((0, k, k), dtype=bool)
+        d_now = np.abs(gaps).min(axis=1)  # numpy's complex abs: see circle_gaps
+        cfg = self.config
+        return plan_conflicts(
+            agents,
+            s_proj,
             ii,
             jj,
-            reach2,
-            thresh * thresh,
+            d_now,
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.route,
+            world.layout.routes.enter_s,
+            self._offs32,
+            self._radius,
+            self._reach,
+            world.path_c64,
+            world.path_dir,
+            1.0 / PATH_SPACING,
+            cfg.margin,
+            cfg.pedestrian_margin,
         )
 
     def defensive_domains(
@@ -379,233 +283,82 @@ class VelocityPlanner:
         agent ``a``, holding candidate k until the next plan and braking then, could run into an
         uncontrolled agent (``wild``, positions in ``agents``) that brakes as hard as it can
         now or at any of a few later steps before the next plan (holding its speed until then).
+        Guarding against every uncontrolled agent keeping its speed was tried: supervised cars
+        then hesitated so much that a supervisor-driven ego timed out in 1-2% of episodes; the
+        give-way rule below does it only toward one with the right of way.
 
         Pairs in which the uncontrolled agent follows the supervised one (within 45° of its
-        heading, behind it) are skipped: a rear-end is the follower's fault. Braking now
-        (candidate 0) is never pruned, so the CSP stays feasible.
+        heading, behind it) are skipped: a rear-end is the follower's fault. The clearance is
+        the full one, not relaxed to the distance now: positions are path samples
+        (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step at a
+        time, into an uncontrolled one already near it. Braking now (candidate 0) is never
+        pruned, so the CSP stays feasible.
 
-        Toward an uncontrolled agent that has the right of way (:meth:`_right_of_way`), a
-        supervised one also allows for it driving on: see :meth:`_give_way`, which needs the
-        supervised agents' ``hold_lines`` (route arc lengths of the stop lines they will hold
-        before, as :meth:`plan` finds them with the domains; default: none).
-        """
-        cfg, dt = self.config, world.dt
-        allowed = np.ones(targets.shape, dtype=bool)
-        tame = ~wild
-        cars = world.is_car[agents]
-        ii, jj = self._pairs(len(agents))
-        pair = (wild[ii] != wild[jj]) & (cars[ii] | cars[jj])
-        ii, jj = ii[pair], jj[pair]
-        if not len(ii):
-            return allowed
-        # skip pairs where the uncontrolled agent is behind the supervised one, same way
-        ahead, aligned = _relative(
-            world, agents[np.where(wild[ii], ii, jj)], agents[np.where(wild[ii], jj, ii)]
-        )
-        follows = aligned & (ahead.real > 0)
-        ii, jj = ii[~follows], jj[~follows]
-        if not len(ii):
-            return allowed
-        k = targets.shape[1]
-        steps = int(round(cfg.horizon / dt))
-        v = world.state[agents, 3]
-        hold = np.full(targets.shape, cfg.period, dtype=np.int64)
-        # uncontrolled: hold the current speed for 0 … period steps, then brake at the limit.
-        # (Guarding against every uncontrolled agent keeping its speed was tried: supervised
-        # cars then hesitated so much that a supervisor-driven ego timed out in 1-2% of
-        # episodes; _give_way does it only toward one with the right of way.)
-        hold[wild] = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
-        goal = np.where(wild[:, None], v[:, None], targets)
-        car = world.scene.car
-        limit = np.where(
-            world.is_car[agents],
-            car.max_brake_force / world.params[agents, 0],
-            world.scene.pedestrian.max_accel,
-        )
-        decel = np.where(wild, limit, cfg.max_decel)
-        gain = np.where(wild, 1.0 / dt, cfg.speed_gain)
-        s_def = hold_then_brake(
-            world.s[agents],
-            v,
-            goal,
-            hold,
-            steps,
-            cfg.sample_every,
-            dt,
-            cfg.max_accel,
-            decel,
-            gain,
-        )
-        # full clearance, not relaxed to the distance now: positions are path samples
-        # (PATH_SPACING apart), so a relaxed check would let a car creep on, a rounding step
-        # at a time, into an uncontrolled one already near it; braking is never pruned anyway
-        conflict = self._conflict_tables(world, agents, s_def, ii, jj, relax=False)
-        bad_i = conflict.any(axis=2)  # (P, K): candidate of ii against any scenario of jj
-        bad_j = conflict.any(axis=1)
-        forbid = np.zeros(targets.shape, dtype=bool)
-        np.logical_or.at(forbid, ii[tame[ii]], bad_i[tame[ii]])
-        np.logical_or.at(forbid, jj[tame[jj]], bad_j[tame[jj]])
-        forbid |= self._follow_supervised(world, agents, targets, wild, s_def)
-        if hold_lines is None:
-            hold_lines = np.full(len(agents), np.inf)
-        give_way = self._give_way(world, agents, targets, wild, ii, jj, hold_lines)
-        # braking now is unsafe both ways (it cannot stop short of where the uncontrolled
-        # agent may stop, and it would stop in the path of one that keeps going) while
-        # going on clears that path: it clears the crossing rather than stop in it
-        clear = forbid[:, 0] & give_way[:, 0]
-        forbid[clear] = False
-        forbid |= give_way
-        forbid[:, 0] = False
-        return allowed & ~forbid
+        Followers: with uncontrolled agents about, a supervised leader may have to brake at
+        once, which its followers' plans did not foresee; a supervised car behind another in its
+        lane (within 45°, less than 2 m aside) may not take a candidate that runs into the
+        leader braking now, unless none helps any more.
 
-    def _follow_supervised(
-        self, world: World, agents: np.ndarray, targets: np.ndarray, wild: np.ndarray, s_def
-    ) -> np.ndarray:
-        """forbid[a, k]: supervised follower a's candidate k (hold until the next plan, then
-        brake) would run into the supervised car ahead of it in its lane if that one braked
-        now: with uncontrolled agents about, a supervised leader may have to brake at once
-        (its defensive constraints), which its followers' plans did not foresee."""
-        forbid = np.zeros(targets.shape, dtype=bool)
-        cars = world.is_car[agents] & ~wild
-        idx = cars.nonzero()[0]
-        if len(idx) < 2:
-            return forbid
-        a, b = np.meshgrid(idx, idx, indexing="ij")
-        a, b = a.ravel(), b.ravel()
-        keep = a != b
-        f, ld = a[keep], b[keep]
-        ahead, aligned = _relative(world, agents[f], agents[ld])
-        behind = aligned & (ahead.real > 0) & (np.abs(ahead.imag) < 2.0)
-        f, ld = f[behind], ld[behind]
-        if not len(f):
-            return forbid
-        cfg, dt = self.config, world.dt
-        # only the agents of those pairs are projected (positions in ``sub``)
-        sub, pos = np.unique(np.concatenate([f, ld]), return_inverse=True)
-        fs, ls = pos[: len(f)], pos[len(f) :]
-        brake = s_def[sub]  # followers: hold their candidate until the next plan, then brake
-        lead = np.unique(ls)
-        on = agents[sub[lead]]
-        brake[lead] = hold_then_brake(  # leaders: brake now
-            world.s[on],
-            world.state[on, 3],
-            targets[sub[lead]],
-            np.zeros((len(lead), targets.shape[1]), dtype=np.int64),
-            s_def.shape[2] * cfg.sample_every,
-            cfg.sample_every,
-            dt,
-            cfg.max_accel,
-            np.full(len(lead), cfg.max_decel),
-            np.full(len(lead), cfg.speed_gain),
-        )
-        conflict = self._conflict_tables(world, agents[sub], brake, fs, ls, relax=False)
-        bad = conflict[:, :, 0]  # the leader braking now (its candidate 0 scenario)
-        np.logical_or.at(forbid, f, bad)
-        forbid[forbid.all(axis=1)] = False  # cannot help any more
-        return forbid
-
-    def _right_of_way(self, world: World, agents: np.ndarray, t: np.ndarray, w: np.ndarray):
-        """Whether uncontrolled ``w`` has the right of way over supervised ``t`` (positions in
-        ``agents``, elementwise) by the rules that assign fault (:mod:`..sim.fault`): it
-        entered its shared zone first (rule 7), or it comes the other way and goes straight
-        while ``t`` turns across its path (rule 6)."""
-        entered = world.entered[agents]
-        first = (entered[w] >= 0) & ((entered[t] < 0) | (entered[w] < entered[t]))
-        routes = world.route[agents]
-        return first | turns_across(*self._turns, routes[t], routes[w])
-
-    def _give_way(
-        self,
-        world: World,
-        agents: np.ndarray,
-        targets: np.ndarray,
-        wild: np.ndarray,
-        ii: np.ndarray,
-        jj: np.ndarray,
-        hold_lines: np.ndarray,
-    ) -> np.ndarray:
-        """forbid[a, k]: True where supervised agent a's candidate k could run into an
-        uncontrolled agent with the right of way over it that keeps going (a crawler
-        creeping on into a roundabout, an oncoming car going straight through a left turn).
-
-        A candidate is safe if, holding it until the next plan and then braking, the agent
+        Giving way: toward an uncontrolled agent with the right of way over it by the rules that
+        assign fault (:mod:`..sim.fault`: it entered its shared zone first, rule 7, or it comes
+        the other way and goes straight while the supervised one turns across its path, rule
+        6), a candidate is safe if, holding it until the next plan and then braking, the agent
         stops short of that agent's path, or if, holding it, it clears the path before that
         agent gets there (gap acceptance), whether that agent keeps its speed or speeds up (at
         the controller's acceleration, to the fastest speed allowed to it; one at rest is taken
         to stay there, so that a waiting ego and a waiting car do not deadlock). Both scenarios
-        end at the agent's hold line (a red light, an occupied crosswalk): it does not enter
-        a crossing that it would have to stop in (don't block the box).
-        Everything is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning
-        from rest to clear a crossing, and the agent keeps a planning period to spare before
+        end at the agent's hold line (``hold_lines``: route arc lengths of the stop lines it
+        will hold before, as :meth:`plan` finds them with the domains; default: none): it does
+        not enter a crossing that it would have to stop in (don't block the box). Everything
+        is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning from rest to
+        clear a crossing, and going on it slows for the curves of the next
+        :data:`GIVE_WAY_LOOK_AHEAD` metres; the agent keeps a planning period to spare before
         it brakes. Where no candidate keeps the full clearance both ways, the candidates that
         at least do not touch that agent either way are kept; an agent with none at all (it is
-        already in the way) is left as it is: stopping there would not help.
+        already in the way) is left as it is. Braking now that is unsafe both ways (it cannot
+        stop short of where the uncontrolled agent may stop, and it would stop in the path of
+        one that keeps going) while going on clears that path: it clears the crossing rather
+        than stop in it.
+
+        One compiled call (:func:`defensive_kernels.defensive_forbid`).
         """
-        forbid = np.zeros(targets.shape, dtype=bool)
-        t = np.where(wild[ii], jj, ii)
-        w = np.where(wild[ii], ii, jj)
-        row = self._right_of_way(world, agents, t, w)
-        if not row.any():
-            return forbid
-        # only the agents of those pairs are projected (positions in ``sub``)
-        sub, pos = np.unique(np.concatenate([t[row], w[row]]), return_inverse=True)
-        n = int(row.sum())
-        ts, ws = pos[:n], pos[n:]
-        cfg, dt = self.config, world.dt
-        steps = int(round(GIVE_WAY_HORIZON / dt))
-        s0, v, cand = world.s[agents[sub]], world.state[agents[sub], 3], targets[sub]
-        decel = np.full(len(sub), cfg.max_decel)
-        gain = np.full(len(sub), cfg.speed_gain)
-        args = (steps, cfg.sample_every, dt, cfg.max_accel, decel, gain)
-        hold = np.full(cand.shape, 2 * cfg.period, dtype=np.int64)  # a period to spare
-        stop = hold_then_brake(s0, v, cand, hold, *args)
-        hold[:] = steps
-        # going on, it slows for the curves ahead (turning into a roundabout's ring)
-        slowest = self._slowest_ahead(world, agents[sub], GIVE_WAY_LOOK_AHEAD)
-        go = hold_then_brake(s0, v, np.minimum(cand, slowest[:, None]), hold, *args)
-        line = (hold_lines[sub] - world.offset[agents[sub]] - self._front[agents[sub]])[
-            :, None, None
-        ]
-        stop, go = np.minimum(stop, line), np.minimum(go, line)  # it stops at its hold line
-        # the uncontrolled agent, if moving, keeps its speed or speeds up towards the fastest
-        # speed allowed to it (its candidates' scenarios span the two); at rest, it stays
-        moving = v > STATIONARY_SPEED
-        faster = np.maximum(cand[:, -1] - v, 0.0)[:, None] * self.fractions[None, :]
-        goal = np.where(moving[:, None], v[:, None] + faster, 0.0)
-        wild_go = hold_then_brake(s0, v, goal, hold, *args)
-        stop[ws], go[ws] = wild_go[ws], wild_go[ws]
-        on = agents[sub]
-        stop_fails = self._conflict_tables(world, on, stop, ts, ws, relax=False).any(axis=2)
-        clear_fails = self._conflict_tables(world, on, go, ts, ws, relax=False).any(axis=2)
-        np.logical_or.at(forbid, t[row], stop_fails & clear_fails)
-        stuck = forbid.all(axis=1)
-        if stuck.any():
-            # no candidate keeps the full clearance both ways (a close pass counts, and a merge
-            # is close): keep the candidates that at least do not touch that agent either way
-            # (an agent taken to stay at rest that set off, met side by side at a merge)
-            mine = stuck[t[row]]  # only the stuck agents' pairs
-            ts_, ws_ = ts[mine], ws[mine]
-            stop_t = self._conflict_tables(world, on, stop, ts_, ws_, relax=False, contact=True)
-            go_t = self._conflict_tables(world, on, go, ts_, ws_, relax=False, contact=True)
-            touch = np.zeros(targets.shape, dtype=bool)
-            np.logical_or.at(touch, t[row][mine], stop_t.any(axis=2) & go_t.any(axis=2))
-            forbid[stuck] = touch[stuck]
-        forbid[forbid.all(axis=1)] = False  # no candidate helps: it is already in the way
-        return forbid
-
-    def _pairs(self, n: int) -> tuple[np.ndarray, np.ndarray]:
-        if n not in self._pair_cache:
-            self._pair_cache[n] = np.triu_indices(n, k=1)
-        return self._pair_cache[n]
-
-    def priority(self, world: World, agents: np.ndarray) -> list[int]:
-        """Positions in ``agents`` in the order the solver assigns them (right of way first)."""
-        enter = world.layout.routes.enter_s[world.route[agents]]
-        rs = world.route_s[agents] + self._front[agents]
-        inside = rs >= enter
-        key_inside = np.where(inside, enter - rs, np.inf)  # furthest past the entry first
-        key_out = np.where(inside, -np.inf, enter - rs)  # then nearest to it
-        return np.lexsort((agents, key_out, key_inside, ~inside)).tolist()
+        self._bind(world)
+        if hold_lines is None:
+            hold_lines = np.full(len(agents), np.inf)
+        routes, scene = world.layout.routes, world.scene
+        forbid = defensive_forbid(
+            agents,
+            np.ascontiguousarray(wild, dtype=np.bool_),
+            np.ascontiguousarray(targets, dtype=np.float64),
+            np.ascontiguousarray(hold_lines, dtype=np.float64),
+            world.state,
+            world.s,
+            world.offset,
+            self._front,
+            world.is_car,
+            world.entered,
+            world.route,
+            world.max_speed,
+            np.where(
+                world.is_car,
+                scene.car.max_brake_force / world.params[:, 0],
+                scene.pedestrian.max_accel,
+            ),  # fmt: skip
+            self._offs32,
+            self._radius,
+            self._reach,
+            world.path_c64,
+            world.path_dir,
+            routes.enter_s,
+            self._across,
+            routes.curvature,
+            routes.speed_limit,
+            self.fractions,
+            self._hold_wild,
+            self._ints,
+            self._floats,
+        )
+        return ~forbid
 
     # ------------------------------------------------------------------ solve
     def _bind(self, world: World) -> None:
@@ -620,10 +373,39 @@ class VelocityPlanner:
         self._front = world.front
         self._crosswalks = crosswalks_of(world.layout)
         self._turns = route_turns(world.layout.routes)
-        self._look = np.arange(0, 24)  # 12 m of path ahead, for curve speeds
         steps = int(round(self.config.horizon / world.dt))
         self._decay = (1.0 - self.config.speed_gain * world.dt) ** np.arange(
             -steps, steps + 1, dtype=float
+        )
+        # the defensive kernel's tables: route pairs where the first turns across the second
+        n_routes = len(self._turns[0])
+        ra, rb = np.meshgrid(np.arange(n_routes), np.arange(n_routes), indexing="ij")
+        self._across = np.ascontiguousarray(turns_across(*self._turns, ra, rb))
+        cfg, k = self.config, len(self.fractions)
+        # an uncontrolled agent holds its speed 0 … period steps, then brakes at its limit
+        self._hold_wild = np.rint(np.linspace(0, cfg.period, k)).astype(np.int64)
+        self._ints = np.array(
+            [
+                cfg.period,
+                steps,
+                int(round(GIVE_WAY_HORIZON / world.dt)),
+                cfg.sample_every,
+                int(round(GIVE_WAY_LOOK_AHEAD / PATH_SPACING)),
+            ],
+            dtype=np.int64,
+        )
+        self._floats = np.array(
+            [
+                world.dt,
+                cfg.max_accel,
+                cfg.max_decel,
+                cfg.speed_gain,
+                cfg.margin,
+                cfg.pedestrian_margin,
+                cfg.lateral_accel,
+                PATH_SPACING,
+                STATIONARY_SPEED,
+            ]
         )
 
     def plan(self, world: World, uncontrolled: np.ndarray | None = None) -> np.ndarray:
@@ -642,24 +424,19 @@ class VelocityPlanner:
         if uncontrolled is not None and uncontrolled[agents].any():
             allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
         pairs, conflict = self.conflicts(world, agents, s_proj)
-        k = len(self.fractions)
-        choice = k - 1 - np.argmax(allowed[:, ::-1], axis=1)  # fastest allowed
-        # the CSP only matters when some constraint binds at everyone's fastest allowed speed
-        if (
-            len(pairs)
-            and conflict[np.arange(len(pairs)), choice[pairs[:, 0]], choice[pairs[:, 1]]].any()
-        ):
-            problem = Problem(_PrioritySolver(self.priority(world, agents)))
-            for a in np.unique(pairs).tolist():
-                problem.addVariable(a, allowed[a].nonzero()[0].tolist())
-            for (a, b), table in zip(pairs.tolist(), conflict.tolist(), strict=True):
-                problem.addConstraint(
-                    FunctionConstraint(lambda x, y, bad=table: not bad[x][y]), [a, b]
-                )
-            solution = problem.getSolution()
-            if solution is None:  # cannot happen (all-stop is feasible); fail loudly if it does
-                raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
-            for a, c in solution.items():
-                choice[a] = c
+        # the fastest allowed candidates, or, where a constraint binds there, the CSP's answer
+        choice, solved = plan_choice(
+            agents,
+            world.s,
+            world.offset,
+            self._front,
+            world.route,
+            world.layout.routes.enter_s,
+            allowed,
+            pairs,
+            conflict,
+        )
+        if not solved:  # cannot happen (all-stop is feasible); fail loudly if it does
+            raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
         out[agents] = targets[np.arange(len(agents)), choice]
         return out

@@ -1,4 +1,4 @@
-"""The simulator's compiled loops (world step, explicit observation) against the numpy
+"""The simulator's compiled loops (world step, arrivals, explicit observation) against the numpy
 formulations they replaced (tolerances and why: ``tests/kernel_compare.py``).
 
 States come from seeded supervised episodes on every layout builder, every few steps, with
@@ -19,7 +19,7 @@ from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.sim.dynamics import integrate
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.sensors.explicit import ExplicitSensor
-from fluids_bench.tasks.fluids.sim.world import PROGRESS_WINDOW
+from fluids_bench.tasks.fluids.sim.world import GOAL_TOLERANCE, PROGRESS_WINDOW
 from fluids_bench.tasks.fluids.supervisor.episode import make_world
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
@@ -40,7 +40,7 @@ def _states(layout: str, seed: int):
 @pytest.mark.parametrize("layout", ["four_way", "t_junction", "roundabout"])
 @pytest.mark.parametrize("seed", [0, 1])
 def test_world_kernels_equal_the_numpy_reference(layout, seed):
-    pairs_seen = unsure_seen = 0
+    pairs_seen = unsure_seen = arrivals_seen = 0
     for world, rng in _states(layout, seed):
         w = world
         # dynamics, with controls past every limit and some agents inactive
@@ -63,6 +63,15 @@ def test_world_kernels_equal_the_numpy_reference(layout, seed):
         )
         for g, r in zip(got, ref.progress(w), strict=True):
             assert_kernel_close(g, r)
+        # arrival at the end of the path (every agent's progress moved near its end)
+        s = w.path_len - w.length / 2 - rng.uniform(-1.0, 1.5, w.n)
+        active, reached = rng.random(w.n) < 0.8, rng.random(w.n) < 0.2
+        arrived = active & (s >= w.path_len - w.length / 2 - GOAL_TOLERANCE)
+        want_active, want_reached = active & ~arrived, reached | arrived
+        kernels.mark_arrived(s, w.path_len, w.length, GOAL_TOLERANCE, active, reached)
+        np.testing.assert_array_equal(active, want_active)
+        np.testing.assert_array_equal(reached, want_reached)
+        arrivals_seen += int(arrived.sum())
         # the quick on-road test
         sure = w.surely_on_road()
         np.testing.assert_array_equal(sure[w.is_car], ref.surely_on_road(w)[w.is_car])  # cars only
@@ -80,7 +89,8 @@ def test_world_kernels_equal_the_numpy_reference(layout, seed):
             for k in (3, 16):
                 got = ExplicitSensor(k).observe(w, rng, ego)
                 assert_kernel_close(got, ref.explicit(w, k, ego).astype(np.float32))
-    assert pairs_seen > 0 and unsure_seen > 0  # the comparison saw contacts and cars off the road
+    # the comparison saw contacts, cars off the road and arrivals
+    assert pairs_seen > 0 and unsure_seen > 0 and arrivals_seen > 0
 
 
 def test_angles_wrap_like_numpy_at_the_edges():

@@ -86,14 +86,14 @@ def test_planner_dynamics_fields_are_validated(field, value):
 
 
 def test_priority_order_is_honoured_by_the_installed_solver():
-    """The planner fixes python-constraint2's variable order by overriding the solver's
-    getSortedVariables (no public API for it): the installed version must still consult it.
+    """The CSP reference (csp_reference.py) fixes python-constraint2's variable order by
+    overriding the solver's getSortedVariables (no public API for it): the installed version
+    must still consult it.
     The solver tries a domain's values from the end, so whichever variable comes first takes
     the larger value of a + b <= 1; the library's own order (most constraints first) would
     put "b" first here."""
     from constraint import FunctionConstraint, Problem
-
-    from fluids_bench.tasks.fluids.supervisor.velocity import _PrioritySolver
+    from csp_reference import _PrioritySolver
 
     def solve(order):
         problem = Problem(_PrioritySolver(order))

@@ -1,7 +1,8 @@
 """The supervisor's compiled kernels against plain numpy references (tolerances and why: see
 ``tests/kernel_compare.py``; the PID's heading uses atan2, which numpy vectorises).
 
-The references are the vectorised formulations the kernels replaced: whole (A, K, T) speed
+The references are the vectorised formulations the kernels replaced: the allowed speeds
+(compared bit for bit: gathers, min/max and sqrt on both sides), whole (A, K, T) speed
 profiles with a cumulative sum, (P, K, K, T) pairwise distance arrays, and the PID loops as
 array expressions. States come from
 seeded supervised episodes and from the same states with agents shuffled about, so that both
@@ -17,6 +18,18 @@ from kernel_compare import assert_kernel_close
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import make_world
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+
+
+def reference_allowed_speed(planner, world, agents):
+    k0 = np.rint(world.route_s[agents] / 0.5).astype(np.int64)
+    last = world.layout.routes.path.shape[1] - 1
+    r, k = world.route[agents], np.minimum(np.maximum(k0[:, None] + np.arange(24), 0), last)
+    routes = world.layout.routes
+    kappa = routes.curvature[r[:, None], k].max(axis=1)
+    limit = routes.speed_limit[r, k[:, 0]]
+    curve = np.sqrt(planner.config.lateral_accel / np.maximum(kappa, 1e-6))
+    out = np.minimum(world.max_speed[agents], np.minimum(limit, curve))
+    return np.where(world.is_car[agents], out, world.max_speed[agents])
 
 
 def reference_project(planner, world, agents, targets):
@@ -135,7 +148,9 @@ def test_kernels_equal_the_numpy_reference(layout, seed):
     for world, planner in _states(layout, seed):
         planner._bind(world)
         agents = world.active.nonzero()[0]
-        targets = planner.allowed_speed(world, agents)[:, None] * planner.fractions
+        vmax = planner.allowed_speed(world, agents)
+        np.testing.assert_array_equal(vmax, reference_allowed_speed(planner, world, agents))
+        targets = vmax[:, None] * planner.fractions
         s_proj = planner.project(world, agents, targets)
         assert_kernel_close(s_proj, reference_project(planner, world, agents, targets))
         pairs, conflict = planner.conflicts(world, agents, s_proj)
