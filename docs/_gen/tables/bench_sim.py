@@ -10,6 +10,7 @@ from benchfmt import machine_line, n  # noqa: E402
 NAMES = {
     "S1": "S1: four-way, 4 cars + 2 pedestrians, no observation",
     "S2": "S2: `FLUIDS-v0`, ego + 10 cars + 5 pedestrians, explicit observation + label",
+    "S2v1": "S2 as `FLUIDS-v1` (its defensive planner and rules)",
     "S3": "S3: two-lane four-way, 20 cars + 10 pedestrians, no observation",
 }
 
