@@ -33,6 +33,13 @@ SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "locomotion_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = {"policy": 0.3, "mpc": 600.0, "guided_mpc": 300.0}  # 1,000 steps
+# What a teacher for noise-injection methods must keep under executed-action noise N(0, s^2 I):
+# a share of its clean mean return, and no episode ending in a fall (or, for HalfCheetah, which
+# never terminates, on its back)
+NOISE_TARGETS = [
+    {"noise_std": 0.05, "min_share_of_clean": 0.9, "no_falls": True},
+    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": True},
+]
 
 
 def summarise(records: list[dict]) -> list[dict]:
@@ -248,6 +255,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": machine_at_start,
         "seconds": round(time.perf_counter() - start, 1),
         "rows": summarise(mine),
+        "noise_targets": NOISE_TARGETS,
         "shipped": shipped(),
     }
     args.results.parent.mkdir(parents=True, exist_ok=True)
