@@ -143,7 +143,7 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
         obs_noise: float = 0.0,
         action_noise: float = 0.0,
     ) -> None:
-        where = f"{self.task}-IL-v0"
+        where = self._where = f"{self.task}-IL-v0"
         physics = {
             "body_mass_scale": check_float(where, "body_mass_scale", body_mass_scale, 0.1, 10.0),
             "friction_scale": check_float(where, "friction_scale", friction_scale, 0.0, 10.0),
@@ -238,7 +238,9 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
     def _label(self, obs: np.ndarray | None) -> np.ndarray:
         # both kinds stay inside the bounds (tanh squashing; the planner clips its controls to
         # the actuator ranges, which are the action space's), so no clip is needed here
-        return self._supervisor.label(self._sim, obs).astype(self.action_space.dtype, copy=False)
+        label = self._supervisor.label(self._sim, obs)
+        # the policy's label is float32 already (the action dtype): no astype call per step
+        return label if label.dtype == np.float32 else label.astype(np.float32)
 
     # -- Gymnasium API ---------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):
@@ -249,7 +251,7 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
         return self._observe(obs), info
 
     def step(self, action):
-        action = check_action(f"{self.task}-IL-v0", self.action_space, action)
+        action = check_action(self._where, self.action_space, action)
         if self.action_noise > 0.0:  # actuation noise, from this env's np_random
             noise = self.np_random.normal(0.0, self.action_noise, action.shape)
             space = self.action_space
