@@ -443,7 +443,9 @@ def from_weights(path: Path, shapes, low, high, count: float, error):
         )
     if not (np.array_equal(policy.action_low, low) and np.array_equal(policy.action_high, high)):
         error(f"--init-weights {path} has other action bounds than the env's")
-    theta = np.concatenate([a.ravel() for w, b in zip(policy.weights, policy.biases) for a in (w, b)])
+    theta = np.concatenate(
+        [a.ravel() for w, b in zip(policy.weights, policy.biases, strict=True) for a in (w, b)]
+    )
     mean = policy.obs_mean
     var = np.where(np.isfinite(policy.obs_std), policy.obs_std**2, 0.0)
     s1, s2 = count * mean, count * (var + mean * mean)

@@ -121,7 +121,7 @@ def test_a_stage_from_a_weight_file_starts_at_its_parameters_and_normaliser(tmp_
     assert train.main([*argv, "--init-weights", str(first), "--init-obs-count", "1e9"]) == 0
     ckpt = np.load(second.with_name("w.npz.ckpt.npz"))
     params = np.concatenate(
-        [a.ravel() for w, b in zip(source.weights, source.biases) for a in (w, b)]
+        [a.ravel() for w, b in zip(source.weights, source.biases, strict=True) for a in (w, b)]
     )
     assert np.array_equal(ckpt["theta"], params)
     assert np.allclose(ckpt["s1"] / ckpt["n"], source.obs_mean, rtol=1e-6, atol=1e-9)
