@@ -82,6 +82,7 @@ def shipped() -> dict:
     for name, entry in json.loads(path.read_text()).items():
         recipe = entry["recipe"]
         keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
+        keep += ("action_noise",)
         out[name] = {
             "file": entry["file"],
             "sha256": entry["sha256"],
@@ -92,6 +93,8 @@ def shipped() -> dict:
             "recipe": {k: recipe[k] for k in keep if k in recipe},
             "init": (
                 {
+                    # "checkpoint" (--init: a run's state) or "weights" (--init-weights: a file)
+                    "from": "weights" if "weights" in recipe["init"] else "checkpoint",
                     "iteration": recipe["init"]["iteration"],
                     "recipe": {
                         k: recipe["init"]["recipe"][k]

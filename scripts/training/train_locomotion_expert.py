@@ -47,6 +47,7 @@ import numpy as np
 
 from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
+from fluids_bench.tasks.locomotion.supervisors import manifest
 
 # The ARS paper's V2-t settings per task (Table 9 of arXiv:1803.07055), shift = survival bonus.
 PRESETS = {
@@ -233,7 +234,9 @@ def main(argv: list[str] | None = None) -> int:
         )
         best_theta, (best_mean, best_std) = theta.copy(), _moments(n, s1, s2)
         start, history, best = 0, [], {"mean_return": -np.inf, "iteration": 0}
-        elapsed, env_steps = 0.0, 0
+        # the cost so far carried on, as --init does (known when the file is a shipped one)
+        elapsed = recipe["init"].get("training_seconds", 0.0)
+        env_steps = recipe["init"].get("training_env_steps", 0)
         print(f"new stage from the weights {args.init_weights}")
     elif resume_from is not None:
         with np.load(resume_from, allow_pickle=False) as z:
@@ -450,12 +453,12 @@ def from_weights(path: Path, shapes, low, high, count: float, error):
     var = np.where(np.isfinite(policy.obs_std), policy.obs_std**2, 0.0)
     s1, s2 = count * mean, count * (var + mean * mean)
     record = {"weights": path.name, "sha256": sha256_of(path), "obs_count": count}
-    shipped_manifest = path.with_name("manifest.json")
-    if shipped_manifest.exists():  # a shipped expert: keep its own record
-        for entry in json.loads(shipped_manifest.read_text()).values():
-            if entry.get("file") == path.name and entry.get("sha256") == record["sha256"]:
-                record["iteration"] = entry["selected_at_iteration"]
-                record["recipe"] = entry["recipe"]
+    for entry in manifest().values():  # a shipped expert (or a copy of one): keep its record
+        if entry["sha256"] == record["sha256"]:
+            record["iteration"] = entry["selected_at_iteration"]
+            record["recipe"] = entry["recipe"]
+            record["training_env_steps"] = entry["training_env_steps"]
+            record["training_seconds"] = entry["training_seconds"]
     return theta, float(count), s1, s2, record
 
 

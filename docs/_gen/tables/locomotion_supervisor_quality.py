@@ -142,13 +142,21 @@ def training(data: dict) -> str:
                 f"N = {r['n_directions']}, b = {r['top']}, α = {r['step_size']:g}, "
                 f"ν = {r['noise']:g}, shift {r['shift']:g}, seed {r['seed']}"
             )
-            return text + (", linear + tanh" if not r.get("hidden") else f", hidden {r['hidden']}")
+            text += ", linear + tanh" if not r.get("hidden") else f", hidden {r['hidden']}"
+            if r.get("action_noise"):
+                text += f", trained under action noise σ = {r['action_noise']:g}"
+            return text
 
         text = settings(s["recipe"])
         if s["init"]:
             text = (
                 f"stage 1: {settings(s['init']['recipe'])}, to iteration {s['init']['iteration']}; "
-                f"stage 2 (`--init` from that checkpoint): {text}"
+                + (
+                    "stage 2 (`--init-weights` from that stage's weight file): "
+                    if s["init"].get("from") == "weights"
+                    else "stage 2 (`--init` from that checkpoint): "
+                )
+                + text
             )
         lines.append(
             f"| {name} | {text} | {s['selected_at_iteration']} | {s['training_env_steps'] / 1e6:.2f} M "
