@@ -18,7 +18,8 @@ same command again to continue. Ctrl-C stops cleanly after the current iteration
 state statistics, random generator and iteration count) with this command's settings, e.g.
 another ``--shift``; the stage's recipe records the one it started from. ``--init-weights
 <file>.npz`` starts a stage from a weight file alone (a shipped expert: its parameters, and its
-normaliser as the statistics of ``--init-obs-count`` states), with a fresh generator.
+normaliser as the statistics of ``--init-obs-count`` states), with a fresh generator; a file
+whose sha256 the shipped manifest records also carries on that run's iteration count and cost.
 
 ``--action-noise S`` trains a teacher that tolerates the noise imitation learning injects: every
 executed action is ``clip(policy(obs) + N(0, S^2 I), low, high)`` (the noise drawn from the
@@ -233,8 +234,10 @@ def main(argv: list[str] | None = None) -> int:
             args.init_weights, shapes, low, high, args.init_obs_count, p.error
         )
         best_theta, (best_mean, best_std) = theta.copy(), _moments(n, s1, s2)
-        start, history, best = 0, [], {"mean_return": -np.inf, "iteration": 0}
-        # the cost so far carried on, as --init does (known when the file is a shipped one)
+        # the iteration count and cost so far carried on, as --init does (known when the file
+        # is a shipped one); --iterations counts from the first stage's start
+        start = recipe["init"].get("iteration", 0)
+        history, best = [], {"mean_return": -np.inf, "iteration": start}
         elapsed = recipe["init"].get("training_seconds", 0.0)
         env_steps = recipe["init"].get("training_env_steps", 0)
         print(f"new stage from the weights {args.init_weights}")
