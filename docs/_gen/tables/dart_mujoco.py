@@ -53,8 +53,12 @@ def render(data: dict, **options) -> str:
     head += " | mean collection return |"
     if first is not None:
         head += f" collection from iter {first + 1}, % of supervisor |"
+    # the noise each run injected (files written before the runs recorded it have no column)
+    traces = any(any(v is not None for v in r[4].get("noise_trace_mean", [])) for r in rows)
+    if traces:
+        head += " injected tr(Σ), mean |"
     head += " fit seconds |"
-    lines = [head, "|---|" + "---|" * (len(eval_at) + 2 + (first is not None))]
+    lines = [head, "|---|" + "---|" * (len(eval_at) + 2 + (first is not None) + traces)]
     for _, _, learner, method, s in rows:
         name = METHODS[method].format(
             trace=settings.get("dart_fixed_trace", 0.0), T=settings["eval_steps"]
@@ -68,10 +72,18 @@ def render(data: dict, **options) -> str:
         if first is not None:
             late = s["collection_return_mean"][first:]
             share = f" {100 * sum(late) / len(late) / s['supervisor_return_mean']:.0f} % |"
+        injected = ""
+        if traces:
+            # a record's trace is the noise of the next iteration's rollouts: those from
+            # iteration first + 1 on (the share column's) were collected under records first..-1
+            recorded = s.get("noise_trace_mean", [])
+            recorded = recorded[first - 1 : -1] if first else recorded
+            values = [v for v in recorded if v is not None]
+            injected = f" {sum(values) / len(values):.3g} |" if values else " – |"
         lines.append(
             f"| {'MLP' if learner == 'mlp' else 'linear'} / {name} | "
             + " | ".join(cells)
-            + f" | {_n(collection)} |{share} {s['train_seconds_total_mean']:.0f} |"
+            + f" | {_n(collection)} |{share}{injected} {s['train_seconds_total_mean']:.0f} |"
         )
     first_row = rows[0][4]
     lines.append("")
@@ -85,6 +97,12 @@ def render(data: dict, **options) -> str:
             "supervisor's. "
             if first is not None
             else ". "
+        )
+        + (
+            "Injected tr(Σ): the trace of the noise covariance those rollouts were collected "
+            "under, mean over them and the seeds. "
+            if traces
+            else ""
         )
         + f"Supervisor: {_supervisor(first_row)}. "
         "Fit seconds: total time fitting the learner (cumulative `train_seconds`, mean over seeds)."
