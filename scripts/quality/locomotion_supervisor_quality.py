@@ -75,14 +75,31 @@ def summarise(records: list[dict]) -> list[dict]:
     return rows
 
 
+def _stages(recipe: dict, keep: tuple[str, ...]) -> list[dict]:
+    """The training stages that led to a recipe, the first first: each one's settings and how
+    it started ("from": None for a run from zero, "checkpoint" for ``--init``, "weights" for
+    ``--init-weights``; "started_at_iteration": the iteration it took over at)."""
+    chain, stage = [], recipe
+    while stage is not None:
+        init = stage.get("init")
+        chain.append(
+            {
+                "recipe": {k: stage[k] for k in keep if k in stage},
+                "from": None if not init else ("weights" if "weights" in init else "checkpoint"),
+                "started_at_iteration": init.get("iteration") if init else None,
+            }
+        )
+        stage = init.get("recipe") if init else None
+    return chain[::-1]
+
+
 def shipped() -> dict:
     """The shipped policies' training records, from the package's weights manifest."""
     path = ROOT / "fluids_bench" / "tasks" / "locomotion" / "weights" / "manifest.json"
+    keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
+    keep += ("action_noise",)
     out = {}
     for name, entry in json.loads(path.read_text()).items():
-        recipe = entry["recipe"]
-        keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
-        keep += ("action_noise",)
         out[name] = {
             "file": entry["file"],
             "sha256": entry["sha256"],
@@ -90,21 +107,7 @@ def shipped() -> dict:
             "training_env_steps": entry["training_env_steps"],
             "training_eval_mean_return": round(entry["training_eval"]["mean_return"], 1),
             "training_eval_episodes": len(entry["training_eval"]["steps"]),
-            "recipe": {k: recipe[k] for k in keep if k in recipe},
-            "init": (
-                {
-                    # "checkpoint" (--init: a run's state) or "weights" (--init-weights: a file)
-                    "from": "weights" if "weights" in recipe["init"] else "checkpoint",
-                    "iteration": recipe["init"]["iteration"],
-                    "recipe": {
-                        k: recipe["init"]["recipe"][k]
-                        for k in keep
-                        if k in recipe["init"]["recipe"]
-                    },
-                }
-                if "init" in recipe
-                else None
-            ),
+            "stages": _stages(entry["recipe"], keep),
         }
     return out
 

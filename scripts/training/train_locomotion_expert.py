@@ -19,7 +19,8 @@ state statistics, random generator and iteration count) with this command's sett
 another ``--shift``; the stage's recipe records the one it started from. ``--init-weights
 <file>.npz`` starts a stage from a weight file alone (a shipped expert: its parameters, and its
 normaliser as the statistics of ``--init-obs-count`` states), with a fresh generator; a file
-whose sha256 the shipped manifest records also carries on that run's iteration count and cost.
+this script wrote (its ``<file>.json`` beside it) or whose sha256 the shipped manifest records
+also carries on that run's iteration count and cost.
 
 ``--action-noise S`` trains a teacher that tolerates the noise imitation learning injects: every
 executed action is ``clip(policy(obs) + N(0, S^2 I), low, high)`` (the noise drawn from the
@@ -456,12 +457,22 @@ def from_weights(path: Path, shapes, low, high, count: float, error):
     var = np.where(np.isfinite(policy.obs_std), policy.obs_std**2, 0.0)
     s1, s2 = count * mean, count * (var + mean * mean)
     record = {"weights": path.name, "sha256": sha256_of(path), "obs_count": count}
-    for entry in manifest().values():  # a shipped expert (or a copy of one): keep its record
-        if entry["sha256"] == record["sha256"]:
-            record["iteration"] = entry["selected_at_iteration"]
-            record["recipe"] = entry["recipe"]
-            record["training_env_steps"] = entry["training_env_steps"]
-            record["training_seconds"] = entry["training_seconds"]
+    # the file's own run: the record this script wrote next to it, or the shipped manifest's
+    # (a shipped file or a copy of one); either gives the same iteration to carry on from
+    meta_path = path.with_name(path.name + ".json")
+    meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    if meta.get("sha256") == record["sha256"]:
+        record["iteration"] = meta["best"]["iteration"]
+        record["recipe"] = meta["recipe"]
+        record["training_env_steps"] = meta["env_steps"]
+        record["training_seconds"] = meta["elapsed_s"]
+    else:
+        for entry in manifest().values():
+            if entry["sha256"] == record["sha256"]:
+                record["iteration"] = entry["selected_at_iteration"]
+                record["recipe"] = entry["recipe"]
+                record["training_env_steps"] = entry["training_env_steps"]
+                record["training_seconds"] = entry["training_seconds"]
     return theta, float(count), s1, s2, record
 
 

@@ -147,17 +147,21 @@ def training(data: dict) -> str:
                 text += f", trained under action noise σ = {r['action_noise']:g}"
             return text
 
-        text = settings(s["recipe"])
-        if s["init"]:
-            text = (
-                f"stage 1: {settings(s['init']['recipe'])}, to iteration {s['init']['iteration']}; "
-                + (
-                    "stage 2 (`--init-weights` from that stage's weight file): "
-                    if s["init"].get("from") == "weights"
-                    else "stage 2 (`--init` from that checkpoint): "
-                )
-                + text
-            )
+        stages = s["stages"]
+        if len(stages) == 1:
+            text = settings(stages[0]["recipe"])
+        else:
+            parts = []
+            for i, stage in enumerate(stages):
+                how = {
+                    None: "",
+                    "checkpoint": " (`--init` from the previous stage's checkpoint at "
+                    f"iteration {stage['started_at_iteration']})",
+                    "weights": " (`--init-weights` from the previous stage's weight file, "
+                    f"iteration {stage['started_at_iteration']})",
+                }[stage["from"]]
+                parts.append(f"stage {i + 1}{how}: {settings(stage['recipe'])}")
+            text = "; ".join(parts)
         lines.append(
             f"| {name} | {text} | {s['selected_at_iteration']} | {s['training_env_steps'] / 1e6:.2f} M "
             f"| {_n(s['training_eval_mean_return'])} ({s['training_eval_episodes']} episodes) |"
@@ -165,7 +169,9 @@ def training(data: dict) -> str:
     lines += [
         "",
         "From `fluids_bench/tasks/locomotion/weights/manifest.json` (each file's sha256 and full recipe "
-        "are recorded there and checked when the file is loaded).",
+        "are recorded there and checked when the file is loaded). Training evaluation: the "
+        "selected policy's mean return over the run's evaluation episodes; for a stage trained "
+        "under action noise, over its clean and its noisy ones (the same seeds).",
     ]
     return "\n".join(lines)
 

@@ -117,7 +117,7 @@ def test_a_stage_from_a_weight_file_starts_at_its_parameters_and_normaliser(tmp_
     source = MLPPolicy.from_bytes(first.read_bytes())
     second = tmp_path / "second" / "w.npz"
     second.parent.mkdir()
-    argv = [*TINY, "--out", str(second), "--iterations", "1", "--step-size", "0"]
+    argv = [*TINY, "--out", str(second), "--iterations", "3", "--step-size", "0"]
     assert train.main([*argv, "--init-weights", str(first), "--init-obs-count", "1e9"]) == 0
     ckpt = np.load(second.with_name("w.npz.ckpt.npz"))
     params = np.concatenate(
@@ -125,8 +125,12 @@ def test_a_stage_from_a_weight_file_starts_at_its_parameters_and_normaliser(tmp_
     )
     assert np.array_equal(ckpt["theta"], params)
     assert np.allclose(ckpt["s1"] / ckpt["n"], source.obs_mean, rtol=1e-6, atol=1e-9)
-    record = json.loads(second.with_name("w.npz.json").read_text())["recipe"]["init"]
+    meta = json.loads(second.with_name("w.npz.json").read_text())
+    record = meta["recipe"]["init"]
     assert record["weights"] == "w.npz" and record["obs_count"] == 1e9
+    # the file's own record (written beside it) carries on its run's iteration count
+    assert record["iteration"] == 2 and record["recipe"]["n_directions"] == 3
+    assert [row["iteration"] for row in meta["history"]] == [3]
     with pytest.raises(SystemExit):  # the file's layers are not this run's
         train.main([*argv, "--hidden", "5", "--init-weights", str(first)])
 
