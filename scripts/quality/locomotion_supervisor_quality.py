@@ -34,11 +34,11 @@ ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "locomotion_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = {"policy": 0.3, "mpc": 600.0, "guided_mpc": 300.0}  # 1,000 steps
 # What a teacher for noise-injection methods must keep under executed-action noise N(0, s^2 I):
-# a share of its clean mean return, and no episode ending in a fall (or, for HalfCheetah, which
-# never terminates, on its back)
+# a share of its clean mean return and, where no_falls, no episode ending in a fall (for
+# HalfCheetah, which never terminates: no step on its back); falls are shown at every level
 NOISE_TARGETS = [
     {"noise_std": 0.05, "min_share_of_clean": 0.9, "no_falls": True},
-    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": True},
+    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": False},
 ]
 
 

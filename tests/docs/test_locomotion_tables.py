@@ -15,9 +15,9 @@ def _load(name: str):
     return module
 
 
-TARGETS = [
+TARGETS = [  # the quality script's: no falls at 0.05, falls allowed (and shown) at 0.1
     {"noise_std": 0.05, "min_share_of_clean": 0.9, "no_falls": True},
-    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": True},
+    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": False},
 ]
 
 
@@ -53,18 +53,19 @@ def test_a_teacher_meets_the_targets_only_with_enough_return_and_no_fall():
     rows = [
         _row("Hopper-IL-v0", 0.0, 3000),
         _row("Hopper-IL-v0", 0.05, 2900),
-        _row("Hopper-IL-v0", 0.1, 2500),
+        _row("Hopper-IL-v0", 0.1, 2500, falls=2),  # 83 %; falls at 0.1 are not a target
         _row("Walker2d-IL-v0", 0.0, 4000),
-        _row("Walker2d-IL-v0", 0.05, 3900),
-        _row("Walker2d-IL-v0", 0.1, 3900, falls=1),  # enough return, but one fall
+        _row("Walker2d-IL-v0", 0.05, 3900, falls=1),  # enough return, but one fall
+        _row("Walker2d-IL-v0", 0.1, 3900),
         _row("Humanoid-IL-v0", 0.0, 7000),
         _row("Humanoid-IL-v0", 0.05, 6000),  # 86 % < 90 %
         _row("Humanoid-IL-v0", 0.1, 6000),
         _row("HalfCheetah-IL-v0", 0.0, 5000),
-        _row("HalfCheetah-IL-v0", 0.05, 5000),
-        _row("HalfCheetah-IL-v0", 0.1, 4900, flipped=0.001),  # on its back: its fall
+        _row("HalfCheetah-IL-v0", 0.05, 5000, flipped=0.001),  # on its back: its fall
+        _row("HalfCheetah-IL-v0", 0.1, 4900),
     ]
-    assert _verdicts(rows) == {
+    verdicts = _verdicts(rows)
+    assert verdicts == {
         "Hopper-IL-v0": "yes",
         "Walker2d-IL-v0": "**no**",
         "HalfCheetah-IL-v0": "**no**",
