@@ -180,6 +180,7 @@ def summarise(runs: list[dict]) -> dict[str, Any]:
             "eval_return_mean": ev.mean(0).round(1).tolist(),
             "eval_return_se": (ev.std(0) / np.sqrt(len(rs))).round(1).tolist(),
             "collection_return_mean": coll.mean(0).round(1).tolist(),
+            "collection_iterations": [x["iteration"] for x in rs[0]["records"]],
             "train_seconds_total_mean": round(
                 float(np.mean([r["records"][-1]["train_seconds"] for r in rs])), 2
             ),

@@ -69,16 +69,24 @@ def render(data: dict, **options) -> str:
         ]
         collection = sum(s["collection_return_mean"]) / len(s["collection_return_mean"])
         share = ""
+        collected = s["collection_return_mean"]
+        # the iteration of each record (DAgger's first is iteration 0: its initial demonstration)
+        its = s.get("collection_iterations") or list(
+            range(settings["iterations"] + 1 - len(collected), settings["iterations"] + 1)
+        )
         if first is not None:
-            late = s["collection_return_mean"][first:]
+            late = [c for i, c in zip(its, collected, strict=True) if i > first]
             share = f" {100 * sum(late) / len(late) / s['supervisor_return_mean']:.0f} % |"
         injected = ""
         if traces:
             # a record's trace is the noise of the next iteration's rollouts: those from
             # iteration first + 1 on (the share column's) were collected under records first..-1
-            recorded = s.get("noise_trace_mean", [])
-            recorded = recorded[first - 1 : -1] if first else recorded
-            values = [v for v in recorded if v is not None]
+            recorded = zip(its, s.get("noise_trace_mean", []), strict=True)
+            values = [
+                v
+                for i, v in recorded
+                if v is not None and (first or 0) <= i < settings["iterations"]
+            ]
             injected = f" {sum(values) / len(values):.3g} |" if values else " – |"
         lines.append(
             f"| {'MLP' if learner == 'mlp' else 'linear'} / {name} | "

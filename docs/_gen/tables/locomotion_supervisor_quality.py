@@ -119,7 +119,7 @@ def tolerance(data: dict) -> str:
     )
     lines += [
         "",
-        f"Targets: {rules} (on HalfCheetah, which never terminates, no step on its back). "
+        f"Targets: {rules}; HalfCheetah never terminates, so its fall is a step on its back. "
         f"{data['episodes']} seeded episodes of {data['steps']:,} steps per cell (seeds {data['seeds']}); "
         f"noise: {data['noise']}.",
     ]

@@ -54,7 +54,7 @@ def test_walker2d_policy_walks_above_the_floor_without_falling():
 
 def test_halfcheetah_policy_runs_upright_above_the_floor():
     """Shipped HalfCheetah policy: 3 seeded 1,000-step episodes, mean >= 4,400 (the issue's
-    floor; the README's 10 episodes: 4,843 ± 48), never on its back."""
+    floor; the quality table's 10 episodes: 5,115 ± 30), never on its back."""
     env = gym.make("HalfCheetah-IL-v0", supervisor="policy")
     returns = []
     for seed in range(3):
