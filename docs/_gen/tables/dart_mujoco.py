@@ -22,6 +22,10 @@ def _n(x: float) -> str:
     return f"{x:,.0f}"
 
 
+def _seconds(x: float) -> str:
+    return f"{x:.1f}" if x < 10 else f"{x:,.0f}"
+
+
 def _supervisor(row: dict) -> str:
     record = row.get("supervisor")
     if not record:
@@ -91,7 +95,7 @@ def render(data: dict, **options) -> str:
         lines.append(
             f"| {'MLP' if learner == 'mlp' else 'linear'} / {name} | "
             + " | ".join(cells)
-            + f" | {_n(collection)} |{share}{injected} {s['train_seconds_total_mean']:.0f} |"
+            + f" | {_n(collection)} |{share}{injected} {_seconds(s['train_seconds_total_mean'])} |"
         )
     first_row = rows[0][4]
     lines.append("")
