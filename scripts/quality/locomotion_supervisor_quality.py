@@ -33,6 +33,13 @@ SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid
 ROOT = Path(__file__).resolve().parents[2]
 RESULTS = ROOT / "docs" / "results" / "locomotion_supervisor_quality.json"
 CPU_SECONDS_PER_EPISODE = {"policy": 0.3, "mpc": 600.0, "guided_mpc": 300.0}  # 1,000 steps
+# What a teacher for noise-injection methods must keep under executed-action noise N(0, s^2 I):
+# a share of its clean mean return and, where no_falls, no episode ending in a fall (for
+# HalfCheetah, which never terminates: no step on its back); falls are shown at every level
+NOISE_TARGETS = [
+    {"noise_std": 0.05, "min_share_of_clean": 0.9, "no_falls": True},
+    {"noise_std": 0.1, "min_share_of_clean": 0.8, "no_falls": False},
+]
 
 
 def summarise(records: list[dict]) -> list[dict]:
@@ -68,13 +75,31 @@ def summarise(records: list[dict]) -> list[dict]:
     return rows
 
 
+def _stages(recipe: dict, keep: tuple[str, ...]) -> list[dict]:
+    """The training stages that led to a recipe, the first first: each one's settings and how
+    it started ("from": None for a run from zero, "checkpoint" for ``--init``, "weights" for
+    ``--init-weights``; "started_at_iteration": the iteration it took over at)."""
+    chain, stage = [], recipe
+    while stage is not None:
+        init = stage.get("init")
+        chain.append(
+            {
+                "recipe": {k: stage[k] for k in keep if k in stage},
+                "from": None if not init else ("weights" if "weights" in init else "checkpoint"),
+                "started_at_iteration": init.get("iteration") if init else None,
+            }
+        )
+        stage = init.get("recipe") if init else None
+    return chain[::-1]
+
+
 def shipped() -> dict:
     """The shipped policies' training records, from the package's weights manifest."""
     path = ROOT / "fluids_bench" / "tasks" / "locomotion" / "weights" / "manifest.json"
+    keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
+    keep += ("action_noise",)
     out = {}
     for name, entry in json.loads(path.read_text()).items():
-        recipe = entry["recipe"]
-        keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
         out[name] = {
             "file": entry["file"],
             "sha256": entry["sha256"],
@@ -82,19 +107,7 @@ def shipped() -> dict:
             "training_env_steps": entry["training_env_steps"],
             "training_eval_mean_return": round(entry["training_eval"]["mean_return"], 1),
             "training_eval_episodes": len(entry["training_eval"]["steps"]),
-            "recipe": {k: recipe[k] for k in keep if k in recipe},
-            "init": (
-                {
-                    "iteration": recipe["init"]["iteration"],
-                    "recipe": {
-                        k: recipe["init"]["recipe"][k]
-                        for k in keep
-                        if k in recipe["init"]["recipe"]
-                    },
-                }
-                if "init" in recipe
-                else None
-            ),
+            "stages": _stages(entry["recipe"], keep),
         }
     return out
 
@@ -248,6 +261,7 @@ def main(argv: list[str] | None = None) -> int:
         "machine": machine_at_start,
         "seconds": round(time.perf_counter() - start, 1),
         "rows": summarise(mine),
+        "noise_targets": NOISE_TARGETS,
         "shipped": shipped(),
     }
     args.results.parent.mkdir(parents=True, exist_ok=True)

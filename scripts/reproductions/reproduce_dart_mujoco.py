@@ -52,8 +52,10 @@ from tqdm import tqdm
 from fluids_bench.core.provenance import command_line, machine
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")
-# an ablation, not in the source: DART's covariance rescaled to a fixed trace (--dart-fixed-trace)
-EXTRA_METHODS = ("dart_fixed",)
+# dart_fixed, an ablation not in the source: DART's covariance rescaled to a fixed trace
+# (--dart-fixed-trace); dart_literal: the source's alpha = T tr(Sigma_k) read literally, the
+# current estimate's trace times the demonstration length T (``dart`` injects Sigma_k itself)
+EXTRA_METHODS = ("dart_fixed", "dart_literal")
 LEARNERS = {
     "mlp": {"hidden_layer_sizes": [64, 64], "max_iter": 500},
     "linear": {"hidden_layer_sizes": [], "activation": "identity", "max_iter": 500},
@@ -109,6 +111,9 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
             dart.DARTConfig(
                 **common,
                 alpha=s["dart_fixed_trace"] if method == "dart_fixed" else None,
+                # T: the demonstrations' length (the rollout limit, --eval-steps)
+                alpha_relative=float(s["eval_steps"]) if method == "dart_literal" else None,
+                alpha_reference="current",
                 update_at=tuple(s["update_at"]),
                 update_every=s["update_every"],
                 initial_demos=s["initial_demos"] or 0,
@@ -124,6 +129,7 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
         "seed": seed,
         "wall_seconds": time.perf_counter() - t0,
         "supervisor_return": result.supervisor_return,
+        "supervisor": _supervisor_record(env_id, env_kwargs),
         "records": [
             {
                 "iteration": r.iteration,
@@ -136,6 +142,16 @@ def run_one(env_id: str, env_kwargs: dict, learner: str, method: str, seed: int,
             for r in result.records
         ],
     }
+
+
+def _supervisor_record(env_id: str, env_kwargs: dict) -> dict:
+    """Which supervisor labelled (kind and weights sha256), from the env's own record."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, **env_kwargs)
+    record = env.unwrapped.metadata["supervisor"]
+    env.close()
+    return {k: record[k] for k in ("kind", "weights_sha256") if k in record}
 
 
 def summarise(runs: list[dict]) -> dict[str, Any]:
@@ -164,6 +180,7 @@ def summarise(runs: list[dict]) -> dict[str, Any]:
             "eval_return_mean": ev.mean(0).round(1).tolist(),
             "eval_return_se": (ev.std(0) / np.sqrt(len(rs))).round(1).tolist(),
             "collection_return_mean": coll.mean(0).round(1).tolist(),
+            "collection_iterations": [x["iteration"] for x in rs[0]["records"]],
             "train_seconds_total_mean": round(
                 float(np.mean([r["records"][-1]["train_seconds"] for r in rs])), 2
             ),
@@ -171,8 +188,20 @@ def summarise(runs: list[dict]) -> dict[str, Any]:
             "supervisor_return_mean": round(
                 float(np.mean([r["supervisor_return"] for r in rs])), 1
             ),
+            "noise_trace_mean": [
+                None if v is None else round(float(v), 4)
+                for v in _mean_or_none(
+                    [[x["extras"].get("noise_level") for x in r["records"]] for r in rs]
+                )
+            ],
+            "supervisor": rs[0].get("supervisor"),
         }
     return summary
+
+
+def _mean_or_none(rows: list[list]) -> list:
+    """Column means of equal-length rows, None where any row has None."""
+    return [None if None in col else float(np.mean(col)) for col in zip(*rows, strict=True)]
 
 
 def plot(summary: dict, env_id: str, path: Path) -> None:
@@ -286,6 +315,7 @@ def main(argv: list[str] | None = None) -> int:
     if args.results is None and len(args.env) == 1:
         name = "dart_mujoco_" + args.env[0].split("-")[0].lower()
         name += "_fixed_trace" if args.methods == ["dart_fixed"] else ""
+        name += "_alpha" if "dart_literal" in args.methods else ""
         args.results = REPO / "docs" / "results" / f"{name}.json"
     expected = CPU_SECONDS_PER_RUN * len(jobs) * args.iterations / 20 / args.workers
     print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")

@@ -16,7 +16,16 @@ Resumable: the state after every iteration is written atomically to ``<out>.ckpt
 same command again to continue. Ctrl-C stops cleanly after the current iteration's checkpoint.
 ``--init <other>.ckpt.npz`` starts a new stage from another run's checkpoint (its parameters,
 state statistics, random generator and iteration count) with this command's settings, e.g.
-another ``--shift``; the stage's recipe records the one it started from.
+another ``--shift``; the stage's recipe records the one it started from. ``--init-weights
+<file>.npz`` starts a stage from a weight file alone (a shipped expert: its parameters, and its
+normaliser as the statistics of ``--init-obs-count`` states), with a fresh generator; a file
+this script wrote (its ``<file>.json`` beside it) or whose sha256 the shipped manifest records
+also carries on that run's iteration count and cost.
+
+``--action-noise S`` trains a teacher that tolerates the noise imitation learning injects: every
+executed action is ``clip(policy(obs) + N(0, S^2 I), low, high)`` (the noise drawn from the
+episode's seed), in training and in a second set of evaluation episodes; the best policy is then
+the one with the highest mean over the clean and the noisy evaluation episodes.
 Writes ``<out>`` (the best evaluated policy, .npz) and ``<out>.json`` (recipe, history, sha256).
 
 Example: ``nice -n 10 python scripts/training/train_locomotion_expert.py --env Hopper --iterations 400
@@ -40,6 +49,7 @@ import numpy as np
 
 from fluids_bench.core.provenance import announce
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of
+from fluids_bench.tasks.locomotion.supervisors import manifest
 
 # The ARS paper's V2-t settings per task (Table 9 of arXiv:1803.07055), shift = survival bonus.
 PRESETS = {
@@ -68,20 +78,30 @@ def build_policy(theta, shapes, obs_mean, obs_std, low, high) -> MLPPolicy:
     return MLPPolicy(obs_mean, obs_std, weights, biases, low, high)
 
 
+# the action-noise generator of an episode: its seed and this tag (not the env's own stream)
+NOISE_STREAM = 0x0A11
+
+
 def rollout(job):
-    """One episode: returns (return with shift, env return, steps, sum obs, sum obs^2)."""
-    name, theta, shapes, obs_mean, obs_std, seed, shift, horizon = job
+    """One episode: returns (return with shift, env return, steps, sum obs, sum obs^2).
+    ``action_noise`` > 0: the executed action is the policy's plus N(0, action_noise^2 I),
+    clipped to the action space, drawn from the episode's seed."""
+    name, theta, shapes, obs_mean, obs_std, seed, shift, horizon, action_noise = job
     env = _env(name)
     low, high = env.action_space.low, env.action_space.high
     policy = build_policy(theta, shapes, obs_mean, obs_std, low, high)
     obs, _ = env.reset(seed=int(seed))
+    noise = np.random.default_rng([int(seed), NOISE_STREAM]) if action_noise else None
     total, steps = 0.0, 0
     s1 = np.zeros_like(obs_mean)
     s2 = np.zeros_like(obs_mean)
     for _ in range(horizon):
         s1 += obs
         s2 += obs * obs
-        obs, reward, terminated, _, _ = env.step(policy(obs))
+        action = policy(obs)
+        if noise is not None:
+            action = np.clip(action + action_noise * noise.standard_normal(action.shape), low, high)
+        obs, reward, terminated, _, _ = env.step(action)
         total += reward
         steps += 1
         if terminated:
@@ -126,6 +146,26 @@ def main(argv: list[str] | None = None) -> int:
         help="start from this checkpoint (<out>.ckpt.npz of an earlier stage), not from zero",
     )
     p.add_argument(
+        "--init-weights",
+        type=Path,
+        default=None,
+        help="start from this weight file (.npz, e.g. a shipped expert), not from zero",
+    )
+    p.add_argument(
+        "--init-obs-count",
+        type=float,
+        default=1e6,
+        help="with --init-weights: the file's normaliser counts as the statistics of this many "
+        "states (larger: the states of the new stage move it less)",
+    )
+    p.add_argument(
+        "--action-noise",
+        type=float,
+        default=0.0,
+        help="std of the Gaussian noise added to every executed action in training, and in a "
+        "second set of evaluation episodes (default 0: none)",
+    )
+    p.add_argument(
         "--ship",
         type=Path,
         default=None,
@@ -146,6 +186,12 @@ def main(argv: list[str] | None = None) -> int:
             hp[key] = getattr(args, key)
     if not 1 <= hp["top"] <= hp["n_directions"]:
         p.error(f"--top is {hp['top']}; allowed: 1..--n-directions ({hp['n_directions']})")
+    if not (np.isfinite(args.action_noise) and args.action_noise >= 0):
+        p.error(f"--action-noise is {args.action_noise}; allowed: a finite number >= 0")
+    if not (np.isfinite(args.init_obs_count) and args.init_obs_count >= 2):
+        p.error(f"--init-obs-count is {args.init_obs_count}; allowed: a finite number >= 2")
+    if args.init is not None and args.init_weights is not None:
+        p.error("--init and --init-weights are both given; allowed: one of the two")
 
     if args.ship is not None:
         return ship(args.env, args.out, args.ship)
@@ -173,6 +219,7 @@ def main(argv: list[str] | None = None) -> int:
         "eval_episodes": args.eval_episodes,
         "eval_seeds": f"10_000_000 + range({args.eval_episodes})",
         **hp,
+        "action_noise": args.action_noise,
         "command": "python scripts/training/train_locomotion_expert.py " + " ".join(sys.argv[1:]),
     }
 
@@ -183,7 +230,19 @@ def main(argv: list[str] | None = None) -> int:
         if not args.init.name.endswith(".ckpt.npz") or not args.init.exists():
             p.error(f"--init is {args.init}; allowed: an existing <out>.ckpt.npz of another run")
     resume_from = ckpt if ckpt.exists() else args.init
-    if resume_from is not None:
+    if resume_from is None and args.init_weights is not None:
+        theta, n, s1, s2, recipe["init"] = from_weights(
+            args.init_weights, shapes, low, high, args.init_obs_count, p.error
+        )
+        best_theta, (best_mean, best_std) = theta.copy(), _moments(n, s1, s2)
+        # the iteration count and cost so far carried on, as --init does (known when the file
+        # is a shipped one); --iterations counts from the first stage's start
+        start = recipe["init"].get("iteration", 0)
+        history, best = [], {"mean_return": -np.inf, "iteration": start}
+        elapsed = recipe["init"].get("training_seconds", 0.0)
+        env_steps = recipe["init"].get("training_env_steps", 0)
+        print(f"new stage from the weights {args.init_weights}")
+    elif resume_from is not None:
         with np.load(resume_from, allow_pickle=False) as z:
             theta = z["theta"]
             best_theta, best_mean, best_std = z["best_theta"], z["best_mean"], z["best_std"]
@@ -225,13 +284,7 @@ def main(argv: list[str] | None = None) -> int:
         elapsed, env_steps = 0.0, 0
 
     def normaliser():
-        if n < 2:
-            return np.zeros(obs_dim), np.ones(obs_dim)
-        mean = s1 / n
-        var = np.maximum(s2 / n - mean * mean, 0.0)
-        std = np.sqrt(var)
-        std[std < 1e-7] = np.inf  # a constant input carries no information
-        return mean, std
+        return _moments(n, s1, s2)
 
     # workers ignore Ctrl-C (a terminal sends it to them too): the main process stops them
     # after its checkpoint, without a KeyboardInterrupt traceback from every worker
@@ -256,7 +309,17 @@ def main(argv: list[str] | None = None) -> int:
                 for sign, col in ((1.0, 0), (-1.0, 1)):
                     th = theta + sign * hp["noise"] * deltas[k]
                     jobs.append(
-                        (args.env, th, shapes, mean, std, seeds[k, col], hp["shift"], args.horizon)
+                        (
+                            args.env,
+                            th,
+                            shapes,
+                            mean,
+                            std,
+                            seeds[k, col],
+                            hp["shift"],
+                            args.horizon,
+                            args.action_noise,
+                        )
                     )
             results = run(rollout, jobs)
             r = np.array([res[0] for res in results]).reshape(N, 2)
@@ -277,10 +340,13 @@ def main(argv: list[str] | None = None) -> int:
             }
             if (it + 1) % args.eval_every == 0 or it + 1 == args.iterations:
                 mean, std = normaliser()
+                # clean episodes, then (with --action-noise) the same seeds with noise
+                levels = [0.0] + ([args.action_noise] if args.action_noise else [])
                 evals = run(
                     rollout,
                     [
-                        (args.env, theta, shapes, mean, std, 10_000_000 + e, 0.0, args.horizon)
+                        (args.env, theta, shapes, mean, std, 10_000_000 + e, 0.0, args.horizon, a)
+                        for a in levels
                         for e in range(args.eval_episodes)
                     ],
                 )
@@ -290,6 +356,12 @@ def main(argv: list[str] | None = None) -> int:
                     eval_min=float(np.min(rets)),
                     eval_steps=[int(x[2]) for x in evals],
                 )
+                if args.action_noise:
+                    clean = rets[: args.eval_episodes]
+                    row.update(
+                        eval_clean_mean=float(np.mean(clean)),
+                        eval_noisy_mean=float(np.mean(rets[args.eval_episodes :])),
+                    )
                 env_steps += sum(x[2] for x in evals)
                 if row["eval_mean"] > best["mean_return"]:
                     best = {
@@ -298,6 +370,9 @@ def main(argv: list[str] | None = None) -> int:
                         "min_return": row["eval_min"],
                         "steps": row["eval_steps"],
                     }
+                    for k in ("eval_clean_mean", "eval_noisy_mean"):
+                        if k in row:
+                            best[k] = row[k]
                     best_theta, best_mean, best_std = theta.copy(), mean, std
                     policy = build_policy(best_theta, shapes, best_mean, best_std, low, high)
                     atomic_write(args.out, policy.to_bytes())
@@ -345,6 +420,60 @@ def main(argv: list[str] | None = None) -> int:
         if pool:
             pool.terminate()
     return 0
+
+
+def _moments(n: float, s1: np.ndarray, s2: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """The state normaliser (mean, std) of ``n`` states with sums ``s1`` and squares ``s2``."""
+    if n < 2:
+        return np.zeros_like(s1), np.ones_like(s1)
+    mean = s1 / n
+    var = np.maximum(s2 / n - mean * mean, 0.0)
+    std = np.sqrt(var)
+    std[std < 1e-7] = np.inf  # a constant input carries no information
+    return mean, std
+
+
+def from_weights(path: Path, shapes, low, high, count: float, error):
+    """A stage's start from a weight file: (theta, n, s1, s2, the recipe's "init" record).
+
+    The file's normaliser becomes the sums of ``count`` states with its mean and std (an
+    infinite std, an ignored input, as a constant one)."""
+    try:
+        policy = MLPPolicy.from_bytes(path.read_bytes())
+    except (OSError, ValueError) as e:
+        error(f"--init-weights is {path}; allowed: a readable weight file ({e})")
+    file_shapes = [w.shape for w in policy.weights]
+    if file_shapes != list(shapes):
+        error(
+            f"--init-weights {path} has layers {file_shapes}; allowed: this run's {list(shapes)} "
+            "(set --hidden to the file's hidden widths)"
+        )
+    if not (np.array_equal(policy.action_low, low) and np.array_equal(policy.action_high, high)):
+        error(f"--init-weights {path} has other action bounds than the env's")
+    theta = np.concatenate(
+        [a.ravel() for w, b in zip(policy.weights, policy.biases, strict=True) for a in (w, b)]
+    )
+    mean = policy.obs_mean
+    var = np.where(np.isfinite(policy.obs_std), policy.obs_std**2, 0.0)
+    s1, s2 = count * mean, count * (var + mean * mean)
+    record = {"weights": path.name, "sha256": sha256_of(path), "obs_count": count}
+    # the file's own run: the record this script wrote next to it, or the shipped manifest's
+    # (a shipped file or a copy of one); either gives the same iteration to carry on from
+    meta_path = path.with_name(path.name + ".json")
+    meta = json.loads(meta_path.read_text()) if meta_path.exists() else {}
+    if meta.get("sha256") == record["sha256"]:
+        record["iteration"] = meta["best"]["iteration"]
+        record["recipe"] = meta["recipe"]
+        record["training_env_steps"] = meta["env_steps"]
+        record["training_seconds"] = meta["elapsed_s"]
+    else:
+        for entry in manifest().values():
+            if entry["sha256"] == record["sha256"]:
+                record["iteration"] = entry["selected_at_iteration"]
+                record["recipe"] = entry["recipe"]
+                record["training_env_steps"] = entry["training_env_steps"]
+                record["training_seconds"] = entry["training_seconds"]
+    return theta, float(count), s1, s2, record
 
 
 def ship(name: str, weights: Path, folder: Path) -> int:

@@ -102,10 +102,11 @@ class PolicySupervisor:
 
     def __init__(self, task: str, policy: MLPPolicy, record: dict) -> None:
         self.task, self.policy, self.record = task, policy, record
+        self._act32 = policy.act32  # bound once: a label is asked for every env step
 
     def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:
         """``obs``: the env's observation of the current state, when the caller has it."""
-        return self.policy.act32(env._get_obs() if obs is None else obs)
+        return self._act32(env._get_obs() if obs is None else obs)
 
     def describe(self) -> dict[str, Any]:
         return {

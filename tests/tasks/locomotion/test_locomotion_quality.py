@@ -45,7 +45,7 @@ def test_hopper_policy_hops_without_falling():
 
 def test_walker2d_policy_walks_above_the_floor_without_falling():
     """Shipped Walker2d policy: 3 seeded 1,000-step episodes, no fall, mean >= 4,000 (the
-    issue's floor; the README's 10 episodes: 4,535 ± 50)."""
+    issue's floor; the quality table's 10 episodes: 4,227 ± 24)."""
     env = gym.make("Walker2d-IL-v0", supervisor="policy")
     results = [supervised_return(env, seed, 1000) for seed in range(3)]
     assert not any(fell for _, fell in results)
@@ -54,7 +54,7 @@ def test_walker2d_policy_walks_above_the_floor_without_falling():
 
 def test_halfcheetah_policy_runs_upright_above_the_floor():
     """Shipped HalfCheetah policy: 3 seeded 1,000-step episodes, mean >= 4,400 (the issue's
-    floor; the README's 10 episodes: 4,843 ± 48), never on its back."""
+    floor; the quality table's 10 episodes: 5,115 ± 30), never on its back."""
     env = gym.make("HalfCheetah-IL-v0", supervisor="policy")
     returns = []
     for seed in range(3):

@@ -106,3 +106,56 @@ def test_obs_dims_searches_only_the_weights_on_the_first_entries(tmp_path):
     assert np.all(first[:, 5:] == 0) and np.all(first[:, :5] != 0)
     with pytest.raises(SystemExit):
         train.main([*TINY, "--out", str(tmp_path / "x.npz"), "--obs-dims", "12"])
+
+
+def test_a_stage_from_a_weight_file_starts_at_its_parameters_and_normaliser(tmp_path):
+    """``--init-weights``: with a zero step size the parameters stay the file's, and the
+    normaliser (the file's, counted as many states) barely moves after one iteration."""
+    first = tmp_path / "first" / "w.npz"
+    first.parent.mkdir()
+    assert train.main([*TINY, "--out", str(first), "--iterations", "2"]) == 0
+    source = MLPPolicy.from_bytes(first.read_bytes())
+    second = tmp_path / "second" / "w.npz"
+    second.parent.mkdir()
+    argv = [*TINY, "--out", str(second), "--iterations", "3", "--step-size", "0"]
+    assert train.main([*argv, "--init-weights", str(first), "--init-obs-count", "1e9"]) == 0
+    ckpt = np.load(second.with_name("w.npz.ckpt.npz"))
+    params = np.concatenate(
+        [a.ravel() for w, b in zip(source.weights, source.biases, strict=True) for a in (w, b)]
+    )
+    assert np.array_equal(ckpt["theta"], params)
+    assert np.allclose(ckpt["s1"] / ckpt["n"], source.obs_mean, rtol=1e-6, atol=1e-9)
+    meta = json.loads(second.with_name("w.npz.json").read_text())
+    record = meta["recipe"]["init"]
+    assert record["weights"] == "w.npz" and record["obs_count"] == 1e9
+    # the file's own record (written beside it) carries on its run's iteration count
+    assert record["iteration"] == 2 and record["recipe"]["n_directions"] == 3
+    assert [row["iteration"] for row in meta["history"]] == [3]
+    with pytest.raises(SystemExit):  # the file's layers are not this run's
+        train.main([*argv, "--hidden", "5", "--init-weights", str(first)])
+
+
+def test_action_noise_is_seeded_and_changes_the_episode():
+    env = train._env("Hopper")
+    shapes = train.layer_shapes(11, 3, [])
+    theta = np.random.default_rng(0).normal(0, 0.1, sum(o * i + o for o, i in shapes))
+    job = ["Hopper", theta, shapes, np.zeros(11), np.ones(11), 7, 0.0, 50]
+    clean = train.rollout((*job, 0.0))
+    noisy = train.rollout((*job, 0.1))
+    assert noisy[1] == train.rollout((*job, 0.1))[1]
+    assert noisy[1] != clean[1]
+    assert env.action_space.shape == (3,)
+
+
+@pytest.mark.parametrize(
+    "extra, message",
+    [
+        (["--action-noise", "-0.1"], "--action-noise is"),
+        (["--action-noise", "nan"], "--action-noise is"),
+        (["--init-obs-count", "1"], "--init-obs-count is"),
+    ],
+)
+def test_bad_noise_settings_are_refused(tmp_path, capsys, extra, message):
+    with pytest.raises(SystemExit):
+        train.main([*TINY, "--out", str(tmp_path / "w.npz"), *extra])
+    assert message in capsys.readouterr().err
