@@ -29,6 +29,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
     boxes_apart,
     hold_then_brake_into,
     path_samples,
+    positions_now,
     swept_boxes,
     too_close,
 )
@@ -135,13 +136,7 @@ def defensive_forbid(
     if n_pairs == 0:
         return forbid
     first, second = first[:n_pairs], second[:n_pairs]
-    now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
-    crossing = np.zeros(n_agents, np.bool_)  # a walker on its crossing: smaller car clearance
-    for a in range(n_agents):
-        ag = agents[a]
-        now_x[a], now_y[a] = np.float32(state[ag, 0]), np.float32(state[ag, 1])
-        r = route[ag] if route[ag] >= 0 else route[ag] + len(enter_s)
-        crossing[a] = not is_car[ag] and s[ag] + offset[ag] + front[ag] >= enter_s[r]
+    now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
     # the uncontrolled agent brakes as hard as it can now or a few steps from now; the
     # supervised one holds its candidate until the next plan, then brakes

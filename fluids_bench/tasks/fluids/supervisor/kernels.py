@@ -241,6 +241,21 @@ def hold_then_brake(
 
 
 @njit(cache=True, nogil=True)
+def positions_now(agents, state, route, enter_s, is_car, s, offset, front):  # pragma: no cover
+    """Where the planned agents are now (float32 x, y) and which are walkers on their crossing
+    (front past their route's ``enter_s``), whom cars may pass with a smaller clearance."""
+    n_agents = len(agents)
+    now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
+    crossing = np.zeros(n_agents, np.bool_)
+    for a in range(n_agents):
+        ag = agents[a]
+        now_x[a], now_y[a] = np.float32(state[ag, 0]), np.float32(state[ag, 1])
+        r = route[ag] if route[ag] >= 0 else route[ag] + len(enter_s)
+        crossing[a] = not is_car[ag] and s[ag] + offset[ag] + front[ag] >= enter_s[r]
+    return now_x, now_y, crossing
+
+
+@njit(cache=True, nogil=True)
 def plan_conflicts(
     agents, s_proj, first, second, d_now,
     state, s, offset, front, is_car, route, enter_s,
@@ -263,13 +278,7 @@ def plan_conflicts(
     n_agents, n_cand = s_proj.shape[0], s_proj.shape[1]
     rows = np.arange(n_agents)
     px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
-    now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
-    crossing = np.zeros(n_agents, np.bool_)
-    for a in range(n_agents):
-        ag = agents[a]
-        now_x[a], now_y[a] = np.float32(state[ag, 0]), np.float32(state[ag, 1])
-        r = route[ag] if route[ag] >= 0 else route[ag] + len(enter_s)
-        crossing[a] = not is_car[ag] and s[ag] + offset[ag] + front[ag] >= enter_s[r]
+    now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
     box = swept_boxes(px, py, now_x, now_y, bound, rows)
     table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
