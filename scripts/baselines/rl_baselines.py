@@ -213,21 +213,20 @@ def run_curves(args, command: str) -> None:
         },
         "runs": [],
     }
-    result["random"] = evaluate(args.env, kwargs, _random, args.final_episodes)
-    result["supervisor"] = evaluate(args.env, kwargs, _supervisor, args.final_episodes)
+    env_work = Path(args.work) / args.env / json.dumps(kwargs, sort_keys=True)
     total = len(algos) * len(args.seeds) * args.steps
     with tqdm(total=total, unit="step", desc=args.env) as bar:
         for algo in algos:
             for seed in args.seeds:
-                work = (
-                    Path(args.work)
-                    / args.env
-                    / json.dumps(kwargs, sort_keys=True)
-                    / f"{algo}_s{seed}"
-                )
+                work = env_work / f"{algo}_s{seed}"
                 final_file = work / "final.json"
-                if final_file.is_file():
-                    run = json.loads(final_file.read_text())
+                run = json.loads(final_file.read_text()) if final_file.is_file() else None
+                if run is not None and run["curve"][-1]["steps"] < args.steps:
+                    raise ValueError(
+                        f"--steps {args.steps}: {final_file} holds a finished run of "
+                        f"{run['curve'][-1]['steps']} steps; use another --work"
+                    )
+                if run is not None:
                     bar.update(args.steps)
                 else:
                     model, curve = train_run(
@@ -238,7 +237,9 @@ def run_curves(args, command: str) -> None:
                     run = {"algo": algo, "seed": seed, "curve": curve, "final": final}
                     write_json_atomic(final_file, run)
                 result["runs"].append(run)
-                write_json_atomic(Path(args.out), result)
+    # after training, cached under --work: processes that split the seeds evaluate them once
+    for name, act in (("random", _random), ("supervisor", _supervisor)):
+        result[name] = _cached_eval(env_work, name, args.env, kwargs, act, args.final_episodes)
     summary = {}
     metric = result["random"]["metric"]
     for algo in algos:
@@ -254,6 +255,16 @@ def run_curves(args, command: str) -> None:
     if args.image:
         plot(result, Path(args.image))
     print(json.dumps({"random": result["random"][metric], **summary}, indent=1))
+
+
+def _cached_eval(work: Path, name: str, env_id: str, kwargs: dict, act, episodes: int) -> dict:
+    """A fixed policy's evaluation, computed once per episode count and read back after."""
+    path = work / f"{name}_{episodes}_episodes.json"
+    if path.is_file():
+        return json.loads(path.read_text())
+    out = evaluate(env_id, kwargs, act, episodes)
+    write_json_atomic(path, out)
+    return out
 
 
 def plot(result: dict, path: Path) -> None:
