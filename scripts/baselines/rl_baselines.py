@@ -355,6 +355,8 @@ def plot(result: dict, path: Path) -> None:
     ax.axhline(p, color="grey", ls="--", label=f"random ({r['episodes']} episodes)")
     if se:
         ax.axhspan(p - se, p + se, color="grey", alpha=0.15)
+    if "supervisor" in result:
+        ax.axhline(result["supervisor"][metric], color="black", ls=":", label="supervisor")
     kw = json.dumps(result["env_kwargs"]) if result["env_kwargs"] else ""
     ax.set_title(f"{result['env_id']} {kw}", fontsize=9)
     ax.set_xlabel("env steps")
