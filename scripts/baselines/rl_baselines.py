@@ -286,6 +286,10 @@ def run_curves(args, command: str) -> None:
                     )
                 if run is not None:
                     bar.update(args.steps)
+                elif args.collect_only:  # the curve so far of a run still training elsewhere
+                    curve_file = work / "curve.json"
+                    curve = json.loads(curve_file.read_text()) if curve_file.is_file() else []
+                    run = {"algo": algo, "seed": seed, "curve": curve, "final": None}
                 else:
                     model, curve = train_run(
                         algo, args.env, kwargs, seed, args.steps, args.eval_every,
@@ -301,7 +305,9 @@ def run_curves(args, command: str) -> None:
     summary = {}
     metric = result["random"]["metric"]
     for algo in algos:
-        values = [r["final"][metric] for r in result["runs"] if r["algo"] == algo]
+        values = [r["final"][metric] for r in result["runs"] if r["algo"] == algo and r["final"]]
+        if len(values) < len(args.seeds):
+            continue  # --collect-only with unfinished runs: no summary over fewer seeds
         summary[algo] = {
             "metric": metric,
             f"{metric}_mean": round(float(np.mean(values)), 4),
@@ -343,6 +349,8 @@ def plot(result: dict, path: Path) -> None:
         label = f"{run['algo'].upper()} curve ({s['eval_episodes']} episodes)" if first else None
         ax.plot(xs, ys, color=c, alpha=0.35, marker="o", ms=3, label=label)
         f = run["final"]
+        if f is None:  # unfinished (--collect-only): its curve so far
+            continue
         p = f[metric]
         se = (p * (1 - p) / f["episodes"]) ** 0.5 if metric == "success_rate" else 0.0
         label = f"{run['algo'].upper()} final ({f['episodes']} episodes)" if first else None
@@ -580,6 +588,9 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--out", required=True, help="results JSON")
     parser.add_argument("--image", default=None, help="learning-curve PNG")
     parser.add_argument("--ablation", action="store_true", help="the FLUIDS PPO ablation")
+    parser.add_argument("--collect-only", action="store_true",
+                        help="train nothing: write the finished runs and the curves so far of "
+                        'unfinished ones ("final": null) from --work')  # fmt: skip
     args = parser.parse_args(argv)
     command = "python " + " ".join(shlex.quote(a) for a in sys.argv)
     (run_ablation if args.ablation else run_curves)(args, command)

@@ -50,8 +50,14 @@ def render(data, bc=False, **_):
     for method, r in il.items():
         rows.append(_row(f"{IL_ROWS[method]}, `FLUIDS-v1`", r))
     for run in data["runs"]:
+        name = f"{run['algo'].upper()} seed {run['seed']}"
+        if run["final"] is None:  # still training: its last curve point
+            if run["curve"]:
+                last = run["curve"][-1]
+                rows.append(_row(f"{name}, unfinished: {last['steps']:,} steps so far", last))
+            continue
         final = {**run["final"], "train_cpu_s": run["curve"][-1]["train_cpu_s"]}
-        rows.append(_row(f"{run['algo'].upper()} seed {run['seed']}", final))
+        rows.append(_row(name, final))
     for algo, summ in data.get("summary", {}).items():
         verdict = "yes" if summ["beats_random_every_seed"] else "no"
         cell = f"beats random on every seed: {verdict}"

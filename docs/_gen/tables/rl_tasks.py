@@ -23,8 +23,13 @@ def render(data, **_):
     rows.append(row("random", data["random"], "0"))
     rows.append(row("supervisor", data["supervisor"], "0"))
     for run in data["runs"]:
-        cpu = f"{run['curve'][-1]['train_cpu_s']:.0f}"
-        rows.append(row(f"{run['algo'].upper()} seed {run['seed']}", run["final"], cpu))
+        if not run["curve"]:
+            continue
+        last = run["curve"][-1]
+        name = f"{run['algo'].upper()} seed {run['seed']}"
+        if run["final"] is None:  # still training: its last curve point
+            name += f", unfinished: {last['steps']:,} steps so far"
+        rows.append(row(name, run["final"] or last, f"{last['train_cpu_s']:.0f}"))
     metric = data["random"]["metric"]
     for algo, summ in data.get("summary", {}).items():
         verdict = "yes" if summ["beats_random_every_seed"] else "no"
