@@ -24,9 +24,7 @@ def _require(module: str, extra: str):
     try:
         return importlib.import_module(module)
     except ImportError as err:
-        raise ImportError(
-            f"{module} is needed here: pip install \"fluids-bench[{extra}]\""
-        ) from err
+        raise ImportError(f'{module} is needed here: pip install "fluids-bench[{extra}]"') from err
 
 
 class _ConcatVecEnvForSB3:

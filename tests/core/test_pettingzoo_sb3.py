@@ -46,9 +46,7 @@ def test_recipe_with_the_helper_emits_no_render_mode_warning_and_trains():
     assert vec.num_envs == 6 and vec.render_mode is None
 
     def build():
-        model = sb3.PPO(
-            "MlpPolicy", VecMonitor(vec), seed=0, n_steps=32, batch_size=64, n_epochs=1
-        )
+        model = sb3.PPO("MlpPolicy", VecMonitor(vec), seed=0, n_steps=32, batch_size=64, n_epochs=1)
         model.learn(total_timesteps=192)
 
     assert _render_mode_warnings(build) == []

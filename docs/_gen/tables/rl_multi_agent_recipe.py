@@ -7,7 +7,7 @@ def render(data, **_):
     return "\n".join(
         [
             "| total_timesteps | steps taken | CPU time | wall time | episodes in SB3's buffer, "
-            "mean return | \"render_mode\" warnings |",
+            'mean return | "render_mode" warnings |',
             "|---|---|---|---|---|---|",
             f"| {s['total_timesteps']:,} | {data['steps_taken']:,} | {data['cpu_s'] / 60:.1f} min "
             f"| {data['wall_s'] / 60:.1f} min | {data['last_episodes']}, "

@@ -10,8 +10,10 @@ def _success(r):
 def render(data, **_):
     s = data["settings"]
     by_success = data["random"]["metric"] == "success_rate"
-    head = "| policy | " + ("success ± s.e. | " if by_success else "") + (
-        "mean return | mean length (steps) | training CPU (s) |"
+    head = (
+        "| policy | "
+        + ("success ± s.e. | " if by_success else "")
+        + ("mean return | mean length (steps) | training CPU (s) |")
     )
     rows = [head, "|---" * (head.count("|") - 1) + "|"]
 
@@ -36,7 +38,11 @@ def render(data, **_):
         value = f"**{summ[f'{metric}_mean']:.3f}**" if by_success else ""
         ret = "" if by_success else f"**{summ[f'{metric}_mean']:.2f}**"
         cells = [f"**{algo.upper()} mean of {len(summ[f'{metric}_seeds'])} seeds**"]
-        cells += ([value] if by_success else []) + [ret, "", f"beats random on every seed: {verdict}"]
+        cells += ([value] if by_success else []) + [
+            ret,
+            "",
+            f"beats random on every seed: {verdict}",
+        ]
         rows.append("| " + " | ".join(cells) + " |")
     kwargs = f" with `{data['env_kwargs']}`" if data["env_kwargs"] else ""
     compared = "success" if by_success else "return (no success flag)"
