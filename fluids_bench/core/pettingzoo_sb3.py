@@ -6,9 +6,9 @@ copies of the world). Two gaps of SuperSuit 3.11's stable-baselines3 path are fi
 
 * its ``ConcatVecEnv`` has no ``get_attr``, while stable-baselines3 asks every ``VecEnv`` for its
   ``render_mode`` with ``get_attr`` whenever it is wrapped (``VecMonitor``, and PPO's own monitor
-  wrapper): each wrap warned "The `render_mode` attribute is not defined in your environment"
-  and set it to None;
-* it has no ``seed``, so ``PPO(..., seed=s)`` raised ``AttributeError``. Here ``seed(s)`` seeds the
+  wrapper): on SuperSuit's own path each wrap warns "The `render_mode` attribute is not defined
+  in your environment" and sets it to None;
+* it has no ``seed``, so there ``PPO(..., seed=s)`` raises ``AttributeError``. Here ``seed(s)`` seeds the
   next reset as stable-baselines3 expects: copy ``i`` of the world is reset with seed ``s + i``.
 
 Needs SuperSuit (the ``test`` extra) and stable-baselines3 (the ``train`` extra).
