@@ -33,6 +33,8 @@ SHARED_RENDERERS = (
     (r"reproduce_track_shiv_.+", "reproduce_track_shiv"),
     (r"sweep_(singulation|singulation_size|track|grasping|fluids)", "sweep_study"),
     (r"bench_(singulation|grasping)", "bench_tasks"),
+    (r"rl_(dag|singulation|grasping|track)", "rl_tasks"),
+    (r"rl_fluids_v2_2m", "rl_fluids_v2"),
 )
 
 

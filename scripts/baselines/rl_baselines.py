@@ -126,11 +126,40 @@ def _physical(env: gym.Env, action) -> np.ndarray:
     return a
 
 
-def _model(algo: str, venv, seed: int):
+def _vec_env(env_id: str, kwargs: dict, n_envs: int, seed: int):
+    """SB3's ``make_vec_env``, with ``render_mode=None`` (SB3 asks for "rgb_array" unless told,
+    which DAG-v0 refuses; training envs are never drawn). "fluids_bench:<id>" imports the
+    package wherever the env is built."""
+    from stable_baselines3.common.env_util import make_vec_env
+
+    return make_vec_env(
+        f"fluids_bench:{env_id}", n_envs=n_envs, seed=seed,
+        env_kwargs={"render_mode": None, **kwargs},
+    )  # fmt: skip
+
+
+def _model(algo: str, venv, seed: int, algo_kwargs: dict | None = None):
     from stable_baselines3 import DQN, PPO, SAC
 
     cls = {"ppo": PPO, "sac": SAC, "dqn": DQN}[algo]
-    return cls("MlpPolicy", venv, seed=seed, verbose=0, device="cpu")
+    extra = (algo_kwargs or {}).get(algo, {})
+    return cls("MlpPolicy", venv, seed=seed, verbose=0, device="cpu", **extra)
+
+
+def _algo_kwargs(text: str) -> dict:
+    """``--algo-kwargs``: a JSON object from algorithm name to keyword arguments of its class."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError as err:
+        raise ValueError(f"--algo-kwargs must be JSON, got {text!r}: {err}") from None
+    if not isinstance(value, dict) or not all(
+        k in ("ppo", "sac", "dqn") and isinstance(v, dict) for k, v in value.items()
+    ):
+        raise ValueError(
+            '--algo-kwargs must map "ppo", "sac" or "dqn" to an object of keyword arguments, '
+            f"got {text!r}"
+        )
+    return value
 
 
 def _policy(model):
@@ -156,32 +185,59 @@ def train_run(
     n_envs: int,
     work: Path,
     bar: tqdm,
+    algo_kwargs: dict | None = None,
 ):
-    """One (algo, seed) run with its curve, resumed from ``work`` where it stopped."""
-    from stable_baselines3.common.env_util import make_vec_env
+    """One (algo, seed) run with its curve, resumed from ``work`` where it stopped.
+
+    One ``learn`` call up to ``steps`` (not one per curve point), so SB3's schedules (DQN's
+    exploration rate) span the whole run, a resumed one included. The curve points are taken
+    between rollouts, once ``eval_every`` steps have passed since the last one, and at the end.
+    """
+    from stable_baselines3.common.callbacks import BaseCallback
 
     work.mkdir(parents=True, exist_ok=True)
     ckpt, curve_file = work / "model.zip", work / "curve.json"
-    # "fluids_bench:<id>" imports the package wherever the env is built
-    venv = make_vec_env(f"fluids_bench:{env_id}", n_envs=n_envs, seed=seed, env_kwargs=kwargs)
+    venv = _vec_env(env_id, kwargs, n_envs, seed)
     curve = json.loads(curve_file.read_text()) if curve_file.is_file() else []
     if ckpt.is_file() and curve:
-        cls = type(_model(algo, venv, seed))
+        cls = type(_model(algo, venv, seed, algo_kwargs))
         model = cls.load(ckpt, env=venv, device="cpu")
     else:
-        model, curve = _model(algo, venv, seed), []
-    cpu0 = curve[-1]["train_cpu_s"] if curve else 0.0
+        model, curve = _model(algo, venv, seed, algo_kwargs), []
     bar.update(model.num_timesteps)
-    while model.num_timesteps < steps:
-        chunk = min(eval_every, steps - model.num_timesteps)
-        before, t0 = model.num_timesteps, time.process_time()
-        model.learn(total_timesteps=chunk, reset_num_timesteps=False)
-        cpu0 += time.process_time() - t0
-        bar.update(model.num_timesteps - before)
+    clock = {"cpu": curve[-1]["train_cpu_s"] if curve else 0.0, "since": time.process_time()}
+    clock["shown"] = model.num_timesteps
+
+    def add_point() -> None:
+        """Evaluate now (its CPU time is not training time) and checkpoint."""
+        clock["cpu"] += time.process_time() - clock["since"]
+        bar.update(model.num_timesteps - clock["shown"])
+        clock["shown"] = model.num_timesteps
         point = evaluate(env_id, kwargs, _policy(model), eval_episodes)
-        curve.append({"steps": int(model.num_timesteps), "train_cpu_s": round(cpu0, 1), **point})
+        curve.append(
+            {"steps": int(model.num_timesteps), "train_cpu_s": round(clock["cpu"], 1), **point}
+        )
         model.save(ckpt)
         write_json_atomic(curve_file, curve)
+        clock["since"] = time.process_time()
+
+    class CurvePoints(BaseCallback):
+        def _on_rollout_start(self) -> None:
+            last = curve[-1]["steps"] if curve else 0
+            if self.num_timesteps - last >= eval_every:
+                add_point()
+
+        def _on_step(self) -> bool:
+            return True
+
+    if model.num_timesteps < steps:
+        model.learn(
+            total_timesteps=steps - model.num_timesteps,
+            reset_num_timesteps=False,
+            callback=CurvePoints(),
+        )
+    if not curve or curve[-1]["steps"] < model.num_timesteps:
+        add_point()
     return model, curve
 
 
@@ -190,6 +246,7 @@ def run_curves(args, command: str) -> None:
 
     torch.set_num_threads(1)
     kwargs = json.loads(args.env_kwargs)
+    algo_kwargs = _algo_kwargs(args.algo_kwargs)
     space = gym.make(args.env, **kwargs).action_space
     algos = args.algos or algos_for(space)
     print(
@@ -208,41 +265,49 @@ def run_curves(args, command: str) -> None:
             "final_episodes": args.final_episodes,
             "eval_seeds": f"{EVAL_SEED} .. {EVAL_SEED + args.final_episodes - 1}",
             "n_envs": args.n_envs,
-            "hyperparameters": "stable-baselines3 defaults (MlpPolicy), DummyVecEnv",
+            "hyperparameters": "stable-baselines3 defaults (MlpPolicy), DummyVecEnv"
+            + (f", except {json.dumps(algo_kwargs, sort_keys=True)}" if algo_kwargs else ""),
             "machine": "2-core CI-class machine, shared, torch CPU build on one thread",
         },
         "runs": [],
     }
-    result["random"] = evaluate(args.env, kwargs, _random, args.final_episodes)
-    result["supervisor"] = evaluate(args.env, kwargs, _supervisor, args.final_episodes)
+    env_work = Path(args.work) / args.env / json.dumps(kwargs, sort_keys=True)
     total = len(algos) * len(args.seeds) * args.steps
     with tqdm(total=total, unit="step", desc=args.env) as bar:
         for algo in algos:
             for seed in args.seeds:
-                work = (
-                    Path(args.work)
-                    / args.env
-                    / json.dumps(kwargs, sort_keys=True)
-                    / f"{algo}_s{seed}"
-                )
+                work = env_work / f"{algo}_s{seed}"
                 final_file = work / "final.json"
-                if final_file.is_file():
-                    run = json.loads(final_file.read_text())
+                run = json.loads(final_file.read_text()) if final_file.is_file() else None
+                if run is not None and run["curve"][-1]["steps"] < args.steps:
+                    raise ValueError(
+                        f"--steps {args.steps}: {final_file} holds a finished run of "
+                        f"{run['curve'][-1]['steps']} steps; use another --work"
+                    )
+                if run is not None:
                     bar.update(args.steps)
+                elif args.collect_only:  # the curve so far of a run still training elsewhere
+                    curve_file = work / "curve.json"
+                    curve = json.loads(curve_file.read_text()) if curve_file.is_file() else []
+                    run = {"algo": algo, "seed": seed, "curve": curve, "final": None}
                 else:
                     model, curve = train_run(
                         algo, args.env, kwargs, seed, args.steps, args.eval_every,
-                        args.eval_episodes, args.n_envs, work, bar,
+                        args.eval_episodes, args.n_envs, work, bar, algo_kwargs,
                     )  # fmt: skip
                     final = evaluate(args.env, kwargs, _policy(model), args.final_episodes)
                     run = {"algo": algo, "seed": seed, "curve": curve, "final": final}
                     write_json_atomic(final_file, run)
                 result["runs"].append(run)
-                write_json_atomic(Path(args.out), result)
+    # after training, cached under --work: processes that split the seeds evaluate them once
+    for name, act in (("random", _random), ("supervisor", _supervisor)):
+        result[name] = _cached_eval(env_work, name, args.env, kwargs, act, args.final_episodes)
     summary = {}
     metric = result["random"]["metric"]
     for algo in algos:
-        values = [r["final"][metric] for r in result["runs"] if r["algo"] == algo]
+        values = [r["final"][metric] for r in result["runs"] if r["algo"] == algo and r["final"]]
+        if len(values) < len(args.seeds):
+            continue  # --collect-only with unfinished runs: no summary over fewer seeds
         summary[algo] = {
             "metric": metric,
             f"{metric}_mean": round(float(np.mean(values)), 4),
@@ -254,6 +319,16 @@ def run_curves(args, command: str) -> None:
     if args.image:
         plot(result, Path(args.image))
     print(json.dumps({"random": result["random"][metric], **summary}, indent=1))
+
+
+def _cached_eval(work: Path, name: str, env_id: str, kwargs: dict, act, episodes: int) -> dict:
+    """A fixed policy's evaluation, computed once per episode count and read back after."""
+    path = work / f"{name}_{episodes}_episodes.json"
+    if path.is_file():
+        return json.loads(path.read_text())
+    out = evaluate(env_id, kwargs, act, episodes)
+    write_json_atomic(path, out)
+    return out
 
 
 def plot(result: dict, path: Path) -> None:
@@ -274,6 +349,8 @@ def plot(result: dict, path: Path) -> None:
         label = f"{run['algo'].upper()} curve ({s['eval_episodes']} episodes)" if first else None
         ax.plot(xs, ys, color=c, alpha=0.35, marker="o", ms=3, label=label)
         f = run["final"]
+        if f is None:  # unfinished (--collect-only): its curve so far
+            continue
         p = f[metric]
         se = (p * (1 - p) / f["episodes"]) ** 0.5 if metric == "success_rate" else 0.0
         label = f"{run['algo'].upper()} final ({f['episodes']} episodes)" if first else None
@@ -286,6 +363,8 @@ def plot(result: dict, path: Path) -> None:
     ax.axhline(p, color="grey", ls="--", label=f"random ({r['episodes']} episodes)")
     if se:
         ax.axhspan(p - se, p + se, color="grey", alpha=0.15)
+    if "supervisor" in result:
+        ax.axhline(result["supervisor"][metric], color="black", ls=":", label="supervisor")
     kw = json.dumps(result["env_kwargs"]) if result["env_kwargs"] else ""
     ax.set_title(f"{result['env_id']} {kw}", fontsize=9)
     ax.set_xlabel("env steps")
@@ -502,10 +581,16 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--eval-episodes", type=int, default=20, help="per curve point")
     parser.add_argument("--final-episodes", type=int, default=200)
     parser.add_argument("--n-envs", type=int, default=2)
+    parser.add_argument("--algo-kwargs", default="{}",
+                        help='JSON, e.g. \'{"dqn": {"buffer_size": 20000}}\': departures from '
+                        "SB3's defaults, recorded in the results")  # fmt: skip
     parser.add_argument("--work", default="runs/rl", help="checkpoints (resumable)")
     parser.add_argument("--out", required=True, help="results JSON")
     parser.add_argument("--image", default=None, help="learning-curve PNG")
     parser.add_argument("--ablation", action="store_true", help="the FLUIDS PPO ablation")
+    parser.add_argument("--collect-only", action="store_true",
+                        help="train nothing: write the finished runs and the curves so far of "
+                        'unfinished ones ("final": null) from --work')  # fmt: skip
     args = parser.parse_args(argv)
     command = "python " + " ".join(shlex.quote(a) for a in sys.argv)
     (run_ablation if args.ablation else run_curves)(args, command)

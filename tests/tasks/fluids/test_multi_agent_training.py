@@ -96,24 +96,22 @@ def test_without_black_death_supersuit_refuses_a_shrinking_agent_set():
 
 
 def test_shared_policy_recipe_trains_with_stable_baselines3(tmp_path):
-    # the optional `train` extra: skipped without it, except in CI (FLUIDS_BENCH_TRAIN_TESTS=1)
+    # the page's recipe, shortened; the optional `train` extra: skipped without it, except in CI
+    # (FLUIDS_BENCH_TRAIN_TESTS=1)
     sb3 = require_sb3()
-    from stable_baselines3.common.utils import set_random_seed
     from stable_baselines3.common.vec_env import VecMonitor
 
+    from fluids_bench.core.pettingzoo_sb3 import shared_policy_vec_env
+
     env = make_parallel_env(
-        "FLUIDS-MultiAgent-v1",
+        "FLUIDS-MultiAgent-v2",
         controlled_cars=3,
         action_level="velocity",
         black_death=True,
         max_cycles=100,
     )
-    vec = ss.pettingzoo_env_to_vec_env_v1(env)
-    vec = ss.concat_vec_envs_v1(vec, 2, num_cpus=0, base_class="stable_baselines3")
-    vec = VecMonitor(vec)
-    # SuperSuit's ConcatVecEnv has no seed(): seed torch/numpy here, not via PPO(seed=...)
-    set_random_seed(0)
-    model = sb3.PPO("MlpPolicy", vec, n_steps=64, batch_size=64, n_epochs=1, verbose=0)
+    vec = VecMonitor(shared_policy_vec_env(env, copies=2))
+    model = sb3.PPO("MlpPolicy", vec, seed=0, n_steps=64, batch_size=64, n_epochs=1, verbose=0)
     model.learn(total_timesteps=768)
     model.save(tmp_path / "shared_policy")
     loaded = sb3.PPO.load(tmp_path / "shared_policy")
