@@ -45,6 +45,14 @@ def test_make_grid_keeps_the_source_grid_for_its_ids_and_defaults_elsewhere():
         make_grid("CartPole-v1", [])
 
 
+def test_every_registered_id_has_a_default_grid():
+    """``fluids-bench sweep --env ID`` with no ``--values`` works for every Gymnasium id."""
+    from fluids_bench.registration import ENV_SPECS
+    from fluids_bench.sweep.grid import LEGACY_IDS
+
+    assert sorted(set(ENV_SPECS) - set(SENSITIVITY) - set(LEGACY_IDS)) == []
+
+
 @pytest.mark.parametrize("env_id", sorted(SENSITIVITY))
 def test_every_default_grid_passes_its_envs_own_checks(env_id):
     grid = make_grid(env_id, [])
