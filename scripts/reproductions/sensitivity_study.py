@@ -80,8 +80,7 @@ STUDIES = {
         },
         20,
     ),
-    # (not target_std_frac: with obstacle_size_scale 1.25 and a target spread above 0.03 the
-    # env sometimes fails to place the obstacles, a RuntimeError at reset)
+    # three of the default grid's four factors (friction rather than the target's spread)
     "grasping": (
         "GraspingInClutter-v0",
         {},
