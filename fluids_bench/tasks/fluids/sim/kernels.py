@@ -18,7 +18,7 @@ import math
 import numpy as np
 from numba import njit
 
-from fluids_bench.tasks.fluids.sim.dynamics import wrap_angle
+from fluids_bench.tasks.fluids.sim.dynamics import advance, wrap_angle
 
 
 @njit(cache=True, nogil=True)
@@ -31,9 +31,24 @@ def progress(
     Returns new arrays: progress (m; kept for inactive agents), the nearest sample, and the
     signed lateral offset (m, left positive) and heading error (rad) from that sample.
     """
-    n, width = path_z.shape
+    n = path_z.shape[0]
     new_s, nearest = s.copy(), np.empty(n, np.int64)
     lateral, heading_error = np.empty(n), np.empty(n)
+    progress_into(
+        state, new_s, active, path_z, path_heading, path_len, spacing, lo, hi,
+        nearest, lateral, heading_error,
+    )  # fmt: skip
+    return new_s, nearest, lateral, heading_error
+
+
+@njit(cache=True, nogil=True)
+def progress_into(
+    state, s, active, path_z, path_heading, path_len, spacing, lo, hi, nearest, lateral,
+    heading_error,
+):  # pragma: no cover (compiled)
+    """:func:`progress` in place: ``s`` (kept for inactive agents), ``nearest``, ``lateral`` and
+    ``heading_error`` are overwritten (each agent reads only its own old ``s``)."""
+    n, width = path_z.shape
     for i in range(n):
         x, y = state[i, 0], state[i, 1]
         k0 = np.int64(np.rint(s[i] / spacing))
@@ -49,11 +64,10 @@ def progress(
         ch, sh = math.cos(h), math.sin(h)
         along = min(max(ox * ch + oy * sh, -spacing / 2), spacing / 2)
         if active[i]:
-            new_s[i] = min(best * spacing + along, path_len[i])
+            s[i] = min(best * spacing + along, path_len[i])
         nearest[i] = best
         lateral[i] = oy * ch - ox * sh
         heading_error[i] = wrap_angle(state[i, 2] - h)
-    return new_s, nearest, lateral, heading_error
 
 
 @njit(cache=True, nogil=True)
@@ -63,8 +77,17 @@ def surely_on_road(
     """Agents each of whose covering circles (centred ``offsets`` (N, 3) m along the heading,
     ``radius`` (N,) m) lies within the road clearance of the path sample nearest it (the agent's
     nearest sample plus ``samples`` (N, 3)): their footprints are certainly on the road."""
+    out = np.empty(path_z.shape[0], np.bool_)
+    surely_on_road_into(state, nearest, offsets, samples, radius, path_z, clearance, out)
+    return out
+
+
+@njit(cache=True, nogil=True)
+def surely_on_road_into(
+    state, nearest, offsets, samples, radius, path_z, clearance, out
+):  # pragma: no cover (compiled)
+    """:func:`surely_on_road` written into ``out``."""
     n, width = path_z.shape
-    out = np.empty(n, np.bool_)
     for i in range(n):
         x, y = state[i, 0], state[i, 1]
         c, s = math.cos(state[i, 2]), math.sin(state[i, 2])
@@ -92,25 +115,41 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
         if not active[a]:
             continue
         for b in range(a + 1, n):
-            if not active[b]:
-                continue
-            gx, gy = state[a, 0] - state[b, 0], state[a, 1] - state[b, 1]
-            if not gx * gx + gy * gy < reach2[a, b]:
-                continue
-            ca, sa = math.cos(state[a, 2]), math.sin(state[a, 2])
-            cb, sb = math.cos(state[b, 2]), math.sin(state[b, 2])
-            limit = (radius[a] + radius[b]) * (radius[a] + radius[b])
-            meet = False
-            for i in range(3):
-                xa, ya = state[a, 0] + offsets[a, i] * ca, state[a, 1] + offsets[a, i] * sa
-                for j in range(3):
-                    dx = xa - (state[b, 0] + offsets[b, j] * cb)
-                    dy = ya - (state[b, 1] + offsets[b, j] * sb)
-                    meet |= dx * dx + dy * dy < limit
-            if meet:
+            if active[b] and _circles_meet(state, a, b, reach2, offsets, radius):
                 first.append(a)
                 second.append(b)
     return np.array(first, dtype=np.int64), np.array(second, dtype=np.int64)
+
+
+@njit(cache=True, nogil=True)
+def _circles_meet(state, a, b, reach2, offsets, radius):  # pragma: no cover (compiled)
+    """Whether the covering circles of agents ``a`` and ``b`` meet (see :func:`touching_pairs`)."""
+    gx, gy = state[a, 0] - state[b, 0], state[a, 1] - state[b, 1]
+    if not gx * gx + gy * gy < reach2[a, b]:
+        return False
+    ca, sa = math.cos(state[a, 2]), math.sin(state[a, 2])
+    cb, sb = math.cos(state[b, 2]), math.sin(state[b, 2])
+    limit = (radius[a] + radius[b]) * (radius[a] + radius[b])
+    meet = False
+    for i in range(3):
+        xa, ya = state[a, 0] + offsets[a, i] * ca, state[a, 1] + offsets[a, i] * sa
+        for j in range(3):
+            dx = xa - (state[b, 0] + offsets[b, j] * cb)
+            dy = ya - (state[b, 1] + offsets[b, j] * sb)
+            meet |= dx * dx + dy * dy < limit
+    return meet
+
+
+@njit(cache=True, nogil=True)
+def any_touching(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
+    """Whether :func:`touching_pairs` would find any pair."""
+    n = state.shape[0]
+    for a in range(n):
+        if active[a]:
+            for b in range(a + 1, n):
+                if active[b] and _circles_meet(state, a, b, reach2, offsets, radius):
+                    return True
+    return False
 
 
 @njit(cache=True, nogil=True)
@@ -154,3 +193,35 @@ def record_fault_step(
     for i in range(state.shape[0]):
         for j in range(state.shape[1]):
             ring[slot, i, j] = state[i, j]
+
+
+@njit(cache=True, nogil=True)
+def advance_world(
+    state, controls, is_car, params, dt, active, s, offset, path_z, path_heading, path_len,
+    clearance, spacing, lo, hi, nearest, lateral, heading_error, front, route, enter_s, entered,
+    step, length, tolerance, reached, circle_offsets, circle_samples, circle_radius, reach2,
+    offroad_candidates,
+):  # fmt: skip
+    """One world step's per-agent arithmetic in one compiled call, in place, in
+    :meth:`World.step`'s order: the dynamics (:func:`~..dynamics.advance`), progress along the
+    paths (:func:`progress_into`), zone entries at step ``step`` (:func:`mark_entered`),
+    arrivals (:func:`mark_arrived`), then the broad phase of the collision check: writes
+    ``offroad_candidates`` (active cars not surely on the road, :func:`surely_on_road`) and
+    returns whether any candidate exists or any two agents' covering circles meet (False: the
+    step has no collision, and Shapely need not be called)."""
+    advance(state, controls, is_car, params, dt, active)
+    progress_into(
+        state, s, active, path_z, path_heading, path_len, spacing, lo, hi, nearest, lateral,
+        heading_error,
+    )  # fmt: skip
+    mark_entered(s, offset, front, route, enter_s, active, entered, step)
+    mark_arrived(s, path_len, length, tolerance, active, reached)
+    surely_on_road_into(
+        state, nearest, circle_offsets, circle_samples, circle_radius, path_z, clearance,
+        offroad_candidates,
+    )  # fmt: skip
+    candidates = False
+    for i in range(state.shape[0]):
+        offroad_candidates[i] = is_car[i] and active[i] and not offroad_candidates[i]
+        candidates |= offroad_candidates[i]
+    return candidates or any_touching(state, active, reach2, circle_offsets, circle_radius)

@@ -18,7 +18,6 @@ from fluids_bench.tasks.fluids.sim.collision import (
     footprint_corners,
 )
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
-from fluids_bench.tasks.fluids.sim.dynamics import advance
 from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import LightProgram
@@ -101,7 +100,8 @@ class World:
         # the footprints' covering circles (as the collision check's), and the path sample
         # offset nearest each, for the quick on-road test
         circles = covering_circles(self.is_car, self.length, self.width)
-        _, self._circle_offsets, self._circle_radius = circles
+        self._reach2, self._circle_offsets, self._circle_radius = circles
+        self._offroad_candidates = np.zeros(n, dtype=bool)  # written by each step
         self._circle_samples = np.rint(self._circle_offsets / PATH_SPACING).astype(np.int64)
 
     # ----------------------------------------------------------------------------- placement
@@ -207,25 +207,26 @@ class World:
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, controls: np.ndarray) -> list[Collision]:
-        """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions."""
-        act = self.active
-        advance(
-            self.state,
-            np.ascontiguousarray(controls, dtype=np.float64),
-            self.is_car,
-            self.params,
-            self.dt,
-            act,
-        )
+        """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions.
+
+        The per-agent arithmetic (dynamics, progress, zone entries, arrivals and the collision
+        broad phase) is one compiled call (:func:`kernels.advance_world`); Shapely runs only
+        when that finds agents whose covering circles meet or a car not surely on the road."""
         self.time = round(self.time + self.dt, 9)
         self.steps += 1
+        maybe_collided = kernels.advance_world(
+            self.state, np.ascontiguousarray(controls, dtype=np.float64), self.is_car,
+            self.params, self.dt, self.active, self.s, self.offset, self.path_z,
+            self.path_heading, self.path_len, self.path_clearance, PATH_SPACING,
+            *PROGRESS_WINDOW, self.nearest, self.lateral_error, self.heading_error, self.front,
+            self.route, self.layout.routes.enter_s, self.entered, self.steps, self.length,
+            GOAL_TOLERANCE, self.reached, self._circle_offsets, self._circle_samples,
+            self._circle_radius, self._reach2, self._offroad_candidates,
+        )  # fmt: skip
         self.light_state = self.lights.states(self.time)
-        self._update_progress()
-        self._update_entered()
-        kernels.mark_arrived(
-            self.s, self.path_len, self.length, GOAL_TOLERANCE, self.active, self.reached
-        )
-        events = self._collisions()
+        if not maybe_collided:
+            return []
+        events = self._collisions(self._offroad_candidates)
         self.log.extend(events)
         return events
 
@@ -239,16 +240,10 @@ class World:
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an
         agent moves at most a few samples per step); see :func:`kernels.progress`."""
-        self.s, self.nearest, self.lateral_error, self.heading_error = kernels.progress(
-            self.state,
-            self.s,
-            self.active,
-            self.path_z,
-            self.path_heading,
-            self.path_len,
-            PATH_SPACING,
-            *PROGRESS_WINDOW,
-        )
+        kernels.progress_into(
+            self.state, self.s, self.active, self.path_z, self.path_heading, self.path_len,
+            PATH_SPACING, *PROGRESS_WINDOW, self.nearest, self.lateral_error, self.heading_error,
+        )  # fmt: skip
 
     def surely_on_road(self) -> np.ndarray:
         """Cars whose footprint is certainly inside the (tolerant) drivable area: each of its
@@ -264,7 +259,11 @@ class World:
             self.path_clearance,
         )
 
-    def _collisions(self) -> list[Collision]:
+    def _collisions(self, offroad_candidates: np.ndarray | None = None) -> list[Collision]:
+        """This step's collisions; ``offroad_candidates`` (bool, N): the cars that get the exact
+        off-road test (default: the active cars not :meth:`surely_on_road`)."""
+        if offroad_candidates is None:
+            offroad_candidates = self.is_car & self.active & ~self.surely_on_road()
         found = find_collisions(
             self.state,
             self.length,
@@ -273,7 +272,7 @@ class World:
             self.active,
             self.layout.drivable_tolerant,
             self.layout.tolerant_boundary_vertices,
-            offroad_candidates=self.is_car & self.active & ~self.surely_on_road(),
+            offroad_candidates=offroad_candidates,
         )
         out = []
         for a, b, kind in found:
