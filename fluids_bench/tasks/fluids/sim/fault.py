@@ -33,6 +33,7 @@ committed to it; see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of, record_yield_step
 from fluids_bench.tasks.fluids.sim.kernels import record_fault_step
@@ -68,6 +69,27 @@ def turns_across(start: np.ndarray, turning: np.ndarray, ra, rb):
     turning right); elementwise."""
     opposite = np.abs(_wrap(start[ra] - start[rb])) > 3 * np.pi / 4
     return opposite & turning[ra] & ~turning[rb]
+
+
+@njit(cache=True, nogil=True)
+def _record_step(
+    s, offset, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
+    state, ring, slot, yield_check, route, active, is_car, car_enter, prev_at, prev_occupied,
+    warned, failed, width, centre, axis, half,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """One step of :meth:`FaultTracker.update` in one compiled call: zone entries, red lights
+    and history (:func:`record_fault_step`), then, with ``yield_check``, the crosswalks
+    (:func:`record_yield_step`), both at the agents' route arc lengths ``s + offset``."""
+    route_s = s + offset
+    record_fault_step(
+        route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
+        state, ring, slot,
+    )  # fmt: skip
+    if yield_check:
+        record_yield_step(
+            route_s, front, route, active, is_car, car_enter, prev_at, prev_occupied, warned,
+            failed, state, width, centre, axis, half,
+        )  # fmt: skip
 
 
 class FaultTracker:
@@ -110,20 +132,15 @@ class FaultTracker:
             self._enter = enter
             self._light_of = np.where(w.route >= 0, w.layout.routes.light[r], -1).astype(np.int64)
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
-        route_s = w.route_s  # a property that allocates: read once per step
-        record_fault_step(
-            route_s, w.front, self._enter, self._light_of, self._prev_lights,
-            np.asarray(w.light_state), STOP, self.entry_step, self.ran_red, w.steps,
-            w.state, self._ring, self._recorded % HISTORY,
+        cw = self._crosswalks
+        _record_step(
+            w.s, w.offset, w.front, self._enter, self._light_of, self._prev_lights,
+            w.light_state, STOP, self.entry_step, self.ran_red, w.steps, w.state, self._ring,
+            self._recorded % HISTORY, self._yield_check, w.route, w.active, w.is_car,
+            cw.car_enter, self._prev_at, self._prev_occupied, self._warned,
+            self.failed_to_yield, w.width, cw.centre, cw.axis, cw.half,
         )  # fmt: skip
         self._recorded += 1
-        if self._yield_check:
-            cw = self._crosswalks
-            record_yield_step(
-                route_s, w.front, w.route, w.active, w.is_car, cw.car_enter,
-                self._prev_at, self._prev_occupied, self._warned, self.failed_to_yield,
-                w.state, w.width, cw.centre, cw.axis, cw.half,
-            )  # fmt: skip
 
     def _history(self) -> list[np.ndarray]:
         """The kept states, oldest first (at most :data:`HISTORY`)."""

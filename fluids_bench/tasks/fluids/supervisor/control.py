@@ -72,9 +72,9 @@ class PIDController:
     def lookahead_points(self, world: World) -> np.ndarray:
         """The point (N, 2) of each agent's path it steers toward."""
         return kernels.lookahead_points(
-            world.path,
+            world.path_z,
             world.s,
-            world.state[:, 3],
+            world.state,
             world.path_len,
             self.min_ahead,
             self.ahead_time,

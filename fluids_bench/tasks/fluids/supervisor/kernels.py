@@ -135,16 +135,30 @@ def projected_arc_lengths(
 
 
 @njit(cache=True, nogil=True)
-def lookahead_points(path, s, speed, path_len, min_ahead, ahead_time, spacing):  # pragma: no cover
-    """The point (N, 2) of each agent's path (N, M, 2) a look-ahead distance ahead of its
-    progress ``s``: max(min_ahead, ahead_time · speed) metres, capped at the path's end."""
+def lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing):  # pragma: no cover
+    """The point (N, 2) of each agent's path (``path_z`` (N, M), x + iy) a look-ahead distance
+    ahead of its progress ``s``: max(min_ahead, ahead_time · speed) metres (speed: ``state``'s
+    last column), capped at the path's end."""
     out = np.empty((len(s), 2))
-    last = path.shape[1] - 1
+    last = path_z.shape[1] - 1
     for i in range(len(s)):
-        k = np.rint(min(s[i] + max(min_ahead[i], ahead_time[i] * speed[i]), path_len[i]) / spacing)
+        ahead = max(min_ahead[i], ahead_time[i] * state[i, 3])
+        k = np.rint(min(s[i] + ahead, path_len[i]) / spacing)
         k = min(max(int(k), 0), last)
-        out[i, 0], out[i, 1] = path[i, k, 0], path[i, k, 1]
+        out[i, 0], out[i, 1] = path_z[i, k].real, path_z[i, k].imag
     return out
+
+
+@njit(cache=True, nogil=True)
+def off_route(lateral, heading_error, active, is_car, max_lateral, max_heading):  # pragma: no cover
+    """Active cars farther than ``max_lateral`` (m) from their paths or with a heading error
+    above ``max_heading`` (rad); None of them: an empty array."""
+    out = []
+    for i in range(lateral.shape[0]):
+        if active[i] and is_car[i]:
+            if abs(lateral[i]) > max_lateral or abs(heading_error[i]) > max_heading:
+                out.append(i)
+    return np.array(out, dtype=np.int64)
 
 
 @njit(cache=True, nogil=True)

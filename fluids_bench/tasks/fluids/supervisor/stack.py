@@ -79,7 +79,7 @@ class DrivingSupervisor:
     def prepare(self, world: World) -> None:
         """Recover off-route cars, re-plan velocities when due, propose every agent's controls."""
         if self.config.recovery:
-            for agent in off_route(world).nonzero()[0]:
+            for agent in off_route(world):
                 if self.recovery_planner(world).plan(world, int(agent)):
                     self.recoveries += 1
         if world.steps % self.config.velocity.period == 0:

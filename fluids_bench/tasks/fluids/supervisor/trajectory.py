@@ -34,6 +34,7 @@ from fluids_bench.tasks.fluids.sim.layout.compiled import (
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING, headings, resample
 from fluids_bench.tasks.fluids.sim.layout.spec import LayoutSpec
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.kernels import off_route as off_route_agents
 
 OFF_ROUTE_LATERAL = 1.5  # m from the path at which a car counts as off its route
 OFF_ROUTE_HEADING = 0.8  # rad of heading error at which it does too
@@ -65,12 +66,10 @@ def waypoints_ego_frame(world: World, agent: int, count: int, spacing: float) ->
 
 
 def off_route(world: World) -> np.ndarray:
-    """Active cars too far from their paths, by position or heading."""
+    """Indices of the active cars too far from their paths, by position or heading."""
     lateral, herr = world.tracking_error()
-    return (
-        world.active
-        & world.is_car
-        & ((np.abs(lateral) > OFF_ROUTE_LATERAL) | (np.abs(herr) > OFF_ROUTE_HEADING))
+    return off_route_agents(
+        lateral, herr, world.active, world.is_car, OFF_ROUTE_LATERAL, OFF_ROUTE_HEADING
     )
 
 
