@@ -34,10 +34,12 @@ from fluids_bench.tasks.fluids.sim.layout.compiled import (
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING, headings, resample
 from fluids_bench.tasks.fluids.sim.layout.spec import LayoutSpec
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.kernels import off_route as off_route_agents
+from fluids_bench.tasks.fluids.supervisor.kernels import mark_off_route
 
 OFF_ROUTE_LATERAL = 1.5  # m from the path at which a car counts as off its route
 OFF_ROUTE_HEADING = 0.8  # rad of heading error at which it does too
+_NONE = np.zeros(0, dtype=np.int64)  # no agent off its route (read-only)
+_NONE.setflags(write=False)
 ROUTE_CLEARANCES = (0.4, 0.2, 0.0)  # m OMPL-planned routes try to keep from the kerb (PID slack)
 REJOIN_AHEAD = (8.0, 12.0, 16.0, 20.0, 26.0, 32.0)  # m ahead on the route to try rejoining at
 # the via-pose lattice of the two-curve fallback (DubinsPlanner.via), relative to the car's pose
@@ -68,9 +70,11 @@ def waypoints_ego_frame(world: World, agent: int, count: int, spacing: float) ->
 def off_route(world: World) -> np.ndarray:
     """Indices of the active cars too far from their paths, by position or heading."""
     lateral, herr = world.tracking_error()
-    return off_route_agents(
-        lateral, herr, world.active, world.is_car, OFF_ROUTE_LATERAL, OFF_ROUTE_HEADING
+    mask = np.empty(world.n, dtype=np.bool_)
+    count = mark_off_route(
+        lateral, herr, world.active, world.is_car, OFF_ROUTE_LATERAL, OFF_ROUTE_HEADING, mask
     )
+    return mask.nonzero()[0] if count else _NONE
 
 
 class DubinsPlanner:
