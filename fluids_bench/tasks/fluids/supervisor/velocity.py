@@ -45,7 +45,6 @@ from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     allowed_speeds,
@@ -53,8 +52,10 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
     plan_conflicts,
     projected_arc_lengths,
 )
+from fluids_bench.tasks.fluids.supervisor.plan_kernels import plan_head, plan_tail
 from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
+_NO_GAPS = np.zeros(0, dtype=np.float32)  # no candidate pair: no distances
 CURVE_LOOK_AHEAD = 24  # path samples (12 m) ahead whose curvature limits the speed now
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
@@ -325,7 +326,7 @@ class VelocityPlanner:
         self._bind(world)
         if hold_lines is None:
             hold_lines = np.full(len(agents), np.inf)
-        routes, scene = world.layout.routes, world.scene
+        routes = world.layout.routes
         forbid = defensive_forbid(
             agents,
             np.ascontiguousarray(wild, dtype=np.bool_),
@@ -339,11 +340,7 @@ class VelocityPlanner:
             world.entered,
             world.route,
             world.max_speed,
-            np.where(
-                world.is_car,
-                scene.car.max_brake_force / world.params[:, 0],
-                scene.pedestrian.max_accel,
-            ),  # fmt: skip
+            self._brake_limit,
             self._offs32,
             self._radius,
             self._reach,
@@ -366,6 +363,11 @@ class VelocityPlanner:
         if getattr(self, "_bound_world", None) is world:
             return
         self._bound_world = world
+        self._none_uncontrolled = np.zeros(world.n, dtype=bool)
+        scene = world.scene
+        self._brake_limit = np.where(
+            world.is_car, scene.car.max_brake_force / world.params[:, 0], scene.pedestrian.max_accel
+        )  # m/s², each agent's hardest braking
         self._offs, self._radius = _circle_layout(world)
         self._offs32 = self._offs.astype(np.float32)
         bound = np.where(world.is_car, np.hypot(world.length, world.width) / 2, world.width / 2)
@@ -411,32 +413,38 @@ class VelocityPlanner:
     def plan(self, world: World, uncontrolled: np.ndarray | None = None) -> np.ndarray:
         """Target velocity (m/s) of every agent; 0 for inactive ones. ``uncontrolled`` (bool,
         (N,)) marks agents that may not follow the plan; the others drive defensively toward
-        them (:meth:`defensive_domains`)."""
+        them (:meth:`defensive_domains`).
+
+        The steps are :meth:`allowed_speed`, :meth:`project`, :meth:`domains`,
+        :meth:`defensive_domains` and :meth:`conflicts`, then the CSP, fastest candidates
+        first; they run as two compiled calls (:mod:`.plan_kernels`)."""
         self._bind(world)
         out = np.zeros(world.n)
         agents = world.active.nonzero()[0]
         if not len(agents):
             return out
-        vmax = self.allowed_speed(world, agents)
-        targets = vmax[:, None] * self.fractions[None, :]
-        s_proj = self.project(world, agents, targets)
-        allowed, hold = self._domains_and_hold_lines(world, agents, s_proj, uncontrolled)
-        if uncontrolled is not None and uncontrolled[agents].any():
-            allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
-        pairs, conflict = self.conflicts(world, agents, s_proj)
-        # the fastest allowed candidates, or, where a constraint binds there, the CSP's answer
-        choice, solved = plan_choice(
-            agents,
-            world.s,
-            world.offset,
-            self._front,
-            world.route,
-            world.layout.routes.enter_s,
-            allowed,
-            pairs,
-            conflict,
-        )
+        defensive = uncontrolled is not None
+        if not defensive:
+            uncontrolled = self._none_uncontrolled
+        routes, lights, cw, cfg = world.layout.routes, world.lights, self._crosswalks, self.config
+        targets, s_proj, allowed, first, second, gaps = plan_head(
+            agents, uncontrolled, self.fractions,
+            world.state, world.s, world.offset, self._front, world.is_car, world.active,
+            world.width, world.route, world.entered, world.max_speed, self._brake_limit,
+            routes.curvature, routes.speed_limit, routes.enter_s, routes.light, routes.stop_s,
+            self._across, world.light_state, lights.ends, lights.cycle, lights.offset,
+            world.time, cw.centre, cw.axis, cw.half, cw.car_enter, cw.walk_crosswalk,
+            cw.walk_enter, self._turns[1], self._offs32, self._radius, self._reach,
+            world.path_c64, world.path_dir, self._decay, self._hold_wild, self._ints,
+            self._floats, CURVE_LOOK_AHEAD, cfg.yield_to_pedestrians, defensive,
+        )  # fmt: skip
+        d_now = np.abs(gaps).min(axis=1) if len(first) else _NO_GAPS  # numpy's: see conflicts
+        solved = plan_tail(
+            agents, targets, s_proj, allowed, first, second, d_now,
+            world.state, world.s, world.offset, self._front, world.is_car, world.route,
+            routes.enter_s, self._offs32, self._radius, self._reach, world.path_c64,
+            world.path_dir, 1.0 / PATH_SPACING, cfg.margin, cfg.pedestrian_margin, out,
+        )  # fmt: skip
         if not solved:  # cannot happen (all-stop is feasible); fail loudly if it does
             raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
-        out[agents] = targets[np.arange(len(agents)), choice]
         return out

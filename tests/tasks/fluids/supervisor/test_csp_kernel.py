@@ -11,6 +11,7 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from csp_reference import reference_choice, reference_priority
+from plan_reference import stepwise_plan
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.fluids.supervisor import velocity
@@ -19,8 +20,9 @@ from fluids_bench.tasks.fluids.supervisor.csp_kernels import choose, plan_choice
 
 def _recorded(env_id: str, layout: str, seed: int, steps: int = 600):
     """(priority, allowed, pairs, conflict) of every plan of a noisy supervised episode, with
-    the priority order checked against the numpy lexsort, and the planner's plan_choice
-    against choose() with that order, on the way."""
+    the priority order checked against the numpy lexsort, the planner's plan_choice against
+    choose() with that order, and the compiled plan against the step-by-step one
+    (``plan_reference.py``), on the way."""
     instances = []
 
     def record(agents, s, offset, front, route, enter_s, allowed, pairs, conflict):
@@ -34,10 +36,18 @@ def _recorded(env_id: str, layout: str, seed: int, steps: int = 600):
         assert got[1] == want[1]
         return got
 
+    compiled_plan = velocity.VelocityPlanner.plan
+
+    def plan_and_record(planner, world, uncontrolled=None):
+        """The compiled plan, checked against the step-by-step one, which records."""
+        got = compiled_plan(planner, world, uncontrolled)
+        np.testing.assert_array_equal(got, stepwise_plan(planner, world, uncontrolled, record))
+        return got
+
     env = gym.make(env_id, layout=layout, num_cars=10, num_pedestrians=5)
     rng = np.random.default_rng(seed)
     mp = pytest.MonkeyPatch()
-    mp.setattr(velocity, "plan_choice", record)
+    mp.setattr(velocity.VelocityPlanner, "plan", plan_and_record)
     try:
         _, info = env.reset(seed=seed)
         for step in range(steps):
