@@ -87,22 +87,19 @@ class PIDController:
         """Controls (N, 2): [steering ψ (rad), force F (N)] for cars, [heading, accel] for
         pedestrians, and the loop memory to :meth:`commit` if they are executed. ``aim``
         overrides the look-ahead points (N, 2)."""
-        aim = self.lookahead_points(world) if aim is None else aim
-        out, err, integ, v_int = kernels.pid_controls(
-            world.state,
-            aim,
-            self.is_car,
-            target_speed,
-            self.steer_prev,
-            self.steer_int,
-            self.speed_int,
-            world.dt,
-            self._gains,
-            self._limits,
-            self.gain,
-            self.low,
-            self.high,
-        )
+        if aim is None:  # the look-ahead points and the loops in one compiled call
+            out, err, integ, v_int = kernels.pid_follow(
+                world.path_z, world.s, world.path_len, self.min_ahead, self.ahead_time,
+                PATH_SPACING, world.state, self.is_car, target_speed, self.steer_prev,
+                self.steer_int, self.speed_int, world.dt, self._gains, self._limits, self.gain,
+                self.low, self.high,
+            )  # fmt: skip
+        else:
+            out, err, integ, v_int = kernels.pid_controls(
+                world.state, aim, self.is_car, target_speed, self.steer_prev, self.steer_int,
+                self.speed_int, world.dt, self._gains, self._limits, self.gain, self.low,
+                self.high,
+            )  # fmt: skip
         return out, (err, integ, v_int)
 
     def commit(self, memory: tuple) -> None:

@@ -211,6 +211,19 @@ def pid_controls(
 
 
 @njit(cache=True, nogil=True)
+def pid_follow(
+    path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
+    steer_int, speed_int, dt, gains, limits, gain, low, high,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`pid_controls` toward each agent's :func:`lookahead_points`, in one call."""
+    aim = lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing)
+    return pid_controls(
+        state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits,
+        gain, low, high,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
 def hold_then_brake_into(
     out, a, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
