@@ -127,9 +127,9 @@ def _physical(env: gym.Env, action) -> np.ndarray:
 
 
 def _vec_env(env_id: str, kwargs: dict, n_envs: int, seed: int):
-    """SB3's ``make_vec_env``, with ``render_mode=None`` (SB3 asks for "rgb_array" unless told,
-    which DAG-v0 refuses; training envs are never drawn). "fluids_bench:<id>" imports the
-    package wherever the env is built."""
+    """SB3's ``make_vec_env``, with ``render_mode=None`` (SB3 asks for "rgb_array" unless told;
+    training envs are never drawn, and a renderer costs set-up). "fluids_bench:<id>" imports
+    the package wherever the env is built."""
     from stable_baselines3.common.env_util import make_vec_env
 
     return make_vec_env(

@@ -12,6 +12,7 @@ from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_choice, check_float, reject_unknown_kwargs
+from fluids_bench.tasks.dag.draw import draw_dag
 from fluids_bench.tasks.dag.model import DEPTH, L, transition
 from fluids_bench.tasks.dag.supervisor import greedy_action
 
@@ -68,7 +69,7 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     | Parameter     | Type  | Default | Description                                               |
     |---------------|-------|---------|-----------------------------------------------------------|
     | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
-    | `render_mode` | str   | None    | only None (the DAG has no picture)                        |
+    | `render_mode` | str   | None    | None or "rgb_array" (the graph, the robot's node filled)  |
 
     Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
     is allowed, an unknown argument ``ValueError`` listing the allowed ones.
@@ -78,18 +79,19 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     * v0: Initial version.
     """
 
-    metadata = {"render_modes": [], "render_fps": 1}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 1}
 
-    _snapshot_fields = ("_level", "_index")
+    _snapshot_fields = ("_level", "_index", "_last_edge")
 
     @reject_unknown_kwargs
     def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:
         self.mu = check_float(WHERE, "mu", mu, 0.0, 1.0)
-        self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None])
+        self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
         self.action_space = spaces.Discrete(2)
         self.observation_space = spaces.Box(0.0, float(DEPTH), (2,), np.float32)
         self._level = 0
         self._index = 0
+        self._last_edge: tuple[int, int, int] | None = None  # drawn thick by render()
 
     def supervisor_action(self) -> np.int64:
         """The greedy supervisor's label at the current node (L at the leaves, unused)."""
@@ -108,7 +110,7 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     ) -> tuple[np.ndarray, dict[str, Any]]:
         seed = as_seed(seed)  # np.int64(5) seeds as 5
         super().reset(seed=seed)
-        self._level, self._index = 0, 0
+        self._level, self._index, self._last_edge = 0, 0, None
         return self._observation(), self._info()
 
     def step(self, action: Any) -> tuple[np.ndarray, float, bool, bool, dict[str, Any]]:
@@ -118,6 +120,15 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
         # draw on every step, not only at the root, so the random stream does not depend on
         # the actions taken before
         slipped = self.np_random.random() < self.mu
+        before = (self._level, self._index)
         self._level, self._index, reward = transition(self._level, self._index, move, slipped)
+        self._last_edge = (*before, self._index - before[1])  # the move executed
         terminated = self._level == DEPTH
         return self._observation(), float(reward), terminated, False, self._info()
+
+    def render(self) -> np.ndarray | None:
+        """``render_mode="rgb_array"``: the graph with the robot's node filled and the edge it
+        took drawn thick (:func:`fluids_bench.tasks.dag.draw.draw_dag`); otherwise None."""
+        if self.render_mode != "rgb_array":
+            return None
+        return draw_dag(self._level, self._index, self._last_edge)

@@ -17,6 +17,7 @@ from fluids_bench.algos.dagger import run as run_dagger
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.tasks.dag import draw
 from fluids_bench.tasks.dag.env import DAGEnv
 from fluids_bench.tasks.dag.model import L, R
 from fluids_bench.tasks.dag.supervisor import expected_return, greedy_action
@@ -125,3 +126,27 @@ def test_unknown_kwargs_and_numpy_scalars() -> None:
     ):
         gym.make("DAG-v0", nu=0.3)
     assert gym.make("DAG-v0", mu=np.float32(0.5)).unwrapped.mu == 0.5
+
+
+def test_rgb_array_shows_the_robot_and_the_edge_it_took():
+    env = gym.make("DAG-v0", render_mode="rgb_array", mu=0.0)
+    env.reset(seed=0)
+    root = env.render()
+    assert root.shape == (draw.SIZE, draw.SIZE, 3) and root.dtype == np.uint8
+    assert tuple(root[draw.node_centre(0, 0)[::-1]]) == draw.ROBOT
+    env.step(R)
+    env.step(L)  # (0, 0) -R-> (1, 1) -L-> (2, 1)
+    frame = env.render()
+    x, y = draw.node_centre(2, 1)
+    assert tuple(frame[y, x]) == draw.ROBOT
+    assert tuple(frame[draw.node_centre(1, 1)[::-1]]) == draw.BACKGROUND
+    (ax, ay), (bx, by) = draw.node_centre(1, 1), draw.node_centre(2, 1)
+    assert tuple(frame[(ay + by) // 2, (ax + bx) // 2]) == draw.TAKEN  # the L edge just taken
+    (cx, cy), (dx, dy) = draw.node_centre(0, 0), draw.node_centre(1, 1)
+    assert tuple(frame[(cy + dy) // 2, (cx + dx) // 2]) != draw.TAKEN  # only the last edge
+
+
+def test_render_without_a_mode_returns_none():
+    env = gym.make("DAG-v0")
+    env.reset(seed=0)
+    assert env.unwrapped.render() is None
