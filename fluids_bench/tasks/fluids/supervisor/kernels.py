@@ -35,7 +35,17 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
     """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
     at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
     the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
-    for t in range(px.shape[2]):
+    n_t = px.shape[2]
+    # most pairs of candidates never pass the broad phase: find out without a branch per time
+    # (the loop vectorises), then visit the times that do
+    near = False
+    for t in range(n_t):
+        dx = px[i, a, t] - px[j, b, t]
+        dy = py[i, a, t] - py[j, b, t]
+        near |= dx * dx + dy * dy < reach2
+    if not near:
+        return False
+    for t in range(n_t):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
         if not dx * dx + dy * dy < reach2:
@@ -95,6 +105,40 @@ def boxes_apart(box, i, j):  # pragma: no cover (compiled)
         box[i, 0] > box[j, 1]
         or box[j, 0] > box[i, 1]
         or (box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3])
+    )
+
+
+# Boxes of float32 positions more than this multiple of the pair's summed reach apart cannot
+# hold two points that pass too_close's float32 broad phase (whose rounding is ~1e-7 relative)
+_APART = 1.001
+
+
+@njit(cache=True, nogil=True)
+def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
+    """(A, K, 4) box (lo_x, hi_x, lo_y, hi_y; m) of each candidate's projected positions, for
+    the agents in ``rows`` (zeros elsewhere)."""
+    box = np.zeros((px.shape[0], px.shape[1], 4))
+    for a in rows:
+        for k in range(px.shape[1]):
+            x0, x1, y0, y1 = px[a, k, 0], px[a, k, 0], py[a, k, 0], py[a, k, 0]
+            for t in range(1, px.shape[2]):
+                x0, x1 = min(x0, px[a, k, t]), max(x1, px[a, k, t])
+                y0, y1 = min(y0, py[a, k, t]), max(y1, py[a, k, t])
+            box[a, k, 0], box[a, k, 1], box[a, k, 2], box[a, k, 3] = x0, x1, y0, y1
+    return box
+
+
+@njit(cache=True, nogil=True)
+def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
+    """Agent ``i``'s candidate ``a`` and ``j``'s candidate ``b`` stay more than ``reach`` (m,
+    their summed bounding radii) times :data:`_APART` apart on some axis: :func:`too_close`
+    would find no time that passes its broad phase, so it need not run."""
+    r = reach * _APART
+    return (
+        cbox[i, a, 0] - cbox[j, b, 1] > r
+        or cbox[j, b, 0] - cbox[i, a, 1] > r
+        or cbox[i, a, 2] - cbox[j, b, 3] > r
+        or cbox[j, b, 2] - cbox[i, a, 3] > r
     )
 
 
@@ -280,7 +324,7 @@ def plan_conflicts(
     px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
     now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
-    box = swept_boxes(px, py, now_x, now_y, bound, rows)
+    box, cbox = swept_boxes(px, py, now_x, now_y, bound, rows), candidate_boxes(px, py, rows)
     table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
     keep = np.zeros(len(first), dtype=np.bool_)
     for p in range(len(first)):
@@ -290,11 +334,14 @@ def plan_conflicts(
         m = pedestrian_margin if crossing[i] or crossing[j] else margin
         # float32 as numpy computes d_now - 0.05 for a float32 array
         thresh = max(min(radius_a[i] + radius_a[j] + m, d_now[p] - np.float32(0.05)), 0.0)
-        reach2 = np.float32((bound[i] + bound[j]) * (bound[i] + bound[j]))
+        reach = bound[i] + bound[j]
+        reach2 = np.float32(reach * reach)
         for a in range(n_cand):
             for b in range(n_cand):
                 if a == 0 and b == 0:
                     continue  # both braking is always allowed
+                if candidates_apart(cbox, i, a, j, b, reach):
+                    continue
                 hit = too_close(px, py, ux, uy, offs_a, i, a, j, b, reach2, thresh * thresh)
                 table[p, a, b] = hit
                 keep[p] |= hit
