@@ -46,28 +46,40 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
 
 
 @njit(cache=True, nogil=True)
-def _any_conflict(samples, offs, box, i, a, j, reach2, thresh2):  # pragma: no cover
-    """Agent ``i`` at candidate ``a`` comes too close to ``j`` at any of its candidates."""
+def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
+    """For each candidate c with ``out[c]`` False, set it where agent ``i`` at c (agent ``j``
+    if ``of_second``: conflict[p, :, c].any()) comes too close to the other at any of its
+    candidates. One call per pair rather than one per candidate: each call of a compiled
+    helper increments and decrements an atomic reference count per array it takes, and those
+    took a quarter of the kernel's time."""
     if boxes_apart(box, i, j):
-        return False
+        return
     px, py, ux, uy = samples
-    for b in range(px.shape[1]):
-        if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
-            return True
-    return False
+    n_cand = px.shape[1]
+    for c in range(n_cand):
+        if out[c]:
+            continue
+        for d in range(n_cand):
+            a, b = (d, c) if of_second else (c, d)
+            if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
+                out[c] = True
+                break
 
 
 @njit(cache=True, nogil=True)
-def _any_conflict_second(samples, offs, box, i, j, b, reach2, thresh2):  # pragma: no cover
-    """Agent ``j`` at candidate ``b`` comes too close to ``i`` at any of its candidates
-    (conflict[p, :, b].any(): the pair's table seen from its second agent)."""
-    if boxes_apart(box, i, j):
-        return False
-    px, py, ux, uy = samples
-    for a in range(px.shape[1]):
-        if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
-            return True
-    return False
+def _mark_both_ways(
+    s_stop, box_stop, s_go, box_go, offs, t, w, reach2, thresh2, out, hit_go
+):  # pragma: no cover (compiled)
+    """Set ``out[k]`` (where False) for each candidate k at which agent ``t`` comes too close
+    to ``w`` both in the stop scenario and in the go one (any of w's candidates each);
+    ``hit_go`` (K,) is scratch."""
+    row = out.copy()
+    _mark_conflicts(s_stop, offs, box_stop, t, w, False, reach2, thresh2, out)
+    for k in range(len(out)):
+        hit_go[k] = row[k] or not out[k]  # settled already, or clear when stopping
+    _mark_conflicts(s_go, offs, box_go, t, w, False, reach2, thresh2, hit_go)
+    for k in range(len(out)):
+        out[k] = row[k] or (out[k] and hit_go[k])
 
 
 @njit(cache=True, nogil=True)
@@ -160,11 +172,8 @@ def defensive_forbid(
     for p in range(len(first)):
         i, j = first[p], second[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, i, j, margin, ped_margin, False)
-        for c in range(n_cand):
-            if wild[i] and not forbid[j, c]:
-                forbid[j, c] = _any_conflict_second(samples, offs_a, box, i, j, c, reach2, thresh2)
-            elif not wild[i] and not forbid[i, c]:
-                forbid[i, c] = _any_conflict(samples, offs_a, box, i, c, j, reach2, thresh2)
+        row = forbid[j] if wild[i] else forbid[i]  # the supervised agent's
+        _mark_conflicts(samples, offs_a, box, i, j, wild[i], reach2, thresh2, row)
     follow = _follow_supervised(
         agents, wild, state, s, is_car, s_def, path_c64, path_dir, inv_spacing, now_x, now_y,
         bound, offs_a, radius_a, crossing, ints, floats,
@@ -349,14 +358,13 @@ def _give_way(
     s_go = path_samples(path_c64, path_dir, agents, go, rows, inv_spacing)
     box_stop = swept_boxes(s_stop[0], s_stop[1], now_x, now_y, bound, rows)
     box_go = swept_boxes(s_go[0], s_go[1], now_x, now_y, bound, rows)
+    hit_go = np.empty(n_cand, np.bool_)
     for p in range(len(ts)):
         t, w = ts[p], ws[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, t, w, margin, ped_margin, False)
-        for k in range(n_cand):
-            if not forbid[t, k]:
-                forbid[t, k] = _any_conflict(
-                    s_stop, offs_a, box_stop, t, k, w, reach2, thresh2
-                ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
+        _mark_both_ways(
+            s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, forbid[t], hit_go
+        )
     stuck = np.zeros(n_agents, np.bool_)
     any_stuck = False
     for a in rows:
@@ -375,11 +383,9 @@ def _give_way(
             reach2, thresh2 = _pair_limits(
                 radius_a, bound, crossing, t, w, margin, ped_margin, True
             )
-            for k in range(n_cand):
-                if not touch[t, k]:
-                    touch[t, k] = _any_conflict(
-                        s_stop, offs_a, box_stop, t, k, w, reach2, thresh2
-                    ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
+            _mark_both_ways(
+                s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, touch[t], hit_go
+            )
         for a in rows:
             if stuck[a]:
                 for k in range(n_cand):
