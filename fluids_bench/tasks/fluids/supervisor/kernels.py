@@ -236,28 +236,36 @@ def pid_controls(
 
 @njit(cache=True, nogil=True)
 def hold_then_brake_into(
-    out, a, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+    out, rows, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
-    """One agent's rows of :func:`hold_then_brake`, written into ``out[a]``: start at ``s0``
-    (m) and ``v0`` (m/s), track ``targets[k]`` for ``hold[k]`` steps, then brake.
+    """The rows ``rows`` of :func:`hold_then_brake` (its arguments, (A, ...)), written into
+    ``out`` (A, K, T); the other rows are left alone.
 
-    The K candidates are stepped side by side (time outer, candidate inner): each is its own
-    chain of dependent operations, so interleaving them keeps the CPU busy; each candidate's
-    arithmetic is unchanged."""
-    n_cand = len(targets)
-    v = np.full(n_cand, v0)
-    travelled = np.zeros(n_cand)
-    for m in range(1, steps + 1):
+    Each candidate of each row is its own chain of dependent operations. All of them are
+    stepped side by side, time outer and one flat loop over the (row, candidate) lanes inner,
+    which vectorises and keeps the CPU busy; each lane's arithmetic is unchanged."""
+    n_cand = targets.shape[1]
+    n = len(rows) * n_cand
+    v, travelled, goal = np.empty(n), np.zeros(n), np.empty(n)
+    until, lane_decel, lane_gain = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    for r in range(len(rows)):
+        a = rows[r]
         for k in range(n_cand):
-            goal = targets[k] if m <= hold[k] else 0.0
-            dv = gain * (goal - v[k])
-            dv = min(max(dv, -decel), max_accel)
-            nv = max(v[k] + dv * dt, 0.0)
-            travelled[k] += 0.5 * (v[k] + nv) * dt
-            v[k] = nv
+            q = r * n_cand + k
+            v[q], goal[q], until[q] = v0[a], targets[a, k], hold[a, k]
+            lane_decel[q], lane_gain[q] = decel[a], gain[a]
+    for m in range(1, steps + 1):
+        for q in range(n):
+            target = goal[q] if m <= until[q] else 0.0
+            dv = lane_gain[q] * (target - v[q])
+            dv = min(max(dv, -lane_decel[q]), max_accel)
+            nv = max(v[q] + dv * dt, 0.0)
+            travelled[q] += 0.5 * (v[q] + nv) * dt
+            v[q] = nv
         if m % every == 0:
-            for k in range(n_cand):
-                out[a, k, m // every - 1] = s0 + travelled[k]
+            for r in range(len(rows)):
+                for k in range(n_cand):
+                    out[rows[r], k, m // every - 1] = s0[rows[r]] + travelled[r * n_cand + k]
 
 
 @njit(cache=True, nogil=True)
@@ -276,11 +284,9 @@ def hold_then_brake(
     """
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
-    for a in range(n_agents):
-        hold_then_brake_into(
-            out, a, s0[a], v0[a], targets[a], hold[a], steps, every, dt, max_accel, decel[a],
-            gain[a],
-        )  # fmt: skip
+    hold_then_brake_into(
+        out, np.arange(n_agents), s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+    )
     return out
 
 
