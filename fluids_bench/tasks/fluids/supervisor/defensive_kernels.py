@@ -45,13 +45,13 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
     return dx * c - dy * s, dx * s + dy * c, aligned
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
     """For each candidate c with ``out[c]`` False, set it where agent ``i`` at c (agent ``j``
     if ``of_second``: conflict[p, :, c].any()) comes too close to the other at any of its
-    candidates. One call per pair rather than one per candidate: each call of a compiled
-    helper increments and decrements an atomic reference count per array it takes, and those
-    took a quarter of the kernel's time."""
+    candidates. One call per pair, inlined: a call of a compiled helper increments and
+    decrements an atomic reference count per array it takes, and with a call per candidate
+    those took a quarter of the kernel's time."""
     if boxes_apart(box, i, j):
         return
     px, py, ux, uy = samples
@@ -66,7 +66,7 @@ def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out): 
                 break
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _mark_both_ways(
     s_stop, box_stop, s_go, box_go, offs, t, w, reach2, thresh2, out, hit_go
 ):  # pragma: no cover (compiled)

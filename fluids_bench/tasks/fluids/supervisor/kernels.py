@@ -30,7 +30,9 @@ def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
     return x0 - bound[i], x1 + bound[i], y0 - bound[i], y1 + bound[i]
 
 
-@njit(cache=True, nogil=True)
+# The per-pair helpers are inlined into their callers by numba (inline="always"): no reference
+# counting of their array arguments per call, and the callers' loops optimise across them.
+@njit(cache=True, nogil=True, inline="always")
 def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
     """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
     at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
@@ -98,7 +100,7 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
     return box
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def boxes_apart(box, i, j):  # pragma: no cover (compiled)
     """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
     return (
@@ -128,7 +130,7 @@ def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
     return box
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
     """Agent ``i``'s candidate ``a`` and ``j``'s candidate ``b`` stay more than ``reach`` (m,
     their summed bounding radii) times :data:`_APART` apart on some axis: :func:`too_close`
