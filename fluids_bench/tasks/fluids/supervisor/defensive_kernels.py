@@ -45,29 +45,41 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
     return dx * c - dy * s, dx * s + dy * c, aligned
 
 
-@njit(cache=True, nogil=True)
-def _any_conflict(samples, offs, box, i, a, j, reach2, thresh2):  # pragma: no cover
-    """Agent ``i`` at candidate ``a`` comes too close to ``j`` at any of its candidates."""
+@njit(cache=True, nogil=True, inline="always")
+def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
+    """For each candidate c with ``out[c]`` False, set it where agent ``i`` at c (agent ``j``
+    if ``of_second``: conflict[p, :, c].any()) comes too close to the other at any of its
+    candidates. One call per pair, inlined: a call of a compiled helper increments and
+    decrements an atomic reference count per array it takes, and with a call per candidate
+    those took a quarter of the kernel's time."""
     if boxes_apart(box, i, j):
-        return False
+        return
     px, py, ux, uy = samples
-    for b in range(px.shape[1]):
-        if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
-            return True
-    return False
+    n_cand = px.shape[1]
+    for c in range(n_cand):
+        if out[c]:
+            continue
+        for d in range(n_cand):
+            a, b = (d, c) if of_second else (c, d)
+            if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
+                out[c] = True
+                break
 
 
-@njit(cache=True, nogil=True)
-def _any_conflict_second(samples, offs, box, i, j, b, reach2, thresh2):  # pragma: no cover
-    """Agent ``j`` at candidate ``b`` comes too close to ``i`` at any of its candidates
-    (conflict[p, :, b].any(): the pair's table seen from its second agent)."""
-    if boxes_apart(box, i, j):
-        return False
-    px, py, ux, uy = samples
-    for a in range(px.shape[1]):
-        if too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):
-            return True
-    return False
+@njit(cache=True, nogil=True, inline="always")
+def _mark_both_ways(
+    s_stop, box_stop, s_go, box_go, offs, t, w, reach2, thresh2, out, hit_go
+):  # pragma: no cover (compiled)
+    """Set ``out[k]`` (where False) for each candidate k at which agent ``t`` comes too close
+    to ``w`` both in the stop scenario and in the go one (any of w's candidates each);
+    ``hit_go`` (K,) is scratch."""
+    row = out.copy()
+    _mark_conflicts(s_stop, offs, box_stop, t, w, False, reach2, thresh2, out)
+    for k in range(len(out)):
+        hit_go[k] = row[k] or not out[k]  # settled already, or clear when stopping
+    _mark_conflicts(s_go, offs, box_go, t, w, False, reach2, thresh2, hit_go)
+    for k in range(len(out)):
+        out[k] = row[k] or (out[k] and hit_go[k])
 
 
 @njit(cache=True, nogil=True)
@@ -140,37 +152,38 @@ def defensive_forbid(
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
     # the uncontrolled agent brakes as hard as it can now or a few steps from now; the
     # supervised one holds its candidate until the next plan, then brakes
-    s_def = np.empty((n_agents, n_cand, (steps - every) // every + 1))
-    hold_tame = np.full(n_cand, period)
+    s0, v0 = np.empty(n_agents), np.empty(n_agents)
+    goal, hold = np.empty((n_agents, n_cand)), np.empty((n_agents, n_cand), np.int64)
+    decel, gains = np.empty(n_agents), np.empty(n_agents)
     for a in range(n_agents):
-        ag, v = agents[a], state[agents[a], 3]
+        ag = agents[a]
+        s0[a], v0[a] = s[ag], state[ag, 3]
         if wild[a]:
-            hold_then_brake_into(
-                s_def, a, s[ag], v, np.full(n_cand, v), hold_wild, steps, every, dt, max_accel,
-                brake_limit[ag], 1.0 / dt,
-            )  # fmt: skip
+            decel[a], gains[a] = brake_limit[ag], 1.0 / dt
+            for k in range(n_cand):
+                goal[a, k], hold[a, k] = v0[a], hold_wild[k]
         else:
-            hold_then_brake_into(
-                s_def, a, s[ag], v, targets[a], hold_tame, steps, every, dt, max_accel,
-                max_decel, gain,
-            )  # fmt: skip
+            decel[a], gains[a] = max_decel, gain
+            for k in range(n_cand):
+                goal[a, k], hold[a, k] = targets[a, k], period
     all_rows = np.arange(n_agents)
+    s_def = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    hold_then_brake_into(
+        s_def, all_rows, s0, v0, goal, hold, steps, every, dt, max_accel, decel, gains
+    )
     samples = path_samples(path_c64, path_dir, agents, s_def, all_rows, inv_spacing)
     box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, all_rows)
     for p in range(len(first)):
         i, j = first[p], second[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, i, j, margin, ped_margin, False)
-        for c in range(n_cand):
-            if wild[i] and not forbid[j, c]:
-                forbid[j, c] = _any_conflict_second(samples, offs_a, box, i, j, c, reach2, thresh2)
-            elif not wild[i] and not forbid[i, c]:
-                forbid[i, c] = _any_conflict(samples, offs_a, box, i, c, j, reach2, thresh2)
+        row = forbid[j] if wild[i] else forbid[i]  # the supervised agent's
+        _mark_conflicts(samples, offs_a, box, i, j, wild[i], reach2, thresh2, row)
     follow = _follow_supervised(
-        agents, wild, state, s, is_car, s_def, path_c64, path_dir, inv_spacing, now_x, now_y,
-        bound, offs_a, radius_a, crossing, ints, floats,
+        agents, wild, state, s0, v0, is_car, s_def, path_c64, path_dir, inv_spacing, now_x,
+        now_y, bound, offs_a, radius_a, crossing, ints, floats,
     )  # fmt: skip
     give_way = _give_way(
-        agents, wild, targets, hold_lines, first, second, state, s, offset, front, is_car,
+        agents, wild, targets, hold_lines, first, second, s0, v0, s, offset, front, is_car,
         entered, route, max_speed, across, curvature, speed_limit, fractions, path_c64,
         path_dir, now_x, now_y, bound, offs_a, radius_a, crossing, ints, floats,
     )  # fmt: skip
@@ -189,11 +202,12 @@ def defensive_forbid(
 
 @njit(cache=True, nogil=True)
 def _follow_supervised(
-    agents, wild, state, s, is_car, s_def, path_c64, path_dir, inv_spacing, now_x, now_y,
-    bound, offs_a, radius_a, crossing, ints, floats,
+    agents, wild, state, s0, v0, is_car, s_def, path_c64, path_dir, inv_spacing, now_x,
+    now_y, bound, offs_a, radius_a, crossing, ints, floats,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """forbid[a, k]: supervised follower a's candidate k (held until the next plan, then
-    braking: ``s_def``) runs into the supervised car ahead of it in its lane braking now."""
+    braking: ``s_def``) runs into the supervised car ahead of it in its lane braking now
+    (s0, v0: the planned agents' arc lengths and speeds)."""
     every = ints[3]
     dt, max_accel, max_decel, gain = floats[0], floats[1], floats[2], floats[3]
     n_agents, n_cand = s_def.shape[0], s_def.shape[1]
@@ -226,14 +240,11 @@ def _follow_supervised(
         involved[fs[p]] = involved[ls[p]] = leader[ls[p]] = True
     rows = involved.nonzero()[0]
     brake = s_def.copy()  # followers hold their candidate until the next plan, then brake
-    now = np.zeros(n_cand, np.int64)
-    for a in rows:
-        if leader[a]:  # leaders brake now
-            ag = agents[a]
-            hold_then_brake_into(
-                brake, a, s[ag], state[ag, 3], np.zeros(n_cand), now, s_def.shape[2] * every,
-                every, dt, max_accel, max_decel, gain,
-            )  # fmt: skip
+    hold_then_brake_into(  # leaders brake now
+        brake, leader.nonzero()[0], s0, v0, np.zeros((n_agents, n_cand)),
+        np.zeros((n_agents, n_cand), np.int64), s_def.shape[2] * every, every, dt, max_accel,
+        np.full(n_agents, max_decel), np.full(n_agents, gain),
+    )  # fmt: skip
     samples = path_samples(path_c64, path_dir, agents, brake, rows, inv_spacing)
     box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, rows)
     px, py, ux, uy = samples
@@ -272,13 +283,14 @@ def _slowest_ahead(ag, s, offset, route, is_car, max_speed, curvature, speed_lim
 
 @njit(cache=True, nogil=True)
 def _give_way(
-    agents, wild, targets, hold_lines, first, second, state, s, offset, front, is_car,
+    agents, wild, targets, hold_lines, first, second, s0, v0, s, offset, front, is_car,
     entered, route, max_speed, across, curvature, speed_limit, fractions, path_c64,
     path_dir, now_x, now_y, bound, offs_a, radius_a, crossing, ints, floats,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """forbid[a, k]: supervised agent a's candidate k could run into an uncontrolled agent
     with the right of way over it that keeps going (VelocityPlanner._give_way: it neither
-    stops short of that agent's path nor clears it in time)."""
+    stops short of that agent's path nor clears it in time; s0, v0: the planned agents' arc
+    lengths and speeds)."""
     period, gw_steps, every, look = ints[0], ints[2], ints[3], ints[4]
     dt, max_accel, max_decel, gain = floats[0], floats[1], floats[2], floats[3]
     margin, ped_margin, lateral_accel, spacing = floats[4], floats[5], floats[6], floats[7]
@@ -304,59 +316,56 @@ def _give_way(
         involved[ts[p]] = involved[ws[p]] = True
     rows = involved.nonzero()[0]
     n_t = (gw_steps - every) // every + 1
-    stop = np.zeros((n_agents, n_cand, n_t))
-    go = np.zeros((n_agents, n_cand, n_t))
-    hold_on, hold_spare = np.full(n_cand, gw_steps), np.full(n_cand, 2 * period)
+    # the go scenario's goals; the stop one tracks the candidates with a period to spare
+    goal, line = np.zeros((n_agents, n_cand)), np.empty(n_agents)
     for a in rows:
-        ag = agents[a]
-        s0, v = s[ag], state[ag, 3]
+        ag, v = agents[a], v0[a]
         if wild[a]:
             # it keeps its speed or speeds up towards the fastest speed allowed to it (its
             # candidates' scenarios span the two); at rest, it stays
             faster = max(targets[a, n_cand - 1] - v, 0.0)
-            goal = np.zeros(n_cand)
             for k in range(n_cand):
-                goal[k] = v + faster * fractions[k] if v > stationary else 0.0
-            hold_then_brake_into(
-                go, a, s0, v, goal, hold_on, gw_steps, every, dt, max_accel, max_decel, gain
-            )
-            for k in range(n_cand):
-                for t in range(n_t):
-                    stop[a, k, t] = go[a, k, t]
+                goal[a, k] = v + faster * fractions[k] if v > stationary else 0.0
             continue
         slowest = _slowest_ahead(
             ag, s, offset, route, is_car, max_speed, curvature, speed_limit, look,
             lateral_accel, spacing,
         )  # fmt: skip
-        line = hold_lines[a] - offset[ag] - front[ag]  # it stops at its hold line
-        hold_then_brake_into(
-            stop, a, s0, v, targets[a], hold_spare, gw_steps, every, dt, max_accel, max_decel,
-            gain,
-        )  # fmt: skip
+        line[a] = hold_lines[a] - offset[ag] - front[ag]  # it stops at its hold line
         # going on, it slows for the curves ahead (turning into a roundabout's ring)
-        going = np.empty(n_cand)
         for k in range(n_cand):
-            going[k] = min(targets[a, k], slowest)
-        hold_then_brake_into(
-            go, a, s0, v, going, hold_on, gw_steps, every, dt, max_accel, max_decel, gain
-        )
+            goal[a, k] = min(targets[a, k], slowest)
+    decel, gains = np.full(n_agents, max_decel), np.full(n_agents, gain)
+    stop = np.zeros((n_agents, n_cand, n_t))
+    go = np.zeros((n_agents, n_cand, n_t))
+    hold_then_brake_into(
+        go, rows, s0, v0, goal, np.full((n_agents, n_cand), gw_steps), gw_steps, every, dt,
+        max_accel, decel, gains,
+    )  # fmt: skip
+    hold_then_brake_into(
+        stop, rows[~wild[rows]], s0, v0, targets, np.full((n_agents, n_cand), 2 * period),
+        gw_steps, every, dt, max_accel, decel, gains,
+    )  # fmt: skip
+    for a in rows:
         for k in range(n_cand):
             for t in range(n_t):
-                stop[a, k, t] = min(stop[a, k, t], line)
-                go[a, k, t] = min(go[a, k, t], line)
+                if wild[a]:
+                    stop[a, k, t] = go[a, k, t]
+                else:
+                    stop[a, k, t] = min(stop[a, k, t], line[a])
+                    go[a, k, t] = min(go[a, k, t], line[a])
     inv_spacing = 1.0 / spacing
     s_stop = path_samples(path_c64, path_dir, agents, stop, rows, inv_spacing)
     s_go = path_samples(path_c64, path_dir, agents, go, rows, inv_spacing)
     box_stop = swept_boxes(s_stop[0], s_stop[1], now_x, now_y, bound, rows)
     box_go = swept_boxes(s_go[0], s_go[1], now_x, now_y, bound, rows)
+    hit_go = np.empty(n_cand, np.bool_)
     for p in range(len(ts)):
         t, w = ts[p], ws[p]
         reach2, thresh2 = _pair_limits(radius_a, bound, crossing, t, w, margin, ped_margin, False)
-        for k in range(n_cand):
-            if not forbid[t, k]:
-                forbid[t, k] = _any_conflict(
-                    s_stop, offs_a, box_stop, t, k, w, reach2, thresh2
-                ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
+        _mark_both_ways(
+            s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, forbid[t], hit_go
+        )
     stuck = np.zeros(n_agents, np.bool_)
     any_stuck = False
     for a in rows:
@@ -375,11 +384,9 @@ def _give_way(
             reach2, thresh2 = _pair_limits(
                 radius_a, bound, crossing, t, w, margin, ped_margin, True
             )
-            for k in range(n_cand):
-                if not touch[t, k]:
-                    touch[t, k] = _any_conflict(
-                        s_stop, offs_a, box_stop, t, k, w, reach2, thresh2
-                    ) and _any_conflict(s_go, offs_a, box_go, t, k, w, reach2, thresh2)
+            _mark_both_ways(
+                s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, touch[t], hit_go
+            )
         for a in rows:
             if stuck[a]:
                 for k in range(n_cand):

@@ -30,12 +30,24 @@ def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
     return x0 - bound[i], x1 + bound[i], y0 - bound[i], y1 + bound[i]
 
 
-@njit(cache=True, nogil=True)
+# The per-pair helpers are inlined into their callers by numba (inline="always"): no reference
+# counting of their array arguments per call, and the callers' loops optimise across them.
+@njit(cache=True, nogil=True, inline="always")
 def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
     """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
     at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
     the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
-    for t in range(px.shape[2]):
+    n_t = px.shape[2]
+    # most pairs of candidates never pass the broad phase: find out without a branch per time
+    # (the loop vectorises), then visit the times that do
+    near = False
+    for t in range(n_t):
+        dx = px[i, a, t] - px[j, b, t]
+        dy = py[i, a, t] - py[j, b, t]
+        near |= dx * dx + dy * dy < reach2
+    if not near:
+        return False
+    for t in range(n_t):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
         if not dx * dx + dy * dy < reach2:
@@ -88,13 +100,47 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
     return box
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def boxes_apart(box, i, j):  # pragma: no cover (compiled)
     """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
     return (
         box[i, 0] > box[j, 1]
         or box[j, 0] > box[i, 1]
         or (box[i, 2] > box[j, 3] or box[j, 2] > box[i, 3])
+    )
+
+
+# Boxes of float32 positions more than this multiple of the pair's summed reach apart cannot
+# hold two points that pass too_close's float32 broad phase (whose rounding is ~1e-7 relative)
+_APART = 1.001
+
+
+@njit(cache=True, nogil=True)
+def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
+    """(A, K, 4) box (lo_x, hi_x, lo_y, hi_y; m) of each candidate's projected positions, for
+    the agents in ``rows`` (zeros elsewhere)."""
+    box = np.zeros((px.shape[0], px.shape[1], 4))
+    for a in rows:
+        for k in range(px.shape[1]):
+            x0, x1, y0, y1 = px[a, k, 0], px[a, k, 0], py[a, k, 0], py[a, k, 0]
+            for t in range(1, px.shape[2]):
+                x0, x1 = min(x0, px[a, k, t]), max(x1, px[a, k, t])
+                y0, y1 = min(y0, py[a, k, t]), max(y1, py[a, k, t])
+            box[a, k, 0], box[a, k, 1], box[a, k, 2], box[a, k, 3] = x0, x1, y0, y1
+    return box
+
+
+@njit(cache=True, nogil=True, inline="always")
+def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
+    """Agent ``i``'s candidate ``a`` and ``j``'s candidate ``b`` stay more than ``reach`` (m,
+    their summed bounding radii) times :data:`_APART` apart on some axis: :func:`too_close`
+    would find no time that passes its broad phase, so it need not run."""
+    r = reach * _APART
+    return (
+        cbox[i, a, 0] - cbox[j, b, 1] > r
+        or cbox[j, b, 0] - cbox[i, a, 1] > r
+        or cbox[i, a, 2] - cbox[j, b, 3] > r
+        or cbox[j, b, 2] - cbox[i, a, 3] > r
     )
 
 
@@ -225,28 +271,36 @@ def pid_follow(
 
 @njit(cache=True, nogil=True)
 def hold_then_brake_into(
-    out, a, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+    out, rows, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
-    """One agent's rows of :func:`hold_then_brake`, written into ``out[a]``: start at ``s0``
-    (m) and ``v0`` (m/s), track ``targets[k]`` for ``hold[k]`` steps, then brake.
+    """The rows ``rows`` of :func:`hold_then_brake` (its arguments, (A, ...)), written into
+    ``out`` (A, K, T); the other rows are left alone.
 
-    The K candidates are stepped side by side (time outer, candidate inner): each is its own
-    chain of dependent operations, so interleaving them keeps the CPU busy; each candidate's
-    arithmetic is unchanged."""
-    n_cand = len(targets)
-    v = np.full(n_cand, v0)
-    travelled = np.zeros(n_cand)
-    for m in range(1, steps + 1):
+    Each candidate of each row is its own chain of dependent operations. All of them are
+    stepped side by side, time outer and one flat loop over the (row, candidate) lanes inner,
+    which vectorises and keeps the CPU busy; each lane's arithmetic is unchanged."""
+    n_cand = targets.shape[1]
+    n = len(rows) * n_cand
+    v, travelled, goal = np.empty(n), np.zeros(n), np.empty(n)
+    until, lane_decel, lane_gain = np.empty(n, np.int64), np.empty(n), np.empty(n)
+    for r in range(len(rows)):
+        a = rows[r]
         for k in range(n_cand):
-            goal = targets[k] if m <= hold[k] else 0.0
-            dv = gain * (goal - v[k])
-            dv = min(max(dv, -decel), max_accel)
-            nv = max(v[k] + dv * dt, 0.0)
-            travelled[k] += 0.5 * (v[k] + nv) * dt
-            v[k] = nv
+            q = r * n_cand + k
+            v[q], goal[q], until[q] = v0[a], targets[a, k], hold[a, k]
+            lane_decel[q], lane_gain[q] = decel[a], gain[a]
+    for m in range(1, steps + 1):
+        for q in range(n):
+            target = goal[q] if m <= until[q] else 0.0
+            dv = lane_gain[q] * (target - v[q])
+            dv = min(max(dv, -lane_decel[q]), max_accel)
+            nv = max(v[q] + dv * dt, 0.0)
+            travelled[q] += 0.5 * (v[q] + nv) * dt
+            v[q] = nv
         if m % every == 0:
-            for k in range(n_cand):
-                out[a, k, m // every - 1] = s0 + travelled[k]
+            for r in range(len(rows)):
+                for k in range(n_cand):
+                    out[rows[r], k, m // every - 1] = s0[rows[r]] + travelled[r * n_cand + k]
 
 
 @njit(cache=True, nogil=True)
@@ -265,11 +319,9 @@ def hold_then_brake(
     """
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
-    for a in range(n_agents):
-        hold_then_brake_into(
-            out, a, s0[a], v0[a], targets[a], hold[a], steps, every, dt, max_accel, decel[a],
-            gain[a],
-        )  # fmt: skip
+    hold_then_brake_into(
+        out, np.arange(n_agents), s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
+    )
     return out
 
 
@@ -313,7 +365,7 @@ def plan_conflicts(
     px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
     now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
-    box = swept_boxes(px, py, now_x, now_y, bound, rows)
+    box, cbox = swept_boxes(px, py, now_x, now_y, bound, rows), candidate_boxes(px, py, rows)
     table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
     keep = np.zeros(len(first), dtype=np.bool_)
     for p in range(len(first)):
@@ -323,11 +375,14 @@ def plan_conflicts(
         m = pedestrian_margin if crossing[i] or crossing[j] else margin
         # float32 as numpy computes d_now - 0.05 for a float32 array
         thresh = max(min(radius_a[i] + radius_a[j] + m, d_now[p] - np.float32(0.05)), 0.0)
-        reach2 = np.float32((bound[i] + bound[j]) * (bound[i] + bound[j]))
+        reach = bound[i] + bound[j]
+        reach2 = np.float32(reach * reach)
         for a in range(n_cand):
             for b in range(n_cand):
                 if a == 0 and b == 0:
                     continue  # both braking is always allowed
+                if candidates_apart(cbox, i, a, j, b, reach):
+                    continue
                 hit = too_close(px, py, ux, uy, offs_a, i, a, j, b, reach2, thresh * thresh)
                 table[p, a, b] = hit
                 keep[p] |= hit
