@@ -45,6 +45,7 @@ from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.fault import STATIONARY_SPEED, route_turns, turns_across
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.world import World
+from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     allowed_speeds,
@@ -410,14 +411,41 @@ class VelocityPlanner:
             ]
         )
 
+    def plan_stepwise(
+        self, world: World, uncontrolled: np.ndarray | None = None, choose=plan_choice
+    ) -> np.ndarray:
+        """:meth:`plan` through its steps, one Python call each (:meth:`allowed_speed`,
+        :meth:`project`, :meth:`domains`, :meth:`defensive_domains`, :meth:`conflicts`, then
+        ``choose``, called as :func:`csp_kernels.plan_choice`). Slower; it equals :meth:`plan`
+        bit for bit (tested), and is where the tests and ``bench_planner_kernels.py`` see each
+        kernel's inputs."""
+        self._bind(world)
+        out = np.zeros(world.n)
+        agents = world.active.nonzero()[0]
+        if not len(agents):
+            return out
+        targets = self.allowed_speed(world, agents)[:, None] * self.fractions[None, :]
+        s_proj = self.project(world, agents, targets)
+        allowed, hold = self._domains_and_hold_lines(world, agents, s_proj, uncontrolled)
+        if uncontrolled is not None and uncontrolled[agents].any():
+            allowed &= self.defensive_domains(world, agents, targets, uncontrolled[agents], hold)
+        pairs, conflict = self.conflicts(world, agents, s_proj)
+        choice, solved = choose(
+            agents, world.s, world.offset, self._front, world.route,
+            world.layout.routes.enter_s, allowed, pairs, conflict,
+        )  # fmt: skip
+        if not solved:
+            raise RuntimeError("velocity CSP has no solution; the all-stop invariant is broken")
+        out[agents] = targets[np.arange(len(agents)), choice]
+        return out
+
     def plan(self, world: World, uncontrolled: np.ndarray | None = None) -> np.ndarray:
         """Target velocity (m/s) of every agent; 0 for inactive ones. ``uncontrolled`` (bool,
         (N,)) marks agents that may not follow the plan; the others drive defensively toward
         them (:meth:`defensive_domains`).
 
-        The steps are :meth:`allowed_speed`, :meth:`project`, :meth:`domains`,
-        :meth:`defensive_domains` and :meth:`conflicts`, then the CSP, fastest candidates
-        first; they run as two compiled calls (:mod:`.plan_kernels`)."""
+        The steps are :meth:`plan_stepwise`'s, run as two compiled calls
+        (:mod:`.plan_kernels`)."""
         self._bind(world)
         out = np.zeros(world.n)
         agents = world.active.nonzero()[0]

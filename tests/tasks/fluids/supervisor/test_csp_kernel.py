@@ -11,7 +11,6 @@ import gymnasium as gym
 import numpy as np
 import pytest
 from csp_reference import reference_choice, reference_priority
-from plan_reference import stepwise_plan
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.fluids.supervisor import velocity
@@ -22,7 +21,7 @@ def _recorded(env_id: str, layout: str, seed: int, steps: int = 600):
     """(priority, allowed, pairs, conflict) of every plan of a noisy supervised episode, with
     the priority order checked against the numpy lexsort, the planner's plan_choice against
     choose() with that order, and the compiled plan against the step-by-step one
-    (``plan_reference.py``), on the way."""
+    (``plan_stepwise``), on the way."""
     instances = []
 
     def record(agents, s, offset, front, route, enter_s, allowed, pairs, conflict):
@@ -41,7 +40,7 @@ def _recorded(env_id: str, layout: str, seed: int, steps: int = 600):
     def plan_and_record(planner, world, uncontrolled=None):
         """The compiled plan, checked against the step-by-step one, which records."""
         got = compiled_plan(planner, world, uncontrolled)
-        np.testing.assert_array_equal(got, stepwise_plan(planner, world, uncontrolled, record))
+        np.testing.assert_array_equal(got, planner.plan_stepwise(world, uncontrolled, record))
         return got
 
     env = gym.make(env_id, layout=layout, num_cars=10, num_pedestrians=5)
