@@ -16,7 +16,7 @@ supervisor's label every step, and the ego follows it (control level). Parts:
   (each pinned to its own); the ratio of their total env-steps per wall-second.
 * ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch``: the world
   step (dynamics, lights, collisions, fault labels), the supervisor (planning and labels), the
-  observation, the scalar env's own glue (action checks, rewards, infos) with its resets (new
+  observation, the scalar env's own glue (clipping each world's action, rewards, infos) with its resets (new
   worlds, spawning), and the vector layer's own overhead. A deterministic profiler inflates Python calls: read fractions, not times.
 
 The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
@@ -203,7 +203,7 @@ def _cum(
 
 ENV = "fluids/env.py"
 VECTOR = "fluids/vector/env.py"
-SCALAR_CALLS = ((ENV, "step"), (ENV, "reset"))
+SCALAR_CALLS = ((ENV, "_step_valid"), (ENV, "reset"))
 
 
 def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
@@ -215,8 +215,11 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     stats = pstats.Stats(prof)
     vector_step = _cum(stats, VECTOR, "step")
     # (a world resets inside a vector step only when its episode ended in the window)
-    scalar = _cum(stats, ENV, "step", ((VECTOR, "step"),)) + _cum(
-        stats, ENV, "reset", ((VECTOR, "step"),), required=False
+    # a world's step: its checked action clipped, then the scalar env's step without the check
+    scalar = (
+        _cum(stats, ENV, "_step_valid", ((VECTOR, "step"),))
+        + _cum(stats, VECTOR, "_valid", ((VECTOR, "step"),))
+        + _cum(stats, ENV, "reset", ((VECTOR, "step"),), required=False)
     )
     parts = {
         "world step": _cum(stats, "sim/world.py", "step", (("supervisor/stack.py", "execute"),))

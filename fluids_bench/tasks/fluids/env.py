@@ -389,12 +389,18 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return self._observe(), self._info([])
 
     def step(self, action):
-        w, sup = self.world, self.supervisor
         if self._ended:
             raise RuntimeError("FluidsEnv: step() called after the episode ended; call reset()")
         action = levels.validate(
-            self.action_level, self.action_space, action, "FluidsEnv", w, self.action_scale
-        )
+            self.action_level, self.action_space, action, "FluidsEnv", self.world,
+            self.action_scale,
+        )  # fmt: skip
+        return self._step_valid(action)
+
+    def _step_valid(self, action):
+        """:meth:`step` with ``action`` as :func:`levels.validate` returns it (the vector env
+        checks a whole batch at once, then clips each world's with :func:`levels.clip`)."""
+        w, sup = self.world, self.supervisor
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
         chosen = {0: action} if w.active[0] else {}
         controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)

@@ -75,7 +75,14 @@ def validate(
     if level == "behavior":
         return check_discrete_action(where, space, action, "behavior action")
     values = check_box_action(where, space, action, f"{level} action").tolist()
-    low, high = space.low.reshape(-1).tolist(), space.high.reshape(-1).tolist()
+    bounds = space.low.reshape(-1).tolist(), space.high.reshape(-1).tolist()
+    return clip(level, values, bounds, world, scale)
+
+
+def clip(level: str, values: list[float], bounds: tuple[list, list], world=None, scale="physical"):
+    """A checked Box action (its values as a flat list of floats) clipped to ``bounds`` (the
+    space's low and high as flat lists), as :func:`validate` returns it."""
+    low, high = bounds
     out = np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high, strict=True)])
     return to_physical(level, world, out) if scale == "normalized" else out
 

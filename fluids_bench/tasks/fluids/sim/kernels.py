@@ -43,7 +43,17 @@ def progress(
 
 @njit(cache=True, nogil=True)
 def progress_into(
-    state, s, active, path_z, path_heading, path_len, spacing, lo, hi, nearest, lateral,
+    state,
+    s,
+    active,
+    path_z,
+    path_heading,
+    path_len,
+    spacing,
+    lo,
+    hi,
+    nearest,
+    lateral,
     heading_error,
 ):  # pragma: no cover (compiled)
     """:func:`progress` in place: ``s`` (kept for inactive agents), ``nearest``, ``lateral`` and

@@ -181,7 +181,9 @@ def projected_arc_lengths(
 
 
 @njit(cache=True, nogil=True)
-def lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing):  # pragma: no cover
+def lookahead_points(
+    path_z, s, state, path_len, min_ahead, ahead_time, spacing
+):  # pragma: no cover
     """The point (N, 2) of each agent's path (``path_z`` (N, M), x + iy) a look-ahead distance
     ahead of its progress ``s``: max(min_ahead, ahead_time · speed) metres (speed: ``state``'s
     last column), capped at the path's end."""

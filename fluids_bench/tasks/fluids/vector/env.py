@@ -6,12 +6,14 @@ import inspect
 from typing import Any
 
 import numpy as np
+from gymnasium.spaces import Box
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space, create_empty_array
 
 from fluids_bench.core.snapshot import WrappedSnapshot
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int
+from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos
@@ -113,6 +115,12 @@ class FluidsVectorEnv(VectorEnv):
         self.envs = [FluidsEnv(render_mode=render_mode, **kwargs) for _ in range(self.num_envs)]
         self.single_action_space = self.envs[0].action_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
+        space = self.single_action_space
+        self._bounds = (  # flat lists, as levels.validate clips with them
+            (space.low.reshape(-1).tolist(), space.high.reshape(-1).tolist())
+            if isinstance(space, Box)
+            else None
+        )
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -154,8 +162,10 @@ class FluidsVectorEnv(VectorEnv):
             if self._ended[i]:  # next-step autoreset: this step only resets the world
                 obs, infos[i] = env.reset()
                 elapsed[i] = 0
-            else:
-                obs, rewards[i], term, trunc, infos[i] = env.step(actions[i])
+            else:  # the batch is checked: each world only clips, as its step() would
+                obs, rewards[i], term, trunc, infos[i] = env._step_valid(
+                    self._valid(env, actions[i])
+                )
                 elapsed[i] += 1
                 terminated[i] = term
                 # TimeLimit: truncated once the episode has taken max_episode_steps steps
@@ -245,6 +255,13 @@ class FluidsVectorEnv(VectorEnv):
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
+    def _valid(self, env: FluidsEnv, action: np.ndarray):
+        """World ``env``'s row of a checked batch as :func:`levels.validate` returns it."""
+        if self._bounds is None:  # Discrete: an integer in range (check_batch)
+            return int(action)
+        values = action.reshape(-1).tolist()
+        return levels.clip(env.action_level, values, self._bounds, env.world, env.action_scale)
+
     def _index(self, index: Any) -> int:
         if not is_int(index) or not 0 <= index < self.num_envs:
             fail(WHERE, "index", index, f"an integer in [0, {self.num_envs - 1}]")
