@@ -12,8 +12,8 @@ prints a summary and writes, under ``--out`` (default ``fluids_demo/<ID>/``, one
   in real time. By default the stride keeps drawing to about 15 s (MuJoCo's software renderer
   takes ~0.1 s a frame, so a 1,000-step locomotion episode is drawn every 7th step or so;
   FLUIDS, ~2 ms a frame, every step). The summary says which stride was used;
-* for an id without pictures (``DAG-v0``), ``episode.txt``: the episode as text, one line per
-  step, also printed.
+* for an id whose actions are named decisions (``DAG-v0``), or one without pictures, also
+  ``episode.txt``: the episode as text, one line per step, also printed.
 
 A progress bar counts steps on stderr (``--no-progress`` hides it). ``--steps N`` cuts the
 episode after N steps (the tests run every id that way). Steps per second time ``env.step``
@@ -243,7 +243,8 @@ def _run_gym(args: argparse.Namespace) -> int:
     args.out.mkdir(parents=True, exist_ok=True)
     obs, info = env.reset(seed=args.seed)
     sim = env.unwrapped
-    trace = [] if draws else [f"reset: observation {_text(obs)}"]
+    traced = not draws or args.env in ACTION_NAMES  # a text trace too (or instead)
+    trace = [f"reset: observation {_text(obs)}"] if traced else []
     recorder = None
     if draws:
         fps = env.metadata.get("render_fps") or 10
@@ -280,8 +281,10 @@ def _run_gym(args: argparse.Namespace) -> int:
             total += float(reward)
             bar.update(1)
             done = terminated or truncated
-            if recorder is None:
+            if traced:
                 trace.append(_trace_line(args.env, steps, action, reward, obs))
+            if recorder is None:
+                pass
             elif fluids:
                 first_hit = bool(info["collisions"]) and not collisions
                 collisions.extend(info["collisions"])
@@ -295,12 +298,13 @@ def _run_gym(args: argparse.Namespace) -> int:
         if recorder is not None:
             recorder.close()
         env.close()
+    wrote = []
     if recorder is not None:
         write_png(args.out / SNAPSHOT_NAME, recorder.snapshot)
         wrote = recorder.wrote()
-    else:
+    if traced:
         (args.out / TEXT_NAME).write_text("\n".join(trace) + "\n")
-        wrote = [str(args.out / TEXT_NAME)]
+        wrote.append(str(args.out / TEXT_NAME))
     success = info.get("is_success")
     if fluids:
         ego = sum(1 for c in collisions if 0 in (c["a"], c["b"]))

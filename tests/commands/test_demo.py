@@ -24,8 +24,8 @@ def test_every_registered_id_has_a_demo_in_its_own_folder(env_id, tmp_path, monk
     assert out.startswith(f"{env_id} demo")
     assert "steps: 5" in out or env_id == "DAG-v0"  # the DAG ends after 3 decisions
     assert os.listdir(tmp_path) == ["fluids_demo"]
-    written = os.listdir(tmp_path / "fluids_demo" / env_id)
-    assert written == (["episode.txt"] if env_id == "DAG-v0" else ["episode.png"])
+    written = sorted(os.listdir(tmp_path / "fluids_demo" / env_id))
+    assert written == (["episode.png", "episode.txt"] if env_id == "DAG-v0" else ["episode.png"])
 
 
 def test_gridworld_demo_records_its_supervisor(tmp_path, capsys):
@@ -86,12 +86,14 @@ def test_multi_agent_demo_runs_every_agent_through_pettingzoo(tmp_path, capsys):
     assert len(imageio.mimread(out / "episode.mp4")) == 9
 
 
-def test_dag_demo_is_a_text_trace(tmp_path, capsys):
+def test_dag_demo_is_a_text_trace_and_a_picture(tmp_path, capsys):
     out = tmp_path / "dag"
     assert main(["demo", "--env", "DAG-v0", "--out", str(out), "--no-progress"]) == 0
     text = capsys.readouterr().out
     assert "step 1: the supervisor chose L, reward 2.000" in text
     assert (out / "episode.txt").read_text().splitlines()[0] == "reset: observation [0., 0.]"
+    assert len(imageio.mimread(out / "episode.mp4")) == 4  # the root and three decisions
+    assert (out / "episode.png").stat().st_size > 0
 
 
 def test_driving_track_summary_explains_the_crashes(tmp_path, capsys):
