@@ -22,26 +22,6 @@ from fluids_bench.tasks.fluids.sim.dynamics import advance, wrap_angle
 
 
 @njit(cache=True, nogil=True)
-def progress(
-    state, s, active, path_z, path_heading, path_len, spacing, lo, hi
-):  # pragma: no cover (compiled)
-    """Each agent projected onto its path near its previous progress ``s``: the path samples
-    ``lo`` … ``hi − 1`` around it are searched (an agent moves a few samples per step at most).
-
-    Returns new arrays: progress (m; kept for inactive agents), the nearest sample, and the
-    signed lateral offset (m, left positive) and heading error (rad) from that sample.
-    """
-    n = path_z.shape[0]
-    new_s, nearest = s.copy(), np.empty(n, np.int64)
-    lateral, heading_error = np.empty(n), np.empty(n)
-    progress_into(
-        state, new_s, active, path_z, path_heading, path_len, spacing, lo, hi,
-        nearest, lateral, heading_error,
-    )  # fmt: skip
-    return new_s, nearest, lateral, heading_error
-
-
-@njit(cache=True, nogil=True)
 def progress_into(
     state,
     s,
@@ -56,8 +36,12 @@ def progress_into(
     lateral,
     heading_error,
 ):  # pragma: no cover (compiled)
-    """:func:`progress` in place: ``s`` (kept for inactive agents), ``nearest``, ``lateral`` and
-    ``heading_error`` are overwritten (each agent reads only its own old ``s``)."""
+    """Each agent projected onto its path near its previous progress ``s``: the path samples
+    ``lo`` … ``hi − 1`` around it are searched (an agent moves a few samples per step at most).
+
+    In place: progress ``s`` (m; kept for inactive agents; each agent reads only its own old
+    value), the ``nearest`` sample, and the signed ``lateral`` offset (m, left positive) and
+    ``heading_error`` (rad) from that sample."""
     n, width = path_z.shape
     for i in range(n):
         x, y = state[i, 0], state[i, 1]

@@ -239,7 +239,7 @@ class World:
 
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an
-        agent moves at most a few samples per step); see :func:`kernels.progress`."""
+        agent moves at most a few samples per step); see :func:`kernels.progress_into`."""
         kernels.progress_into(
             self.state, self.s, self.active, self.path_z, self.path_heading, self.path_len,
             PATH_SPACING, *PROGRESS_WINDOW, self.nearest, self.lateral_error, self.heading_error,

@@ -50,17 +50,12 @@ def test_world_kernels_equal_the_numpy_reference(layout, seed):
             active[:, None], ref.integrate(w.state, controls, w.is_car, w.params, w.dt), w.state
         )
         assert_kernel_close(integrate(w.state, controls, w.is_car, w.params, w.dt, active), want)
-        # progress along the paths
-        got = kernels.progress(
-            w.state,
-            w.s,
-            w.active,
-            w.path_z,
-            w.path_heading,
-            w.path_len,
-            PATH_SPACING,
-            *PROGRESS_WINDOW,
-        )
+        # progress along the paths (in place, into copies: the reference reads the world's)
+        got = (w.s.copy(), np.empty(w.n, np.int64), np.empty(w.n), np.empty(w.n))
+        kernels.progress_into(
+            w.state, got[0], w.active, w.path_z, w.path_heading, w.path_len, PATH_SPACING,
+            *PROGRESS_WINDOW, *got[1:],
+        )  # fmt: skip
         for g, r in zip(got, ref.progress(w), strict=True):
             assert_kernel_close(g, r)
         # arrival at the end of the path (every agent's progress moved near its end)
