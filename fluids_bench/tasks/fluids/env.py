@@ -400,13 +400,26 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     def _step_valid(self, action):
         """:meth:`step` with ``action`` as :func:`levels.validate` returns it (the vector env
         checks a whole batch at once, then clips each world's with :func:`levels.clip`)."""
+        return self._conclude(self.world.step(self._act(action)))
+
+    def _act(self, action):
+        """The first part of :meth:`_step_valid`: every agent's controls (N, 2) with the ego's
+        ``action`` at its level, the supervisor's loops advanced as if they were executed. Then
+        the world steps under them (alone, or with others in a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) and :meth:`_conclude`
+        takes the new collisions."""
         w, sup = self.world, self.supervisor
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
         chosen = {0: action} if w.active[0] else {}
         controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
         if changed:
             self._route_length = float(w.path_len[0]) - self._last_s
-        events = sup.execute(w, controls, memory)
+        return sup.commit(controls, memory)
+
+    def _conclude(self, events):
+        """The rest of :meth:`_step_valid` after the world stepped with ``events``: faults,
+        termination, the supervisor's next proposal, the info, the reward and the observation."""
+        w, sup = self.world, self.supervisor
         broken = self._violations()
         self.faults.update()
         broken = self._violations() - broken  # rules the ego broke in this step

@@ -219,3 +219,24 @@ def advance_world(
         offroad_candidates[i] = is_car[i] and active[i] and not offroad_candidates[i]
         candidates |= offroad_candidates[i]
     return candidates or any_touching(state, active, reach2, circle_offsets, circle_radius)
+
+
+@njit(cache=True, nogil=True)
+def advance_worlds(
+    stepping, state, controls, is_car, params, dt, active, s, offset, path_z, path_heading,
+    path_len, clearance, spacing, lo, hi, nearest, lateral, heading_error, front, route,
+    enter_s, entered, steps, length, tolerance, reached, circle_offsets, circle_samples,
+    circle_radius, reach2, offroad_candidates, maybe_collided,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`advance_world` on row ``b`` of every per-world array, for each world ``b`` where
+    ``stepping[b]`` (the arrays without a batch axis are shared by all worlds); writes each
+    stepped world's result into ``maybe_collided[b]``."""
+    for b in range(len(stepping)):
+        if stepping[b]:
+            maybe_collided[b] = advance_world(
+                state[b], controls[b], is_car, params[b], dt, active[b], s[b], offset[b],
+                path_z[b], path_heading[b], path_len[b], clearance[b], spacing, lo, hi,
+                nearest[b], lateral[b], heading_error[b], front, route[b], enter_s, entered[b],
+                steps[b], length, tolerance, reached[b], circle_offsets, circle_samples,
+                circle_radius, reach2, offroad_candidates[b],
+            )  # fmt: skip

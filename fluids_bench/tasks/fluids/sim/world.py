@@ -211,9 +211,10 @@ class World:
 
         The per-agent arithmetic (dynamics, progress, zone entries, arrivals and the collision
         broad phase) is one compiled call (:func:`kernels.advance_world`); Shapely runs only
-        when that finds agents whose covering circles meet or a car not surely on the road."""
-        self.time = round(self.time + self.dt, 9)
-        self.steps += 1
+        when that finds agents whose covering circles meet or a car not surely on the road.
+        A :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` runs the same three parts
+        for many worlds, the compiled one for all at once."""
+        self.begin_step()
         maybe_collided = kernels.advance_world(
             self.state, np.ascontiguousarray(controls, dtype=np.float64), self.is_car,
             self.params, self.dt, self.active, self.s, self.offset, self.path_z,
@@ -223,6 +224,16 @@ class World:
             GOAL_TOLERANCE, self.reached, self._circle_offsets, self._circle_samples,
             self._circle_radius, self._reach2, self._offroad_candidates,
         )  # fmt: skip
+        return self.finish_step(maybe_collided)
+
+    def begin_step(self) -> None:
+        """The clock's part of :meth:`step`, before the agents move."""
+        self.time = round(self.time + self.dt, 9)
+        self.steps += 1
+
+    def finish_step(self, maybe_collided: bool) -> list[Collision]:
+        """The part of :meth:`step` after the agents moved: the lights at the new time and,
+        when the broad phase found candidates, the exact collision check."""
         self.light_state = self.lights.states(self.time)
         if not maybe_collided:
             return []

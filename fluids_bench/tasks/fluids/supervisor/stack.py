@@ -94,8 +94,13 @@ class DrivingSupervisor:
         self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None
     ):
         """Step ``world`` with ``controls`` (the proposal by default); returns new collisions."""
+        return world.step(self.commit(controls, memory))
+
+    def commit(self, controls: np.ndarray | None = None, memory: tuple | None = None):
+        """Advance the PID loops' memory for executing ``controls`` (the proposal by default,
+        with its memory) and return the controls to execute."""
         self.pid.commit(self._memory if memory is None else memory)
-        return world.step(self.proposed if controls is None else controls)
+        return self.proposed if controls is None else controls
 
     def step(self, world: World):
         """One fully supervised step (every agent follows the supervisor)."""

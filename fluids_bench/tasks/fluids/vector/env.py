@@ -15,6 +15,7 @@ from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
+from fluids_bench.tasks.fluids.sim.batch import WorldBatch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos
 
@@ -54,11 +55,15 @@ class FluidsVectorEnv(VectorEnv):
     ``"SameStep"`` (``final_obs``/``final_info`` in the info) or ``"Disabled"`` (reset ended
     worlds with ``reset(options={"reset_mask": mask})``).
 
-    **How it steps.** The worlds are not yet advanced by one compiled call: each world is a
-    scalar ``FluidsEnv`` (no wrapper stack; all share one compiled layout) stepped by its own
-    code in turn, so equality holds by construction. The vector layer checks the whole action
-    batch before any world moves, writes observations into preallocated batched arrays and
-    builds the batched infos key by key for all worlds at once.
+    **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
+    compiled layout) whose step is split in three: each env computes its controls
+    (``FluidsEnv._act``), one compiled call moves every world
+    (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`, the worlds' arrays stored as rows
+    of batched arrays), then each env concludes its step (``FluidsEnv._conclude``: faults, the
+    supervisor's next plan, reward, info, observation). The parts are the scalar env's own, so
+    equality holds by construction. The vector layer checks the whole action batch before any
+    world moves, writes observations into preallocated batched arrays and builds the batched
+    infos key by key for all worlds at once.
 
     **Snapshots.** ``snapshot(i)`` returns world ``i``'s state as
     :func:`fluids_bench.core.snapshot.snapshot` returns it for a ``gym.make`` env (its step
@@ -121,6 +126,7 @@ class FluidsVectorEnv(VectorEnv):
             if isinstance(space, Box)
             else None
         )
+        self._batch = WorldBatch([env.world for env in self.envs])
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -157,15 +163,18 @@ class FluidsVectorEnv(VectorEnv):
         # per-world results in Python lists: cheaper than item-by-item numpy writes
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos: list[dict | None] = [None] * n
-        elapsed = self._elapsed
+        elapsed, batch = self._elapsed, self._bound_batch()
+        stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
+        for i in np.flatnonzero(stepping).tolist():  # the batch is checked: each world clips
+            env = self.envs[i]
+            batch.controls[i] = env._act(self._valid(env, actions[i]))
+        events = batch.step(stepping)
         for i, env in enumerate(self.envs):
-            if self._ended[i]:  # next-step autoreset: this step only resets the world
+            if not stepping[i]:  # next-step autoreset: this step only resets the world
                 obs, infos[i] = env.reset()
                 elapsed[i] = 0
-            else:  # the batch is checked: each world only clips, as its step() would
-                obs, rewards[i], term, trunc, infos[i] = env._step_valid(
-                    self._valid(env, actions[i])
-                )
+            else:
+                obs, rewards[i], term, trunc, infos[i] = env._conclude(events[i])
                 elapsed[i] += 1
                 terminated[i] = term
                 # TimeLimit: truncated once the episode has taken max_episode_steps steps
@@ -255,6 +264,15 @@ class FluidsVectorEnv(VectorEnv):
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
+    def _bound_batch(self) -> WorldBatch:
+        """The worlds' row storage, with every world the envs now hold bound to it (a reset,
+        a restore or a ``call`` gives an env a new world, bound here before it steps)."""
+        batch = self._batch
+        for i, env in enumerate(self.envs):
+            if batch.worlds[i] is not env.world:
+                batch.bind(i, env.world)
+        return batch
+
     def _valid(self, env: FluidsEnv, action: np.ndarray):
         """World ``env``'s row of a checked batch as :func:`levels.validate` returns it."""
         if self._bounds is None:  # Discrete: an integer in range (check_batch)

@@ -1,0 +1,79 @@
+"""B worlds of one scene stepped by one compiled call.
+
+Each per-agent array that differs between the worlds is stored as one row of a (B, ...) array;
+each world's attribute is a view of its row. :class:`World` only ever writes its arrays in
+place, so the views stay bound while it steps; a world built afresh (a reset) or put back from
+a snapshot is bound again with :meth:`WorldBatch.bind`, which copies its values into its rows.
+The arrays every world of the scene shares (kinds, sizes, covering circles) are the first
+world's. :meth:`WorldBatch.step` is :meth:`World.step` for every world whose mask is set, with
+the per-agent arithmetic of all of them in one call (:func:`kernels.advance_worlds`, which runs
+:func:`kernels.advance_world` on each row: the same arithmetic, so each world moves bit for bit
+as alone).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.sim import kernels
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.world import (
+    GOAL_TOLERANCE,
+    PROGRESS_WINDOW,
+    Collision,
+    World,
+)
+
+# the World arrays that differ between worlds of one scene (written by steps, spawns, paths)
+PER_WORLD = (
+    "state", "params", "active", "s", "offset", "path_z", "path_heading", "path_len",
+    "path_clearance", "nearest", "lateral_error", "heading_error", "route", "entered",
+    "reached", "_offroad_candidates",
+)  # fmt: skip
+
+
+class WorldBatch:
+    """Row storage and the batched step of ``worlds`` (all of one scene, with one layout)."""
+
+    def __init__(self, worlds: list[World]) -> None:
+        self.worlds = list(worlds)
+        self.rows = {name: np.stack([getattr(w, name) for w in worlds]) for name in PER_WORLD}
+        for i, world in enumerate(worlds):
+            self.bind(i, world)
+        first = worlds[0]
+        self.controls = np.zeros((len(worlds), first.n, 2))
+        self._steps = np.zeros(len(worlds), dtype=np.int64)
+        self._maybe = np.zeros(len(worlds), dtype=np.bool_)
+
+    def bind(self, index: int, world: World) -> None:
+        """Make ``world`` the batch's world ``index``: its values go into row ``index`` and its
+        arrays become views of that row."""
+        for name, rows in self.rows.items():
+            rows[index] = getattr(world, name)
+            setattr(world, name, rows[index])
+        self.worlds[index] = world
+
+    def step(self, stepping: np.ndarray) -> list[list[Collision]]:
+        """Advance the worlds where ``stepping`` (bool, (B,)) is set under their rows of
+        :attr:`controls` (written by the caller), as :meth:`World.step` would; returns each
+        world's new collisions (empty for the others)."""
+        worlds, rows = self.worlds, self.rows
+        index = np.flatnonzero(stepping).tolist()
+        for i in index:
+            worlds[i].begin_step()
+            self._steps[i] = worlds[i].steps
+        w = worlds[0]  # the arrays every world shares
+        kernels.advance_worlds(
+            stepping, rows["state"], self.controls, w.is_car, rows["params"], w.dt,
+            rows["active"], rows["s"], rows["offset"], rows["path_z"], rows["path_heading"],
+            rows["path_len"], rows["path_clearance"], PATH_SPACING, *PROGRESS_WINDOW,
+            rows["nearest"], rows["lateral_error"], rows["heading_error"], w.front,
+            rows["route"], w.layout.routes.enter_s, rows["entered"], self._steps, w.length,
+            GOAL_TOLERANCE, rows["reached"], w._circle_offsets, w._circle_samples,
+            w._circle_radius, w._reach2, rows["_offroad_candidates"], self._maybe,
+        )  # fmt: skip
+        events: list[list[Collision]] = [[] for _ in worlds]
+        maybe = self._maybe.tolist()
+        for i in index:
+            events[i] = worlds[i].finish_step(maybe[i])
+        return events
