@@ -32,6 +32,8 @@ committed to it; see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 from numba import njit
 
@@ -52,9 +54,10 @@ def _wrap(angle):
     return (angle + np.pi) % (2 * np.pi) - np.pi
 
 
+@functools.lru_cache(maxsize=32)
 def route_turns(routes) -> tuple[np.ndarray, np.ndarray]:
     """Each route's entry heading (R,) and whether it turns (R,): its heading changes by more
-    than 45° from start to end."""
+    than 45° from start to end. Computed once per route table; callers only read them."""
     last = np.minimum(
         np.rint(routes.length / PATH_SPACING).astype(np.int64), routes.heading.shape[1] - 1
     )

@@ -6,6 +6,8 @@ States are coded by what they ask of the agent they govern: ``GO`` (green / whit
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 GO, CAUTION, STOP = 0, 1, 2
@@ -19,6 +21,27 @@ STATE_NAMES = {
 }
 
 
+@functools.lru_cache(maxsize=64)
+def _tables(lights: tuple, scale: float) -> tuple[np.ndarray, ...]:
+    """The programs of ``lights`` as arrays (read-only): each phase's cumulative end time,
+    each phase's state code, each light's cycle length and offset (s)."""
+    width = max((len(light.phases) for light in lights), default=1)
+    ends = np.full((len(lights), width), np.inf)
+    codes = np.full((len(lights), width), STOP, dtype=np.int8)
+    cycle, offset = np.ones(len(lights)), np.zeros(len(lights))
+    for i, light in enumerate(lights):
+        durations = [d for _, d in light.phases]
+        if scale != 1.0:
+            durations = [d * scale for d in durations]
+        ends[i, : len(durations)] = np.cumsum(durations)
+        codes[i, : len(durations)] = [_CODE[s] for s, _ in light.phases]
+        cycle[i] = sum(durations)
+        offset[i] = light.offset if scale == 1.0 else light.offset * scale
+    for table in (ends, codes, cycle, offset):
+        table.setflags(write=False)
+    return ends, codes, cycle, offset
+
+
 class LightProgram:
     """The programs of a layout's lights as arrays: ``states(t)`` is one vectorised lookup."""
 
@@ -26,22 +49,11 @@ class LightProgram:
         """``scale`` multiplies every phase's duration and every offset (light timing)."""
         self.names = tuple(light.name for light in lights)
         self.kinds = tuple(light.kind for light in lights)
-        width = max((len(light.phases) for light in lights), default=1)
-        self.ends = np.full((len(lights), width), np.inf)  # cumulative end time of each phase
-        self.codes = np.full((len(lights), width), STOP, dtype=np.int8)
-        self.cycle = np.ones(len(lights))
-        self.offset = np.zeros(len(lights))
+        # the tables are read-only and shared by every program of the same lights and scale
+        self.ends, self.codes, self.cycle, self.offset = _tables(tuple(lights), scale)
         self._described: dict[bytes, dict[str, str]] = {}
         self._valid = (np.inf, -np.inf)  # time interval over which self._last holds
         self._last = np.zeros(0, dtype=np.int8)
-        for i, light in enumerate(lights):
-            durations = [d for _, d in light.phases]
-            if scale != 1.0:
-                durations = [d * scale for d in durations]
-            self.ends[i, : len(durations)] = np.cumsum(durations)
-            self.codes[i, : len(durations)] = [_CODE[s] for s, _ in light.phases]
-            self.cycle[i] = sum(durations)
-            self.offset[i] = light.offset if scale == 1.0 else light.offset * scale
 
     def __len__(self) -> int:
         return len(self.names)

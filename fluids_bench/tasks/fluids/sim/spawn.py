@@ -7,6 +7,8 @@ movements (every other arm). Pedestrians start on distinct points of their walks
 
 from __future__ import annotations
 
+import functools
+
 import numpy as np
 
 from fluids_bench.tasks.fluids.sim.world import World
@@ -15,10 +17,13 @@ CAR_GAP = 3.5  # m between consecutive cars' bumpers at spawn
 PED_SPACING = 1.5  # m between pedestrians' spawn points on one walk
 
 
-def _car_slots(world: World) -> list[tuple[int, float]]:
+def _car_slots(world: World) -> tuple[tuple[int, float], ...]:
     """(entry lane index, s of the car's centre) for every spawn slot, nearest the junction first."""
-    layout = world.layout
-    length = float(world.scene.car.length)
+    return _slots(world.layout, float(world.scene.car.length))
+
+
+@functools.lru_cache(maxsize=64)
+def _slots(layout, length: float) -> tuple[tuple[int, float], ...]:
     slots = []
     for e in range(len(layout.entry_lanes)):
         enter = float(layout.routes.enter_s[layout.routes_from_entry(e)[0]])
@@ -26,7 +31,7 @@ def _car_slots(world: World) -> list[tuple[int, float]]:
         while s - length / 2 >= 0.0:
             slots.append((e, s))
             s -= length + CAR_GAP
-    return slots
+    return tuple(slots)
 
 
 def capacity(world: World) -> tuple[int, int]:

@@ -7,7 +7,9 @@ copy of a path (its route's, or a recovery path planned back to it), stored resa
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -25,6 +27,48 @@ from fluids_bench.tasks.fluids.sim.lights import LightProgram
 GOAL_TOLERANCE = 0.5  # m between an arriving agent's front and the end of its path
 RECOVERY_ROOM = 160  # extra path samples per agent, for recovery paths longer than the route
 PROGRESS_WINDOW = (-3, 9)  # path samples searched around the last progress: 3 back, 8 ahead
+
+
+class RouteRows(NamedTuple):
+    """What :meth:`World.set_path` writes for each route of a layout (R rows of one width)."""
+
+    z: np.ndarray  # (R, width) complex128 points
+    heading: np.ndarray  # (R, width)
+    clearance: np.ndarray  # (R, width)
+    direction: np.ndarray  # (R, width) complex64 unit tangents
+    c64: np.ndarray  # (R, width) complex64 points
+    length: np.ndarray  # (R,) m
+
+
+def _path_rows(path, heading, length, clearance, width):
+    """One agent's path rows, ``width`` samples long (padded with the last sample): points,
+    headings, clearances, unit tangents, single-precision points, and the length (m)."""
+    m = min(len(path), width)
+    z, h, c = np.empty(width, np.complex128), np.empty(width), np.empty(width)
+    for row, values in ((z, path[:, 0] + 1j * path[:, 1]), (h, heading), (c, clearance)):
+        row[:m] = values[:m]
+        row[m:] = values[m - 1]
+    return z, h, c, np.exp(1j * h).astype(np.complex64), z.astype(np.complex64), min(
+        length, (m - 1) * PATH_SPACING
+    )
+
+
+@functools.lru_cache(maxsize=32)
+def route_rows(layout: Layout, width: int) -> RouteRows:
+    """Every route's :func:`_path_rows` on ``layout``, computed once per layout and width (a
+    reset places every agent on a route: copying rows is cheaper than building them)."""
+    table = layout.routes
+    rows = [
+        _path_rows(
+            table.path[r], table.heading[r], float(table.length[r]),
+            layout.route_clearance[r], width,
+        )  # fmt: skip
+        for r in range(len(table.names))
+    ]
+    stacked = RouteRows(*(np.array(column) for column in zip(*rows, strict=True)))
+    for column in stacked:
+        column.setflags(write=False)  # shared by every world on the layout
+    return stacked
 
 
 @dataclass(frozen=True)
@@ -125,16 +169,16 @@ class World:
         self._update_entered()
 
     def follow_route(self, agent: int, route: int) -> None:
-        """Make route ``route``'s path the one ``agent`` follows (progress is kept)."""
-        table = self.layout.routes
+        """Make route ``route``'s path the one ``agent`` follows (progress is kept): the rows
+        :meth:`set_path` would write, copied from the layout's table of them."""
+        rows = route_rows(self.layout, self.path_z.shape[1])
         self.route[agent] = route
-        self.set_path(
-            agent,
-            table.path[route],
-            table.heading[route],
-            float(table.length[route]),
-            self.layout.route_clearance[route],
-        )
+        self.path_z[agent] = rows.z[route]
+        self.path_heading[agent] = rows.heading[route]
+        self.path_clearance[agent] = rows.clearance[route]
+        self.path_dir[agent] = rows.direction[route]
+        self.path_c64[agent] = rows.c64[route]
+        self.path_len[agent] = rows.length[route]
 
     def set_path(
         self,
@@ -144,21 +188,14 @@ class World:
         length: float,
         clearance: np.ndarray | None = None,
     ) -> None:
-        """Give ``agent`` a new path to follow (its route's, or a recovery path). ``clearance``
-        (m from each point to the road's edge) is computed when not given."""
+        """Give ``agent`` a new path to follow (a recovery path; :meth:`follow_route` for a
+        route's). ``clearance`` (m from each point to the road's edge) is computed when not
+        given."""
         if clearance is None:
             clearance = self.layout.road_clearance(path)
-        m = min(len(path), self.path_z.shape[1])
-        for row, values in (
-            (self.path_z[agent], path[:, 0] + 1j * path[:, 1]),
-            (self.path_heading[agent], heading),
-            (self.path_clearance[agent], clearance),
-        ):
-            row[:m] = values[:m]
-            row[m:] = values[m - 1]
-        self.path_dir[agent] = np.exp(1j * self.path_heading[agent])
-        self.path_c64[agent] = self.path_z[agent]
-        self.path_len[agent] = min(length, (m - 1) * PATH_SPACING)
+        rows = _path_rows(path, heading, length, clearance, self.path_z.shape[1])
+        self.path_z[agent], self.path_heading[agent], self.path_clearance[agent] = rows[:3]
+        self.path_dir[agent], self.path_c64[agent], self.path_len[agent] = rows[3:]
 
     # ----------------------------------------------------------------------------- queries
     @property

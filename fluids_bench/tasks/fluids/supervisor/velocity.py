@@ -105,6 +105,14 @@ def _circle_layout(world: World) -> tuple[np.ndarray, np.ndarray]:
     return offs, radius
 
 
+# what VelocityPlanner._compute_constants sets, shared per (layout, scene, config) in _BOUND
+_CONSTANTS = (
+    "_none_uncontrolled", "_brake_limit", "_offs", "_radius", "_offs32", "_reach", "_front",
+    "_crosswalks", "_turns", "_decay", "_across", "_hold_wild", "_ints", "_floats",
+)  # fmt: skip
+_BOUND: dict[tuple, dict] = {}
+
+
 class VelocityPlanner:
     """Assigns every active agent a target velocity (m/s) each planning tick."""
 
@@ -360,10 +368,22 @@ class VelocityPlanner:
 
     # ------------------------------------------------------------------ solve
     def _bind(self, world: World) -> None:
-        """Per-world constants (footprint circles), computed once."""
+        """Per-world constants (footprint circles, route tables): they depend only on the
+        layout, the scene and the planner's config, so they are computed once for each and
+        shared by the planners of every world of that kind (a reset makes a new planner)."""
         if getattr(self, "_bound_world", None) is world:
             return
         self._bound_world = world
+        key = (world.layout, world.scene, self.config)
+        constants = _BOUND.get(key)
+        if constants is None:
+            if len(_BOUND) >= 64:  # many scenes (a sweep): keep the cache small
+                _BOUND.clear()
+            self._compute_constants(world)
+            constants = _BOUND[key] = {k: getattr(self, k) for k in _CONSTANTS}
+        self.__dict__.update(constants)
+
+    def _compute_constants(self, world: World) -> None:
         self._none_uncontrolled = np.zeros(world.n, dtype=bool)
         scene = world.scene
         self._brake_limit = np.where(

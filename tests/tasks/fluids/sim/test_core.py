@@ -194,3 +194,20 @@ def test_t_junction_routes_cover_its_three_arms():
     spec = t_junction()
     exits = {r.exit.split("_")[0] for r in spec.routes}
     assert exits == {"east", "west", "south"}
+
+
+@pytest.mark.parametrize("layout", ["four_way", "t_junction", "roundabout"])
+def test_route_rows_are_what_set_path_writes(layout):
+    """follow_route copies the layout's cached rows: they equal set_path's, bit for bit."""
+    world = _world(layout=layout, num_cars=2, num_pedestrians=0)
+    table = world.layout.routes
+    for r in range(len(table.names)):
+        world.set_path(
+            0, table.path[r], table.heading[r], float(table.length[r]),
+            world.layout.route_clearance[r],
+        )  # fmt: skip
+        world.follow_route(1, r)
+        for name in ("path_z", "path_heading", "path_clearance", "path_dir", "path_c64"):
+            a, b = getattr(world, name)
+            assert a.tobytes() == b.tobytes(), (layout, r, name)
+        assert world.path_len[0] == world.path_len[1]

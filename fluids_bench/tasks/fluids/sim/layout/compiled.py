@@ -108,8 +108,17 @@ class Layout:
         return self.spec.bounds
 
     def routes_from_entry(self, entry: int) -> np.ndarray:
-        """Car route indices starting at entry lane ``entry``, in spec order."""
-        return np.flatnonzero(self.routes.entry == entry)
+        """Car route indices starting at entry lane ``entry``, in spec order (read-only)."""
+        return self._routes_by_entry[entry]
+
+    @functools.cached_property
+    def _routes_by_entry(self) -> tuple[np.ndarray, ...]:
+        by_entry = tuple(
+            np.flatnonzero(self.routes.entry == e) for e in range(len(self.entry_lanes))
+        )
+        for routes in by_entry:
+            routes.setflags(write=False)
+        return by_entry
 
 
 def _polygonal(g: shapely.Geometry) -> shapely.Geometry:
