@@ -400,14 +400,20 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     def _step_valid(self, action):
         """:meth:`step` with ``action`` as :func:`levels.validate` returns it (the vector env
         checks a whole batch at once, then clips each world's with :func:`levels.clip`)."""
-        return self._conclude(self.world.step(self._act(action)))
+        events = self.world.step(self._act(action))
+        judged = self._judge(events)
+        if not self._ended:
+            self.supervisor.propose(self.world)
+        return self._report(events, judged)
 
     def _act(self, action):
         """The first part of :meth:`_step_valid`: every agent's controls (N, 2) with the ego's
         ``action`` at its level, the supervisor's loops advanced as if they were executed. Then
         the world steps under them (alone, or with others in a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) and :meth:`_conclude`
-        takes the new collisions."""
+        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), :meth:`_judge` takes the
+        new collisions, the supervisor proposes its next controls unless the episode ended
+        (alone, or in a :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`)
+        and :meth:`_report` returns the step's results."""
         w, sup = self.world, self.supervisor
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
         chosen = {0: action} if w.active[0] else {}
@@ -416,10 +422,11 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             self._route_length = float(w.path_len[0]) - self._last_s
         return sup.commit(controls, memory)
 
-    def _conclude(self, events):
-        """The rest of :meth:`_step_valid` after the world stepped with ``events``: faults,
-        termination, the supervisor's next proposal, the info, the reward and the observation."""
-        w, sup = self.world, self.supervisor
+    def _judge(self, events) -> tuple[int, bool, float]:
+        """After the world stepped with ``events``: faults, termination (``_ended``) and, if
+        the episode goes on, the supervisor's plan. Returns what :meth:`_report` needs: the
+        rules the ego broke in this step, whether it was hit, and the progress it gained."""
+        w = self.world
         broken = self._violations()
         self.faults.update()
         broken = self._violations() - broken  # rules the ego broke in this step
@@ -434,7 +441,12 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             terminated = bool(w.reached[w.is_car].all()) or bool(events)
         self._ended = terminated
         if not terminated:
-            sup.prepare(w)
+            self.supervisor.plan(w)
+        return broken, ego_hit, gained
+
+    def _report(self, events, judged: tuple[int, bool, float]):
+        """The step's observation, reward, flags and info, once the supervisor proposed."""
+        w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
         info = self._info(events)
         if terminated:
             cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)

@@ -32,26 +32,41 @@ PER_WORLD = (
 )  # fmt: skip
 
 
-class WorldBatch:
+class Rows:
+    """Named arrays of B objects stored as rows of (B, ...) arrays: each object's attribute is
+    a view of its row. The objects must write those arrays in place, never reassign them."""
+
+    def __init__(self, objects: list, names: tuple[str, ...]) -> None:
+        self.objects = list(objects)
+        self.rows = {name: np.stack([getattr(o, name) for o in objects]) for name in names}
+        for i, obj in enumerate(objects):
+            self.bind(i, obj)
+
+    def __getitem__(self, name: str) -> np.ndarray:
+        return self.rows[name]
+
+    def bind(self, index: int, obj) -> None:
+        """Make ``obj`` object ``index``: its values go into row ``index`` and its arrays
+        become views of that row."""
+        for name, rows in self.rows.items():
+            rows[index] = getattr(obj, name)
+            setattr(obj, name, rows[index])
+        self.objects[index] = obj
+
+
+class WorldBatch(Rows):
     """Row storage and the batched step of ``worlds`` (all of one scene, with one layout)."""
 
     def __init__(self, worlds: list[World]) -> None:
-        self.worlds = list(worlds)
-        self.rows = {name: np.stack([getattr(w, name) for w in worlds]) for name in PER_WORLD}
-        for i, world in enumerate(worlds):
-            self.bind(i, world)
+        super().__init__(worlds, PER_WORLD)
         first = worlds[0]
         self.controls = np.zeros((len(worlds), first.n, 2))
         self._steps = np.zeros(len(worlds), dtype=np.int64)
         self._maybe = np.zeros(len(worlds), dtype=np.bool_)
 
-    def bind(self, index: int, world: World) -> None:
-        """Make ``world`` the batch's world ``index``: its values go into row ``index`` and its
-        arrays become views of that row."""
-        for name, rows in self.rows.items():
-            rows[index] = getattr(world, name)
-            setattr(world, name, rows[index])
-        self.worlds[index] = world
+    @property
+    def worlds(self) -> list[World]:
+        return self.objects
 
     def step(self, stepping: np.ndarray) -> list[list[Collision]]:
         """Advance the worlds where ``stepping`` (bool, (B,)) is set under their rows of

@@ -103,5 +103,6 @@ class PIDController:
         return out, (err, integ, v_int)
 
     def commit(self, memory: tuple) -> None:
-        """Advance the loops' memory (last error, integrators) after controls were executed."""
-        self.steer_prev, self.steer_int, self.speed_int = memory
+        """Advance the loops' memory (last error, integrators) after controls were executed;
+        in place, so that a batch's rows stay bound to them."""
+        self.steer_prev[:], self.steer_int[:], self.speed_int[:] = memory

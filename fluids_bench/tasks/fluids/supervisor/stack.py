@@ -78,16 +78,27 @@ class DrivingSupervisor:
 
     def prepare(self, world: World) -> None:
         """Recover off-route cars, re-plan velocities when due, propose every agent's controls."""
+        self.plan(world)
+        self.propose(world)
+
+    def plan(self, world: World) -> None:
+        """The first part of :meth:`prepare`: recovery paths, and the velocity plan when due
+        (written into :attr:`targets` in place)."""
         if self.config.recovery:
             for agent in off_route(world):
                 if self.recovery_planner(world).plan(world, int(agent)):
                     self.recoveries += 1
         if world.steps % self.config.velocity.period == 0:
-            self.targets = (
+            self.targets[:] = (
                 self.planner.plan(world)
                 if self.uncontrolled is None
                 else self.planner.plan(world, self.uncontrolled)
             )
+
+    def propose(self, world: World) -> None:
+        """The rest of :meth:`prepare`: every agent's controls toward :attr:`targets` (a
+        :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch` does this for
+        many worlds in one call)."""
         self.proposed, self._memory = self.pid.controls(world, self.targets)
 
     def execute(

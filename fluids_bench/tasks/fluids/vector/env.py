@@ -16,6 +16,7 @@ from fluids_bench.core.validation import as_seed, check_int, fail, is_int
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import WorldBatch
+from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos
 
@@ -56,12 +57,14 @@ class FluidsVectorEnv(VectorEnv):
     worlds with ``reset(options={"reset_mask": mask})``).
 
     **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
-    compiled layout) whose step is split in three: each env computes its controls
+    compiled layout) whose step is split in parts: each env computes its controls
     (``FluidsEnv._act``), one compiled call moves every world
     (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`, the worlds' arrays stored as rows
-    of batched arrays), then each env concludes its step (``FluidsEnv._conclude``: faults, the
-    supervisor's next plan, reward, info, observation). The parts are the scalar env's own, so
-    equality holds by construction. The vector layer checks the whole action batch before any
+    of batched arrays), each env judges its step (``FluidsEnv._judge``: faults, termination,
+    the supervisor's velocity plan), one compiled call proposes every supervisor's next
+    controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`), and each
+    env reports (``FluidsEnv._report``: reward, info, observation). The parts are the scalar
+    env's own, so equality holds by construction. The vector layer checks the whole action batch before any
     world moves, writes observations into preallocated batched arrays and builds the batched
     infos key by key for all worlds at once.
 
@@ -126,7 +129,8 @@ class FluidsVectorEnv(VectorEnv):
             if isinstance(space, Box)
             else None
         )
-        self._batch = WorldBatch([env.world for env in self.envs])
+        self._worlds = WorldBatch([env.world for env in self.envs])
+        self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -163,18 +167,25 @@ class FluidsVectorEnv(VectorEnv):
         # per-world results in Python lists: cheaper than item-by-item numpy writes
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos: list[dict | None] = [None] * n
-        elapsed, batch = self._elapsed, self._bound_batch()
+        elapsed, (worlds, supervisors) = self._elapsed, self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
-        for i in np.flatnonzero(stepping).tolist():  # the batch is checked: each world clips
+        index = np.flatnonzero(stepping).tolist()
+        for i in index:  # the batch is checked: each world only clips its action
             env = self.envs[i]
-            batch.controls[i] = env._act(self._valid(env, actions[i]))
-        events = batch.step(stepping)
+            worlds.controls[i] = env._act(self._valid(env, actions[i]))
+        events = worlds.step(stepping)
+        judged: list[tuple | None] = [None] * n
+        going = np.zeros(n, dtype=np.bool_)  # stepped, and the episode goes on
+        for i in index:
+            judged[i] = self.envs[i]._judge(events[i])
+            going[i] = not self.envs[i]._ended
+        supervisors.propose(going, worlds)
         for i, env in enumerate(self.envs):
             if not stepping[i]:  # next-step autoreset: this step only resets the world
                 obs, infos[i] = env.reset()
                 elapsed[i] = 0
             else:
-                obs, rewards[i], term, trunc, infos[i] = env._conclude(events[i])
+                obs, rewards[i], term, trunc, infos[i] = env._report(events[i], judged[i])
                 elapsed[i] += 1
                 terminated[i] = term
                 # TimeLimit: truncated once the episode has taken max_episode_steps steps
@@ -264,14 +275,17 @@ class FluidsVectorEnv(VectorEnv):
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
-    def _bound_batch(self) -> WorldBatch:
-        """The worlds' row storage, with every world the envs now hold bound to it (a reset,
-        a restore or a ``call`` gives an env a new world, bound here before it steps)."""
-        batch = self._batch
+    def _bound_batches(self) -> tuple[WorldBatch, SupervisorBatch]:
+        """The worlds' and supervisors' row storage, with every world and supervisor the envs
+        now hold bound to it (a reset, a restore or a ``call`` gives an env new ones, bound
+        here before they step)."""
+        worlds, supervisors = self._worlds, self._supervisors
         for i, env in enumerate(self.envs):
-            if batch.worlds[i] is not env.world:
-                batch.bind(i, env.world)
-        return batch
+            if worlds.worlds[i] is not env.world:
+                worlds.bind(i, env.world)
+            if supervisors.supervisors[i] is not env.supervisor:
+                supervisors.bind(i, env.supervisor)
+        return worlds, supervisors
 
     def _valid(self, env: FluidsEnv, action: np.ndarray):
         """World ``env``'s row of a checked batch as :func:`levels.validate` returns it."""

@@ -1,5 +1,6 @@
-"""WorldBatch: B worlds stored as rows step exactly as each world alone (invariants, as
-dm_control's: same state, same collisions, untouched rows stay untouched)."""
+"""WorldBatch and SupervisorBatch: B worlds and their supervisors stored as rows step and
+propose exactly as each alone (invariants, as dm_control's: same state, same collisions, same
+proposals and PID memory; rows that are masked out stay untouched)."""
 
 from __future__ import annotations
 
@@ -9,6 +10,7 @@ import numpy as np
 
 from fluids_bench.tasks.fluids.sim.batch import PER_WORLD, WorldBatch
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.supervisor.episode import make_world
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor, SupervisorConfig
 
@@ -27,12 +29,15 @@ def _same(a, b) -> None:
     assert (a.time, a.steps, a.log) == (b.time, b.steps, b.log)
 
 
-def test_a_batch_steps_each_world_as_alone_and_leaves_masked_worlds_alone():
+def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
     seeds = [3, 4, 5, 6]
     batched, alone = _worlds(seeds), _worlds(seeds)
     batch = WorldBatch(batched)
     sups = [DrivingSupervisor(w, NO_RECOVERY) for w in batched]
     sups_alone = [DrivingSupervisor(w, NO_RECOVERY) for w in alone]
+    sup_batch = SupervisorBatch(sups)
+    for sup, world in zip(sups + sups_alone, batched + alone, strict=True):
+        sup.prepare(world)
     rng = np.random.default_rng(0)
     collisions = 0
     for step in range(150):
@@ -43,16 +48,25 @@ def test_a_batch_steps_each_world_as_alone_and_leaves_masked_worlds_alone():
                 a.state[:, :3] += jolt
                 b.state[:, :3] += jolt
         for i in np.flatnonzero(stepping):
-            sups[i].prepare(batched[i])
             batch.controls[i] = sups[i].commit()
         events = batch.step(stepping)
+        for i in np.flatnonzero(stepping):
+            sups[i].plan(batched[i])
+        sup_batch.propose(stepping, batch)
         for i in range(len(seeds)):
             if stepping[i]:
-                assert events[i] == sups_alone[i].step(alone[i])
+                assert events[i] == sups_alone[i].execute(alone[i])  # alone: step, prepare
+                sups_alone[i].prepare(alone[i])
                 collisions += len(events[i])
             else:
                 assert events[i] == []
             _same(batched[i], alone[i])
+            for name in ("steer_prev", "steer_int", "speed_int"):
+                assert getattr(sups[i].pid, name).tobytes() == getattr(
+                    sups_alone[i].pid, name
+                ).tobytes()
+            assert sups[i].proposed.tobytes() == sups_alone[i].proposed.tobytes()
+            assert sups[i].targets.tobytes() == sups_alone[i].targets.tobytes()
     assert collisions > 0  # the collision path ran
 
 

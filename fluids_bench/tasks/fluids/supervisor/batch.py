@@ -1,0 +1,75 @@
+"""The supervisors of B worlds proposing their controls in one compiled call.
+
+Each supervisor's targets and PID memory are rows of batched arrays (as the worlds' in
+:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so :meth:`SupervisorBatch.propose`
+is :meth:`DrivingSupervisor.propose` for many worlds at once: :func:`kernels.pid_follow` on each
+row, the same arithmetic as alone.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from fluids_bench.tasks.fluids.sim.batch import Rows, WorldBatch
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.supervisor.kernels import pid_follow
+from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+
+PID_MEMORY = ("steer_prev", "steer_int", "speed_int")
+
+
+@njit(cache=True, nogil=True)
+def pid_follow_worlds(
+    going, path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, targets,
+    steer_prev, steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`pid_follow` on row ``b`` of every per-world array where ``going[b]``; writes the
+    controls into ``out[b]`` and the loops' next memory into ``memory[b]`` (3, N)."""
+    for b in range(len(going)):
+        if going[b]:
+            controls, err, integ, v_int = pid_follow(
+                path_z[b], s[b], path_len[b], min_ahead, ahead_time, spacing, state[b], is_car,
+                targets[b], steer_prev[b], steer_int[b], speed_int[b], dt, gains, limits, gain,
+                low, high,
+            )  # fmt: skip
+            out[b] = controls
+            memory[b, 0], memory[b, 1], memory[b, 2] = err, integ, v_int
+
+
+class SupervisorBatch:
+    """Row storage for the supervisors of a :class:`WorldBatch`'s worlds, and their batched
+    proposal."""
+
+    def __init__(self, supervisors: list[DrivingSupervisor]) -> None:
+        self.targets = Rows(supervisors, ("targets",))
+        self.memory = Rows([sup.pid for sup in supervisors], PID_MEMORY)
+        n = len(supervisors[0].targets)
+        self.proposed = np.zeros((len(supervisors), n, 2))
+        self._next_memory = np.zeros((len(supervisors), 3, n))
+
+    @property
+    def supervisors(self) -> list[DrivingSupervisor]:
+        return self.targets.objects
+
+    def bind(self, index: int, supervisor: DrivingSupervisor) -> None:
+        """Make ``supervisor`` the one of world ``index`` (its values go into its rows)."""
+        self.targets.bind(index, supervisor)
+        self.memory.bind(index, supervisor.pid)
+
+    def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
+        """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)): its
+        ``proposed`` and PID memory become views of this batch's output rows, which the next
+        call overwrites (a supervisor commits its memory into its own rows before then)."""
+        pid, w = self.supervisors[0].pid, worlds.worlds[0]  # the scene's shared constants
+        memory = self.memory
+        pid_follow_worlds(
+            going, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
+            pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, self.targets["targets"],
+            memory["steer_prev"], memory["steer_int"], memory["speed_int"], w.dt, pid._gains,
+            pid._limits, pid.gain, pid.low, pid.high, self.proposed, self._next_memory,
+        )  # fmt: skip
+        for i in np.flatnonzero(going).tolist():
+            sup, next_memory = self.supervisors[i], self._next_memory[i]
+            sup.proposed = self.proposed[i]
+            sup._memory = (next_memory[0], next_memory[1], next_memory[2])
