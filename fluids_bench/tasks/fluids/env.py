@@ -426,10 +426,16 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         """After the world stepped with ``events``: faults, termination (``_ended``) and, if
         the episode goes on, the supervisor's plan. Returns what :meth:`_report` needs: the
         rules the ego broke in this step, whether it was hit, and the progress it gained."""
-        w = self.world
         broken = self._violations()
         self.faults.update()
-        broken = self._violations() - broken  # rules the ego broke in this step
+        return self._judge_recorded(events, broken)
+
+    def _judge_recorded(self, events, broken_before: int) -> tuple[int, bool, float]:
+        """:meth:`_judge` once the fault tracker recorded the step (alone, or in a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`); ``broken_before``:
+        :meth:`_violations` before it did."""
+        w = self.world
+        broken = self._violations() - broken_before  # rules the ego broke in this step
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
         s_now = progress(w, 0)

@@ -1,5 +1,5 @@
-"""WorldBatch and SupervisorBatch: B worlds and their supervisors stored as rows step and
-propose exactly as each alone (invariants, as dm_control's: same state, same collisions, same
+"""WorldBatch, FaultBatch and SupervisorBatch: B worlds, their fault trackers and their
+supervisors stored as rows step, record and propose exactly as each alone (invariants, as dm_control's: same state, same collisions, same
 proposals and PID memory; rows that are masked out stay untouched)."""
 
 from __future__ import annotations
@@ -8,8 +8,9 @@ import copy
 
 import numpy as np
 
-from fluids_bench.tasks.fluids.sim.batch import PER_WORLD, WorldBatch
+from fluids_bench.tasks.fluids.sim.batch import PER_TRACKER, PER_WORLD, FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.supervisor.episode import make_world
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor, SupervisorConfig
@@ -36,6 +37,8 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
     sups = [DrivingSupervisor(w, NO_RECOVERY) for w in batched]
     sups_alone = [DrivingSupervisor(w, NO_RECOVERY) for w in alone]
     sup_batch = SupervisorBatch(sups)
+    trackers, trackers_alone = [FaultTracker(w) for w in batched], [FaultTracker(w) for w in alone]
+    fault_batch = FaultBatch(trackers)
     for sup, world in zip(sups + sups_alone, batched + alone, strict=True):
         sup.prepare(world)
     rng = np.random.default_rng(0)
@@ -50,12 +53,14 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
         for i in np.flatnonzero(stepping):
             batch.controls[i] = sups[i].commit()
         events = batch.step(stepping)
+        fault_batch.update(stepping, batch)
         for i in np.flatnonzero(stepping):
             sups[i].plan(batched[i])
         sup_batch.propose(stepping, batch)
         for i in range(len(seeds)):
             if stepping[i]:
                 assert events[i] == sups_alone[i].execute(alone[i])  # alone: step, prepare
+                trackers_alone[i].update()
                 sups_alone[i].prepare(alone[i])
                 collisions += len(events[i])
             else:
@@ -67,6 +72,13 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
                 ).tobytes()
             assert sups[i].proposed.tobytes() == sups_alone[i].proposed.tobytes()
             assert sups[i].targets.tobytes() == sups_alone[i].targets.tobytes()
+            assert trackers[i]._recorded == trackers_alone[i]._recorded
+            kept = min(trackers[i]._recorded, len(trackers[i]._ring))
+            for name in PER_TRACKER:
+                a, b = getattr(trackers[i], name), getattr(trackers_alone[i], name)
+                if name == "_ring":  # slots not yet written hold whatever np.empty gave
+                    a, b = a[:kept], b[:kept]
+                assert a.tobytes() == b.tobytes(), name
     assert collisions > 0  # the collision path ran
 
 

@@ -16,7 +16,9 @@ from __future__ import annotations
 import numpy as np
 
 from fluids_bench.tasks.fluids.sim import kernels
+from fluids_bench.tasks.fluids.sim.fault import HISTORY, FaultTracker, record_steps
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.lights import STOP
 from fluids_bench.tasks.fluids.sim.world import (
     GOAL_TOLERANCE,
     PROGRESS_WINDOW,
@@ -29,6 +31,11 @@ PER_WORLD = (
     "state", "params", "active", "s", "offset", "path_z", "path_heading", "path_len",
     "path_clearance", "nearest", "lateral_error", "heading_error", "route", "entered",
     "reached", "_offroad_candidates",
+)  # fmt: skip
+# the FaultTracker arrays (each world's own; written in place)
+PER_TRACKER = (
+    "entry_step", "ran_red", "failed_to_yield", "_prev_at", "_prev_occupied", "_warned",
+    "_enter", "_light_of", "_ring", "_prev_lights",
 )  # fmt: skip
 
 
@@ -92,3 +99,37 @@ class WorldBatch(Rows):
         for i in index:
             events[i] = worlds[i].finish_step(maybe[i])
         return events
+
+
+class FaultBatch(Rows):
+    """Row storage and the batched :meth:`FaultTracker.update` of the trackers of a
+    :class:`WorldBatch`'s worlds."""
+
+    def __init__(self, trackers: list[FaultTracker]) -> None:
+        super().__init__(trackers, PER_TRACKER)
+        first = trackers[0]
+        self._lights = np.zeros((len(trackers), len(first.world.light_state)), dtype=np.int8)
+        self._slots = np.zeros(len(trackers), dtype=np.int64)
+
+    @property
+    def trackers(self) -> list[FaultTracker]:
+        return self.objects
+
+    def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
+        """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
+        trackers, lights, slots = self.objects, self._lights, self._slots
+        for i in np.flatnonzero(stepping).tolist():
+            tracker = trackers[i]
+            tracker._follow_routes()
+            lights[i] = tracker.world.light_state
+            slots[i] = tracker._recorded % HISTORY
+            tracker._recorded += 1
+        w, cw, rows = worlds.worlds[0], trackers[0]._crosswalks, worlds.rows
+        record_steps(
+            stepping, rows["s"], rows["offset"], w.front, self["_enter"], self["_light_of"],
+            self["_prev_lights"], lights, STOP, self["entry_step"], self["ran_red"],
+            worlds._steps, rows["state"], self["_ring"], slots, trackers[0]._yield_check,
+            rows["route"], rows["active"], w.is_car, cw.car_enter, self["_prev_at"],
+            self["_prev_occupied"], self["_warned"], self["failed_to_yield"], w.width,
+            cw.centre, cw.axis, cw.half,
+        )  # fmt: skip

@@ -95,6 +95,24 @@ def _record_step(
         )  # fmt: skip
 
 
+@njit(cache=True, nogil=True)
+def record_steps(
+    stepping, s, offset, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red,
+    steps, state, ring, slots, yield_check, route, active, is_car, car_enter, prev_at,
+    prev_occupied, warned, failed, width, centre, axis, half,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`_record_step` on row ``b`` of every per-world array where ``stepping[b]`` (at
+    step ``steps[b]``, into ring slot ``slots[b]``)."""
+    for b in range(len(stepping)):
+        if stepping[b]:
+            _record_step(
+                s[b], offset[b], front, enter[b], light_of[b], prev_lights[b], lights[b], stop,
+                entry_step[b], ran_red[b], steps[b], state[b], ring[b], slots[b], yield_check,
+                route[b], active[b], is_car, car_enter, prev_at[b], prev_occupied[b], warned[b],
+                failed[b], width, centre, axis, half,
+            )  # fmt: skip
+
+
 class FaultTracker:
     """Follows one world (call :meth:`update` after every ``world.step``) and labels collisions."""
 
@@ -124,17 +142,22 @@ class FaultTracker:
         the agents' states."""
         self._record()
 
-    def _record(self) -> None:
+    def _follow_routes(self) -> None:
+        """Recompute the zone thresholds when routes were assigned or changed (in place: a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch` holds these arrays as rows)."""
         w = self.world
         key = w.route.tobytes()
-        if key != self._route_key:  # routes assigned or changed: recompute the thresholds
+        if key != self._route_key:
             self._route_key = key
             r = np.maximum(w.route, 0)
-            enter = w.layout.routes.enter_s[r].astype(np.float64)
-            enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
-            self._enter = enter
-            self._light_of = np.where(w.route >= 0, w.layout.routes.light[r], -1).astype(np.int64)
+            self._enter[:] = w.layout.routes.enter_s[r]
+            self._enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
+            self._light_of[:] = np.where(w.route >= 0, w.layout.routes.light[r], -1)
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
+
+    def _record(self) -> None:
+        w = self.world
+        self._follow_routes()
         cw = self._crosswalks
         _record_step(
             w.s, w.offset, w.front, self._enter, self._light_of, self._prev_lights,

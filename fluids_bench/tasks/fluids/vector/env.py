@@ -15,7 +15,7 @@ from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
-from fluids_bench.tasks.fluids.sim.batch import WorldBatch
+from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos
@@ -60,8 +60,10 @@ class FluidsVectorEnv(VectorEnv):
     compiled layout) whose step is split in parts: each env computes its controls
     (``FluidsEnv._act``), one compiled call moves every world
     (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`, the worlds' arrays stored as rows
-    of batched arrays), each env judges its step (``FluidsEnv._judge``: faults, termination,
-    the supervisor's velocity plan), one compiled call proposes every supervisor's next
+    of batched arrays), one records every world's step for fault labels
+    (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`), each env judges its step
+    (``FluidsEnv._judge_recorded``: termination, the supervisor's velocity plan), one compiled
+    call proposes every supervisor's next
     controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`), and each
     env reports (``FluidsEnv._report``: reward, info, observation). The parts are the scalar
     env's own, so equality holds by construction. The vector layer checks the whole action batch before any
@@ -130,6 +132,7 @@ class FluidsVectorEnv(VectorEnv):
             else None
         )
         self._worlds = WorldBatch([env.world for env in self.envs])
+        self._faults = FaultBatch([env.faults for env in self.envs])
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -167,17 +170,19 @@ class FluidsVectorEnv(VectorEnv):
         # per-world results in Python lists: cheaper than item-by-item numpy writes
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
         infos: list[dict | None] = [None] * n
-        elapsed, (worlds, supervisors) = self._elapsed, self._bound_batches()
+        elapsed, (worlds, faults, supervisors) = self._elapsed, self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
         index = np.flatnonzero(stepping).tolist()
         for i in index:  # the batch is checked: each world only clips its action
             env = self.envs[i]
             worlds.controls[i] = env._act(self._valid(env, actions[i]))
         events = worlds.step(stepping)
+        broken = [self.envs[i]._violations() for i in index]  # before the faults' update
+        faults.update(stepping, worlds)
         judged: list[tuple | None] = [None] * n
         going = np.zeros(n, dtype=np.bool_)  # stepped, and the episode goes on
-        for i in index:
-            judged[i] = self.envs[i]._judge(events[i])
+        for i, before in zip(index, broken, strict=True):
+            judged[i] = self.envs[i]._judge_recorded(events[i], before)
             going[i] = not self.envs[i]._ended
         supervisors.propose(going, worlds)
         for i, env in enumerate(self.envs):
@@ -275,17 +280,19 @@ class FluidsVectorEnv(VectorEnv):
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
-    def _bound_batches(self) -> tuple[WorldBatch, SupervisorBatch]:
-        """The worlds' and supervisors' row storage, with every world and supervisor the envs
-        now hold bound to it (a reset, a restore or a ``call`` gives an env new ones, bound
-        here before they step)."""
-        worlds, supervisors = self._worlds, self._supervisors
+    def _bound_batches(self) -> tuple[WorldBatch, FaultBatch, SupervisorBatch]:
+        """The row storage of the worlds, their fault trackers and their supervisors, with
+        every one the envs now hold bound to it (a reset, a restore or a ``call`` gives an env
+        new ones, bound here before they step)."""
+        worlds, faults, supervisors = self._worlds, self._faults, self._supervisors
         for i, env in enumerate(self.envs):
             if worlds.worlds[i] is not env.world:
                 worlds.bind(i, env.world)
+            if faults.trackers[i] is not env.faults:
+                faults.bind(i, env.faults)
             if supervisors.supervisors[i] is not env.supervisor:
                 supervisors.bind(i, env.supervisor)
-        return worlds, supervisors
+        return worlds, faults, supervisors
 
     def _valid(self, env: FluidsEnv, action: np.ndarray):
         """World ``env``'s row of a checked batch as :func:`levels.validate` returns it."""
