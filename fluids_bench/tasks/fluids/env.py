@@ -404,7 +404,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         judged = self._judge(events)
         if not self._ended:
             self.supervisor.propose(self.world)
-        return self._report(events, judged)
+        reward, terminated, info = self._report(events, judged)
+        return self._observe(), reward, terminated, False, info
 
     def _act(self, action):
         """The first part of :meth:`_step_valid`: every agent's controls (N, 2) with the ego's
@@ -413,7 +414,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), :meth:`_judge` takes the
         new collisions, the supervisor proposes its next controls unless the episode ended
         (alone, or in a :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`)
-        and :meth:`_report` returns the step's results."""
+        :meth:`_report` returns the step's reward, termination and info, and the world is
+        observed (alone, or in one call for a batch)."""
         w, sup = self.world, self.supervisor
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
         chosen = {0: action} if w.active[0] else {}
@@ -450,8 +452,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             self.supervisor.plan(w)
         return broken, ego_hit, gained
 
-    def _report(self, events, judged: tuple[int, bool, float]):
-        """The step's observation, reward, flags and info, once the supervisor proposed."""
+    def _report(self, events, judged: tuple[int, bool, float]) -> tuple[float, bool, dict]:
+        """The step's reward, termination and info, once the supervisor proposed."""
         w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
         info = self._info(events)
         if terminated:
@@ -469,7 +471,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             reward = step_reward_v1(gained, self._route_length, failed_by, broken, succeeded)
         if self.render_mode == "human":
             self.render()
-        return self._observe(), float(reward), terminated, False, info
+        return float(reward), terminated, info
 
     def render(self):
         """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in

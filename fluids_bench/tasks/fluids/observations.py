@@ -22,7 +22,8 @@ from gymnasium import spaces
 
 from fluids_bench.core.validation import check_choice, check_float, check_int
 from fluids_bench.tasks.fluids.sim.config import check_range
-from fluids_bench.tasks.fluids.sim.sensors.explicit import ExplicitSensor
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from fluids_bench.tasks.fluids.sim.sensors.explicit import ExplicitSensor, fill_explicit_worlds
 from fluids_bench.tasks.fluids.sim.world import World
 
 OBS_TYPES = ("explicit", "birdseye", "qlidar")
@@ -125,8 +126,8 @@ class _Normalizer:
         if self.labels:  # qlidar rows [d, label, psi, v] -> [d, psi, v, one-hot(label 1..L-1)]
             rows = obs.reshape(-1, 4)
             hot = np.arange(1, self.labels)[None, :] == np.rint(rows[:, 1:2]).astype(np.int64)
-            x = np.concatenate([x.reshape(-1, 4)[:, [0, 2, 3]], hot], axis=1)
-        return np.clip(x.reshape(-1), -1.0, 1.0).astype(np.float32)
+            x = np.concatenate([x.reshape(-1, 4)[:, [0, 2, 3]], hot], axis=1).reshape(-1)
+        return np.clip(x, -1.0, 1.0).astype(np.float32)  # elementwise: rows of a batch too
 
 
 NEAR = 30.0  # m: the scale of the explicit vector's nearby lengths (the quasi-LIDAR's range)
@@ -160,6 +161,8 @@ def explicit_normalizer(k_nearest: int, world: World) -> _Normalizer:
 class _Explicit:
     def __init__(self, cfg: ObservationConfig, world: World) -> None:
         self.sensor = ExplicitSensor(cfg.k_nearest, cfg.obs_noise)
+        self.batchable = self.sensor.noise_std == 0  # see observe_worlds
+        self._raw: np.ndarray | None = None  # observe_worlds' rows, before clipping
         self.raw_space = spaces.Box(-OBS_BOUND, OBS_BOUND, (self.sensor.size,), np.float32)
         self.space, self.scale = self.raw_space, None
         if cfg.obs_scale == "normalized":
@@ -167,9 +170,26 @@ class _Explicit:
             self.space = spaces.Box(-1.0, 1.0, (self.sensor.size,), np.float32)
 
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
-        obs = self.sensor.observe(world, rng)
+        return self._finish(self.sensor.observe(world, rng))
+
+    def _finish(self, obs: np.ndarray) -> np.ndarray:
+        """Clipped and scaled, elementwise (one observation or rows of several)."""
         obs = np.minimum(np.maximum(obs, -OBS_BOUND, out=obs), OBS_BOUND, out=obs)
         return obs if self.scale is None else self.scale(obs)
+
+    def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
+        """:meth:`observe` of each world of ``worlds`` (a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) where ``stepping``, as rows
+        (noiseless only: a noisy observation draws from each world's own generator)."""
+        if self._raw is None or len(self._raw) != len(stepping):
+            self._raw = np.zeros((len(stepping), self.sensor.size))
+        w, rows, routes = worlds.worlds[0], worlds.rows, worlds.worlds[0].layout.routes
+        fill_explicit_worlds(
+            self._raw, stepping, rows["state"], rows["active"], w.kind, rows["path_z"],
+            rows["path_len"], rows["s"], rows["offset"], w.length, rows["route"], routes.light,
+            routes.stop_s, lights, self.sensor.k, PATH_SPACING,
+        )  # fmt: skip
+        return self._finish(self._raw[stepping].astype(np.float32))
 
 
 class _BirdsEye:
@@ -236,3 +256,14 @@ class Observer:
         if self.single:
             return next(iter(self.parts.values())).observe(world, rng)
         return {k: p.observe(world, rng) for k, p in self.parts.items()}
+
+    @property
+    def batchable(self) -> bool:
+        """Whether :meth:`observe_worlds` can observe a batch of worlds in one call (a single
+        noiseless explicit observation)."""
+        return self.single and getattr(next(iter(self.parts.values())), "batchable", False)
+
+    def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
+        """:meth:`observe` of every world where ``stepping`` (bool, (B,)), as rows, when
+        :attr:`batchable`; ``lights``: each world's light states (B, L)."""
+        return next(iter(self.parts.values())).observe_worlds(stepping, worlds, lights)

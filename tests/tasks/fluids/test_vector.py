@@ -119,18 +119,21 @@ def test_world_i_is_the_scalar_env_seeded_s_plus_i(level):
 
 
 @pytest.mark.parametrize(
-    "env_id,mode",
+    "env_id,mode,extra",
     [
-        ("FLUIDS-v0", "NextStep"),
-        ("FLUIDS-Sensitivity-v1", "SameStep"),
-        ("FLUIDS-v2", "Disabled"),
+        ("FLUIDS-v0", "NextStep", {}),
+        ("FLUIDS-Sensitivity-v1", "SameStep", {}),
+        ("FLUIDS-v2", "Disabled", {}),
+        # observations taken world by world: noisy (each world's generator), or several kinds
+        ("FLUIDS-v1", "SameStep", {"obs_noise": 0.5}),
+        ("FLUIDS-v2", "NextStep", {"obs_type": ["explicit", "qlidar"]}),
     ],
 )
-def test_the_batch_equals_sync_vector_env(env_id, mode):
+def test_the_batch_equals_sync_vector_env(env_id, mode, extra):
     """Everything ``step`` and ``reset`` return equals SyncVectorEnv's over the same id, in
     each autoreset mode (Disabled: ended worlds reset through ``reset_mask``)."""
     n, limit = 3, 6
-    kwargs = {**SMALL, "action_level": "control", "max_episode_steps": limit}
+    kwargs = {**SMALL, "action_level": "control", "max_episode_steps": limit, **extra}
     vec = make_vec(env_id, n, autoreset_mode=mode, **kwargs)
     sync = gym.make_vec(
         env_id, n, vectorization_mode="sync", vector_kwargs={"autoreset_mode": mode}, **kwargs

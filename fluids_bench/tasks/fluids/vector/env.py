@@ -57,18 +57,24 @@ class FluidsVectorEnv(VectorEnv):
     worlds with ``reset(options={"reset_mask": mask})``).
 
     **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
-    compiled layout) whose step is split in parts: each env computes its controls
-    (``FluidsEnv._act``), one compiled call moves every world
-    (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`, the worlds' arrays stored as rows
-    of batched arrays), one records every world's step for fault labels
-    (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`), each env judges its step
-    (``FluidsEnv._judge_recorded``: termination, the supervisor's velocity plan), one compiled
-    call proposes every supervisor's next
-    controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`), and each
-    env reports (``FluidsEnv._report``: reward, info, observation). The parts are the scalar
-    env's own, so equality holds by construction. The vector layer checks the whole action batch before any
-    world moves, writes observations into preallocated batched arrays and builds the batched
-    infos key by key for all worlds at once.
+    compiled layout) whose step is split in parts, each run for all worlds before the next:
+
+    1. each env computes its controls (``FluidsEnv._act``);
+    2. one compiled call moves every world
+       (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`: the worlds' arrays are rows
+       of batched arrays);
+    3. one records every world's step for fault labels
+       (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
+    4. each env judges its step (``FluidsEnv._judge_recorded``: termination, the supervisor's
+       velocity plan);
+    5. one proposes every supervisor's next controls
+       (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
+    6. each env reports (``FluidsEnv._report``: reward, info);
+    7. one observes every world (a noiseless explicit observation; others world by world).
+
+    The parts are the scalar env's own, so equality holds by construction. The vector layer
+    checks the whole action batch before any world moves, writes observations into
+    preallocated batched arrays and builds the batched infos key by key for all worlds at once.
 
     **Snapshots.** ``snapshot(i)`` returns world ``i``'s state as
     :func:`fluids_bench.core.snapshot.snapshot` returns it for a ``gym.make`` env (its step
@@ -133,6 +139,8 @@ class FluidsVectorEnv(VectorEnv):
         )
         self._worlds = WorldBatch([env.world for env in self.envs])
         self._faults = FaultBatch([env.faults for env in self.envs])
+        lights = len(self.envs[0].world.light_state)
+        self._lights = np.zeros((self.num_envs, lights), dtype=np.int8)  # states of each world
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
@@ -185,22 +193,24 @@ class FluidsVectorEnv(VectorEnv):
             judged[i] = self.envs[i]._judge_recorded(events[i], before)
             going[i] = not self.envs[i]._ended
         supervisors.propose(going, worlds)
+        for i in index:
+            env = self.envs[i]
+            rewards[i], terminated[i], infos[i] = env._report(events[i], judged[i])
+            elapsed[i] += 1
+            # TimeLimit: truncated once the episode has taken max_episode_steps steps
+            truncated[i] = limit is not None and elapsed[i] >= limit
+        self._observe(stepping, index, worlds)
         for i, env in enumerate(self.envs):
             if not stepping[i]:  # next-step autoreset: this step only resets the world
                 obs, infos[i] = env.reset()
+                self._write(i, obs)
                 elapsed[i] = 0
-            else:
-                obs, rewards[i], term, trunc, infos[i] = env._report(events[i], judged[i])
-                elapsed[i] += 1
-                terminated[i] = term
-                # TimeLimit: truncated once the episode has taken max_episode_steps steps
-                truncated[i] = trunc = trunc or (limit is not None and elapsed[i] >= limit)
-                if mode is AutoresetMode.SAME_STEP and (term or trunc):
-                    infos[i] = {"final_obs": obs, "final_info": infos[i]}
-                    obs, reset_info = env.reset()
-                    infos[i].update(reset_info)
-                    elapsed[i] = 0
-            self._write(i, obs)
+            elif mode is AutoresetMode.SAME_STEP and (terminated[i] or truncated[i]):
+                infos[i] = {"final_obs": self._read(i), "final_info": infos[i]}
+                obs, reset_info = env.reset()
+                infos[i].update(reset_info)
+                self._write(i, obs)
+                elapsed[i] = 0
         if mode is not AutoresetMode.SAME_STEP:
             self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
         return (
@@ -337,6 +347,26 @@ class FluidsVectorEnv(VectorEnv):
                 f"a numpy bool array of shape ({self.num_envs},) with at least one True",
             )
         return mask
+
+    def _observe(self, stepping: np.ndarray, index: list[int], worlds: WorldBatch) -> None:
+        """Write the observation of every world that stepped (``index``: where ``stepping``)
+        into the batch: one call for all when the observation allows it, else world by world
+        (a noisy or image observation, drawn with each world's own generator)."""
+        observer = self.envs[0].observer
+        if observer.batchable and index:
+            lights = self._lights
+            for i in index:
+                lights[i] = self.envs[i].world.light_state
+            self._obs[stepping] = observer.observe_worlds(stepping, worlds, lights)
+            return
+        for i in index:
+            self._write(i, self.envs[i]._observe())
+
+    def _read(self, i: int) -> Any:
+        """World ``i``'s row of the batched observation, as the scalar env returns it."""
+        if self._dict_obs:
+            return {key: value[i].copy() for key, value in self._obs.items()}
+        return self._obs[i].copy()
 
     def _write(self, i: int, obs: Any) -> None:
         if self._dict_obs:

@@ -19,6 +19,8 @@ from __future__ import annotations
 import numpy as np
 
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
+from numba import njit
+
 from fluids_bench.tasks.fluids.sim.sensors.kernels import EGO, GOAL, LIGHT, PER_AGENT, fill_explicit
 from fluids_bench.tasks.fluids.sim.world import World
 
@@ -67,3 +69,19 @@ class ExplicitSensor:
         if self.noise_std > 0:
             out[self.noise_mask] += rng.normal(0.0, self.noise_std, int(self.noise_mask.sum()))
         return out.astype(np.float32)
+
+
+@njit(cache=True, nogil=True)
+def fill_explicit_worlds(
+    out, stepping, state, active, kind, path_z, path_len, s, offset, length, route,
+    route_light, stop_s, light_state, k, spacing,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`fill_explicit` of agent 0 on row ``b`` of every per-world array, into the zeroed
+    row ``out[b]``, where ``stepping[b]``."""
+    for b in range(len(stepping)):
+        if stepping[b]:
+            out[b] = 0.0
+            fill_explicit(
+                out[b], state[b], active[b], kind, path_z[b], path_len[b], s[b], offset[b],
+                length, route[b], route_light, stop_s, light_state[b], 0, k, spacing,
+            )  # fmt: skip
