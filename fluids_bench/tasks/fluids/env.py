@@ -452,10 +452,14 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             self.supervisor.plan(w)
         return broken, ego_hit, gained
 
-    def _report(self, events, judged: tuple[int, bool, float]) -> tuple[float, bool, dict]:
-        """The step's reward, termination and info, once the supervisor proposed."""
+    def _report(
+        self, events, judged: tuple[int, bool, float], full_info: bool = True
+    ) -> tuple[float, bool, dict]:
+        """The step's reward, termination and info, once the supervisor proposed; without
+        ``full_info`` the info holds only ``is_success`` (when the episode ended): a batch
+        builds the rest of :meth:`_info` for all its worlds at once."""
         w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
-        info = self._info(events)
+        info = self._info(events) if full_info else {}
         if terminated:
             cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
             # with obey_lights, running a red light fails the episode too; with

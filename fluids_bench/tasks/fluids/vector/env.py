@@ -18,7 +18,7 @@ from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
-from fluids_bench.tasks.fluids.vector.infos import batch_infos
+from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 
 WHERE = "FluidsVectorEnv"
 # the vector env's own arguments; every other one goes to each world's FluidsEnv
@@ -69,8 +69,11 @@ class FluidsVectorEnv(VectorEnv):
        velocity plan);
     5. one proposes every supervisor's next controls
        (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
-    6. each env reports (``FluidsEnv._report``: reward, info);
-    7. one observes every world (a noiseless explicit observation; others world by world).
+    6. each env reports (``FluidsEnv._report``: reward, ``is_success``);
+    7. one observes every world (a noiseless explicit observation; others world by world);
+    8. the infos are read from the batched rows for all worlds at once
+       (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; the labels come from
+       each env; with ``"SameStep"`` autoresets, world by world).
 
     The parts are the scalar env's own, so equality holds by construction. The vector layer
     checks the whole action batch before any world moves, writes observations into
@@ -193,12 +196,16 @@ class FluidsVectorEnv(VectorEnv):
             judged[i] = self.envs[i]._judge_recorded(events[i], before)
             going[i] = not self.envs[i]._ended
         supervisors.propose(going, worlds)
+        batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         for i in index:
             env = self.envs[i]
-            rewards[i], terminated[i], infos[i] = env._report(events[i], judged[i])
+            rewards[i], terminated[i], infos[i] = env._report(
+                events[i], judged[i], full_info=not batched_infos
+            )
             elapsed[i] += 1
             # TimeLimit: truncated once the episode has taken max_episode_steps steps
             truncated[i] = limit is not None and elapsed[i] >= limit
+            self._lights[i] = env.world.light_state
         self._observe(stepping, index, worlds)
         for i, env in enumerate(self.envs):
             if not stepping[i]:  # next-step autoreset: this step only resets the world
@@ -213,12 +220,17 @@ class FluidsVectorEnv(VectorEnv):
                 elapsed[i] = 0
         if mode is not AutoresetMode.SAME_STEP:
             self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
+        info = (
+            step_infos(self.envs, worlds, faults, self._lights, infos, events)
+            if batched_infos
+            else batch_infos(infos, n)
+        )
         return (
             self._observations(),
             np.array(rewards, dtype=np.float64),
             np.array(terminated, dtype=np.bool_),
             np.array(truncated, dtype=np.bool_),
-            batch_infos(infos, n),
+            info,
         )
 
     def render(self) -> tuple[np.ndarray, ...] | None:
@@ -349,15 +361,13 @@ class FluidsVectorEnv(VectorEnv):
         return mask
 
     def _observe(self, stepping: np.ndarray, index: list[int], worlds: WorldBatch) -> None:
-        """Write the observation of every world that stepped (``index``: where ``stepping``)
-        into the batch: one call for all when the observation allows it, else world by world
-        (a noisy or image observation, drawn with each world's own generator)."""
+        """Write the observation of every world that stepped (``index``: where ``stepping``;
+        their light states in ``_lights``) into the batch: one call for all when the
+        observation allows it, else world by world (a noisy or image observation, drawn with
+        each world's own generator)."""
         observer = self.envs[0].observer
         if observer.batchable and index:
-            lights = self._lights
-            for i in index:
-                lights[i] = self.envs[i].world.light_state
-            self._obs[stepping] = observer.observe_worlds(stepping, worlds, lights)
+            self._obs[stepping] = observer.observe_worlds(stepping, worlds, self._lights)
             return
         for i in index:
             self._write(i, self.envs[i]._observe())

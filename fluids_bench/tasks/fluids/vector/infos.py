@@ -6,6 +6,10 @@ mask ``_key`` saying which worlds have it. A key's array is typed by the first w
 Python ``int``/``float``/``bool`` and numpy numbers as that dtype, numpy arrays stacked as
 ``(n, *shape)`` of their dtype, dicts batched recursively, anything else (lists, strings) as an
 object array with ``None`` where a world lacks the key. ``final_obs`` is always an object array.
+
+:func:`step_infos` builds the same result for a step in which every world has the scalar env's
+info keys (``FluidsEnv._info``), reading most of them from the batched rows instead of per-world
+dicts.
 """
 
 from __future__ import annotations
@@ -14,6 +18,9 @@ import functools
 from typing import Any
 
 import numpy as np
+
+from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
+from fluids_bench.tasks.fluids.sim.lights import STATE_NAMES
 
 _SCALARS = (int, float, bool)
 
@@ -63,3 +70,72 @@ def batch_infos(infos: list[dict[str, Any] | None], n: int) -> dict[str, Any]:
             out[key] = array
         out[f"_{key}"] = mask
     return out
+
+
+@functools.lru_cache(maxsize=16)
+def _colour_table(kinds: tuple[str, ...]) -> np.ndarray:
+    """Each light's colour name for each state code, (L, codes), as an object array."""
+    codes = 1 + max(code for _, code in STATE_NAMES)
+    table = np.empty((len(kinds), codes), dtype=object)
+    for (kind, code), name in STATE_NAMES.items():
+        for light in np.flatnonzero(np.array(kinds) == kind):
+            table[light, code] = name
+    return table
+
+
+def step_infos(envs, worlds, faults, lights, own: list[dict | None], events: list) -> dict:
+    """:func:`batch_infos` of ``FluidsEnv._info`` of every env, merged with ``own`` (each
+    world's other keys, e.g. ``is_success``, or a whole info for a world that was reset:
+    its values replace the batched ones).
+
+    ``worlds`` and ``faults`` are the envs' bound
+    :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` and ``FaultBatch``, ``lights``
+    each world's light states (B, L) and ``events`` each world's new collisions; a world's
+    label comes from its env, as in the scalar env."""
+    n, w = len(envs), envs[0].world
+    out: dict[str, Any] = {}
+
+    def column(key: str, values) -> None:
+        out[key], out[f"_{key}"] = values, _all_true(n).copy()
+
+    column(SUPERVISOR_ACTION_KEY, _stack([env.supervisor_action() for env in envs]))
+    collisions = np.empty(n, dtype=object)
+    for i, env in enumerate(envs):
+        collisions[i] = env.faults.annotate(events[i]) if events[i] else []
+    column("collisions", collisions)
+    column("ego_arrived", worlds["reached"][:, 0].copy())
+    names = np.empty(len(w.layout.routes.names), dtype=object)
+    names[:] = w.layout.routes.names
+    column("route", names[worlds["route"][:, 0]])
+    table = _colour_table(w.lights.kinds)
+    colours = {}
+    for k, light in enumerate(w.lights.names):
+        colours[light], colours[f"_{light}"] = table[k][lights[:, k]], _all_true(n).copy()
+    column("lights", colours)
+    column("ego_ran_red_light", faults["ran_red"][:, 0].copy())
+    column("ego_failed_to_yield", faults["failed_to_yield"][:, 0].copy())
+    for key, value in batch_infos(own, n).items():  # keys only some worlds have
+        out.setdefault(key, value)
+    for i, info in enumerate(own):  # a whole info of its own (a reset world): its values
+        if info and SUPERVISOR_ACTION_KEY in info:
+            _overwrite(out, info, i)
+    return out
+
+
+def _stack(labels: list) -> np.ndarray:
+    """The labels as :func:`batch_infos` batches them (ints, or arrays stacked)."""
+    first = labels[0]
+    if isinstance(first, np.ndarray):
+        return np.stack(labels)
+    array = _empty(first, len(labels))
+    array[:] = labels
+    return array
+
+
+def _overwrite(out: dict, info: dict, i: int) -> None:
+    """World ``i``'s entries of ``out`` set to ``info``'s (nested dicts too)."""
+    for key, value in info.items():
+        if isinstance(value, dict):
+            _overwrite(out[key], value, i)
+        else:
+            out[key][i] = value
