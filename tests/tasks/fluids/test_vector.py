@@ -127,6 +127,7 @@ def test_world_i_is_the_scalar_env_seeded_s_plus_i(level):
         # observations taken world by world: noisy (each world's generator), or several kinds
         ("FLUIDS-v1", "SameStep", {"obs_noise": 0.5}),
         ("FLUIDS-v2", "NextStep", {"obs_type": ["explicit", "qlidar"]}),
+        ("FLUIDS-v2", "NextStep", {"action_level": "velocity"}),  # normalised targets
     ],
 )
 def test_the_batch_equals_sync_vector_env(env_id, mode, extra):
@@ -147,7 +148,7 @@ def test_the_batch_equals_sync_vector_env(env_id, mode, extra):
     vec.action_space.seed(1)
     for t in range(2 * limit + 2):
         actions = vec.action_space.sample()
-        actions[0] = CRASH["control"] if t % 2 else actions[0]
+        actions[0] = CRASH.get(kwargs["action_level"], actions[0]) if t % 2 else actions[0]
         out = vec.step(actions)
         assert same(out, sync.step(actions)), t
         done = out[2] | out[3]
@@ -296,6 +297,26 @@ def test_long_episodes_equal_sync_vector_env(level):
         assert same(out, sync.step(actions))
         ended += int((out[2] | out[3]).sum())
     assert ended >= n
+
+
+@pytest.mark.parametrize("level", ["velocity", "control"])
+def test_worlds_whose_ego_arrived_drive_on_as_sync_vector_env(level):
+    """``done_when="all"``: after the ego arrives its action is ignored while the others drive
+    on (the batched actions must skip that world's ego), equal to SyncVectorEnv."""
+    n, kwargs = 3, {**SMALL, "action_level": level, "done_when": "all"}
+    vec = make_vec("FLUIDS-v1", n, **kwargs)
+    sync = gym.make_vec("FLUIDS-v1", n, vectorization_mode="sync", **kwargs)
+    out = vec.reset(seed=5)
+    assert same(out, sync.reset(seed=5))
+    ego_gone = 0
+    for _ in range(400):
+        actions = out[-1]["supervisor_action"]
+        out = vec.step(actions)
+        assert same(out, sync.step(actions))
+        ego_gone += sum(not env.world.active[0] for env in vec.envs)
+        if ego_gone > 20:
+            break
+    assert ego_gone > 20
 
 
 def test_disabled_autoreset_refuses_to_step_an_ended_world():

@@ -46,7 +46,9 @@ class SupervisorBatch:
         self.memory = Rows([sup.pid for sup in supervisors], PID_MEMORY)
         n = len(supervisors[0].targets)
         self.proposed = np.zeros((len(supervisors), n, 2))
-        self._next_memory = np.zeros((len(supervisors), 3, n))
+        self.next_memory = np.zeros((len(supervisors), 3, n))
+        # the memory tuple each supervisor got from the last propose (None: none yet)
+        self._handed: list[tuple | None] = [None] * len(supervisors)
 
     @property
     def supervisors(self) -> list[DrivingSupervisor]:
@@ -67,9 +69,23 @@ class SupervisorBatch:
             going, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
             pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, self.targets["targets"],
             memory["steer_prev"], memory["steer_int"], memory["speed_int"], w.dt, pid._gains,
-            pid._limits, pid.gain, pid.low, pid.high, self.proposed, self._next_memory,
+            pid._limits, pid.gain, pid.low, pid.high, self.proposed, self.next_memory,
         )  # fmt: skip
         for i in np.flatnonzero(going).tolist():
-            sup, next_memory = self.supervisors[i], self._next_memory[i]
+            sup, next_memory = self.supervisors[i], self.next_memory[i]
             sup.proposed = self.proposed[i]
-            sup._memory = (next_memory[0], next_memory[1], next_memory[2])
+            sup._memory = self._handed[i] = (next_memory[0], next_memory[1], next_memory[2])
+
+    def commit_proposals(self, mask: np.ndarray) -> None:
+        """``DrivingSupervisor.commit()`` (of its own proposal's memory) for each supervisor
+        where ``mask``: one array copy for all whose proposal came from :meth:`propose`, the
+        others (a reset, a restore) one by one."""
+        batched = np.zeros(len(mask), dtype=np.bool_)
+        for i in np.flatnonzero(mask).tolist():
+            sup = self.supervisors[i]
+            if sup._memory is self._handed[i]:
+                batched[i] = True
+            else:
+                sup.pid.commit(sup._memory)
+        for k, name in enumerate(PID_MEMORY):
+            self.memory[name][batched] = self.next_memory[batched, k]

@@ -17,6 +17,7 @@ from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
+from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 
@@ -59,7 +60,8 @@ class FluidsVectorEnv(VectorEnv):
     **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
     compiled layout) whose step is split in parts, each run for all worlds before the next:
 
-    1. each env computes its controls (``FluidsEnv._act``);
+    1. each env computes its controls (``FluidsEnv._act``; at the velocity and control
+       levels, array operations for all worlds: :func:`~.act.act_batch`);
     2. one compiled call moves every world
        (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`: the worlds' arrays are rows
        of batched arrays);
@@ -145,6 +147,12 @@ class FluidsVectorEnv(VectorEnv):
         lights = len(self.envs[0].world.light_state)
         self._lights = np.zeros((self.num_envs, lights), dtype=np.int8)  # states of each world
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
+        # velocity and control actions: every world's controls in array operations (act.py)
+        self._batched_act = self.envs[0].action_level in BATCHED_LEVELS
+        self._bound_arrays = (
+            tuple(np.asarray(b, dtype=np.float64) for b in self._bounds) if self._bounds else None
+        )
+        self._act_scratch: dict[str, np.ndarray] = {}
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -184,9 +192,15 @@ class FluidsVectorEnv(VectorEnv):
         elapsed, (worlds, faults, supervisors) = self._elapsed, self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
         index = np.flatnonzero(stepping).tolist()
-        for i in index:  # the batch is checked: each world only clips its action
-            env = self.envs[i]
-            worlds.controls[i] = env._act(self._valid(env, actions[i]))
+        if self._batched_act:
+            act_batch(
+                self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
+                self._act_scratch,
+            )  # fmt: skip
+        else:
+            for i in index:  # the batch is checked: each world only clips its action
+                env = self.envs[i]
+                worlds.controls[i] = env._act(self._valid(env, actions[i]))
         events = worlds.step(stepping)
         broken = [self.envs[i]._violations() for i in index]  # before the faults' update
         faults.update(stepping, worlds)
