@@ -14,10 +14,12 @@ supervisor's label every step, and the ego follows it (control level). Parts:
   and 30 cars (30 is that layout's most with the ego) and 5 pedestrians.
 * ``processes``: one process stepping a batch on one core, then two at once on two cores
   (each pinned to its own); the ratio of their total env-steps per wall-second.
-* ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch``: the world
-  step (dynamics, lights, collisions, fault labels), the supervisor (planning and labels), the
-  observation, the scalar env's own glue (clipping each world's action, rewards, infos) with its resets (new
-  worlds, spawning), and the vector layer's own overhead. A deterministic profiler inflates Python calls: read fractions, not times.
+* ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch`` into its
+  phases (see ``FluidsVectorEnv``): actions to controls, the world step with the fault record,
+  the velocity planner, the rest of the supervisor (recovery check, PID proposal, labels), the
+  observation, the infos, resets, and the per-world Python that remains (judging each step,
+  rewards) with the vector layer's own work. A deterministic profiler inflates Python calls:
+  read fractions, not times.
 
 The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
 ``processes`` part: ``nice -n 5 python scripts/benchmarks/bench_vector.py``.
@@ -203,7 +205,7 @@ def _cum(
 
 ENV = "fluids/env.py"
 VECTOR = "fluids/vector/env.py"
-SCALAR_CALLS = ((ENV, "_step_valid"), (ENV, "reset"))
+IN_STEP = ((VECTOR, "step"),)
 
 
 def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
@@ -214,23 +216,28 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     prof.disable()
     stats = pstats.Stats(prof)
     vector_step = _cum(stats, VECTOR, "step")
-    # (a world resets inside a vector step only when its episode ended in the window)
-    # a world's step: its checked action clipped, then the scalar env's step without the check
-    scalar = (
-        _cum(stats, ENV, "_step_valid", ((VECTOR, "step"),))
-        + _cum(stats, VECTOR, "_valid", ((VECTOR, "step"),))
-        + _cum(stats, ENV, "reset", ((VECTOR, "step"),), required=False)
-    )
+    planner = _cum(stats, "supervisor/velocity.py", "plan", (("supervisor/stack.py", "plan"),))
+    # (a list comprehension is its own frame before Python 3.12)
+    in_infos = (("vector/infos.py", "step_infos"), ("vector/infos.py", "<listcomp>"))
+    labels = _cum(stats, ENV, "supervisor_action", in_infos)
+    # the phases of a vector step (FluidsVectorEnv's docstring), each for all worlds
     parts = {
-        "world step": _cum(stats, "sim/world.py", "step", (("supervisor/stack.py", "execute"),))
-        + _cum(stats, "sim/fault.py", "update", SCALAR_CALLS),
-        "supervisor": _cum(stats, "supervisor/stack.py", "prepare", SCALAR_CALLS)
-        + _cum(stats, "fluids/levels.py", "controls", SCALAR_CALLS)
-        + _cum(stats, ENV, "supervisor_action", ((ENV, "_info"),)),
-        "observation": _cum(stats, ENV, "_observe", SCALAR_CALLS),
+        "actions to controls": _cum(stats, "vector/act.py", "act_batch", IN_STEP),
+        "world step and fault record": _cum(stats, "sim/batch.py", "step", IN_STEP)
+        + _cum(stats, "sim/batch.py", "update", IN_STEP),
+        "velocity planner": planner,
+        "supervisor: recovery check, proposal, labels": _cum(
+            stats, "supervisor/stack.py", "plan", ((ENV, "_judge_recorded"),)
+        )
+        - planner
+        + _cum(stats, "supervisor/batch.py", "propose", IN_STEP)
+        + labels,
+        "observation": _cum(stats, VECTOR, "_observe", IN_STEP),
+        "infos (without labels)": _cum(stats, "vector/infos.py", "step_infos", IN_STEP) - labels,
+        "resets": _cum(stats, ENV, "reset", IN_STEP, required=False),
     }
-    parts["scalar env glue and resets"] = scalar - sum(parts.values())
-    parts["vector layer"] = vector_step - scalar
+    # judging (termination, progress, violations), rewards and the vector layer's own work
+    parts["per-world Python and vector layer"] = vector_step - sum(parts.values())
     return {
         "num_envs": n,
         "batch_steps": batch_steps,
