@@ -201,7 +201,7 @@ def progress(world: World, agent: int) -> float:
     """Metres of its route ``agent`` has covered (past the end once it arrived)."""
     if world.reached[agent]:
         return float(world.path_len[agent]) + float(world.offset[agent])
-    return float(world.route_s[agent])
+    return float(world.s[agent] + world.offset[agent])  # route_s[agent], without the array
 
 
 def step_reward(gained: float, route_length: float, collided: bool) -> float:

@@ -1,11 +1,12 @@
-"""The first part of a batch step at the velocity and control levels, for all worlds at once.
+"""Actions and labels at the velocity and control levels, for all worlds of a batch at once.
 
 ``FluidsEnv._act`` world by world clips the ego's action, puts it in place of the supervisor's
 at its level, and advances the PID loops' memory for the controls it returns.
 :func:`act_batch` does the same with array operations over the stepping worlds, operation for
 operation the scalar env's (the clip as Python's ``min(max(v, lo), hi)``, signed zeros
 included), so each world's controls and memory are bit for bit what its own ``_act`` gives.
-The other levels (routes, waypoints) go world by world.
+:func:`label_batch` is ``FluidsEnv.supervisor_action`` of the worlds whose supervisor just
+proposed, read from the batch's rows. The other levels (routes, waypoints) go world by world.
 """
 
 from __future__ import annotations
@@ -72,3 +73,23 @@ def act_batch(
     )  # fmt: skip
     for k, name in enumerate(PID_MEMORY):  # PIDController.commit of that PID's memory
         mem[name][chosen] = memory[chosen, k]
+
+
+def label_batch(
+    envs: list, going: np.ndarray, supervisors: SupervisorBatch, labels: np.ndarray
+) -> None:
+    """Write into ``labels`` (B, 1) or (B, 2) float32 the label of every world where
+    ``going`` (its supervisor proposed in this step, from the batch's rows), as
+    ``levels.label`` gives it; the other rows are left alone."""
+    first = envs[0]
+    level, world = first.action_level, first.world
+    if level == "velocity":
+        value = supervisors.targets["targets"][going, :1]
+        if first.action_scale == "normalized":
+            value = levels.to_normalized(level, world, value)
+    else:  # DrivingSupervisor.normalise of the ego's proposed controls
+        car = world.scene.car
+        steer, force = supervisors.proposed[going, 0, 0], supervisors.proposed[going, 0, 1]
+        force = force / np.where(force >= 0, car.max_force, car.max_brake_force)
+        value = clip(np.column_stack([steer / car.max_steer, force]), -1.0, 1.0)
+    labels[going] = value

@@ -17,7 +17,7 @@ from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
-from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch
+from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 
@@ -153,6 +153,7 @@ class FluidsVectorEnv(VectorEnv):
             tuple(np.asarray(b, dtype=np.float64) for b in self._bounds) if self._bounds else None
         )
         self._act_scratch: dict[str, np.ndarray] = {}
+        self._labels = np.zeros((self.num_envs, *self.envs[0].action_space.shape), np.float32)
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -234,8 +235,12 @@ class FluidsVectorEnv(VectorEnv):
                 elapsed[i] = 0
         if mode is not AutoresetMode.SAME_STEP:
             self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
+        labels = None
+        if self._batched_act:  # the labels of the worlds whose supervisor just proposed
+            labels = (self._labels, going & stepping)
+            label_batch(self.envs, going, supervisors, self._labels)
         info = (
-            step_infos(self.envs, worlds, faults, self._lights, infos, events)
+            step_infos(self.envs, worlds, faults, self._lights, infos, events, labels)
             if batched_infos
             else batch_infos(infos, n)
         )

@@ -83,22 +83,32 @@ def _colour_table(kinds: tuple[str, ...]) -> np.ndarray:
     return table
 
 
-def step_infos(envs, worlds, faults, lights, own: list[dict | None], events: list) -> dict:
+def step_infos(
+    envs, worlds, faults, lights, own: list[dict | None], events: list, labels=None
+) -> dict:
     """:func:`batch_infos` of ``FluidsEnv._info`` of every env, merged with ``own`` (each
     world's other keys, e.g. ``is_success``, or a whole info for a world that was reset:
     its values replace the batched ones).
 
     ``worlds`` and ``faults`` are the envs' bound
     :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` and ``FaultBatch``, ``lights``
-    each world's light states (B, L) and ``events`` each world's new collisions; a world's
-    label comes from its env, as in the scalar env."""
+    each world's light states (B, L) and ``events`` each world's new collisions. ``labels``:
+    (labels (B, ...), mask) with the label of each world where the mask is set (from
+    ``act.label_batch``); the other worlds' labels come from their envs."""
     n, w = len(envs), envs[0].world
     out: dict[str, Any] = {}
 
     def column(key: str, values) -> None:
         out[key], out[f"_{key}"] = values, _all_true(n).copy()
 
-    column(SUPERVISOR_ACTION_KEY, _stack([env.supervisor_action() for env in envs]))
+    if labels is None:
+        column(SUPERVISOR_ACTION_KEY, _stack([env.supervisor_action() for env in envs]))
+    else:
+        values, known = labels
+        values = values.copy()
+        for i in np.flatnonzero(~known).tolist():
+            values[i] = envs[i].supervisor_action()
+        column(SUPERVISOR_ACTION_KEY, values)
     collisions = np.empty(n, dtype=object)
     for i, env in enumerate(envs):
         collisions[i] = env.faults.annotate(events[i]) if events[i] else []
