@@ -187,21 +187,10 @@ class FluidsVectorEnv(VectorEnv):
                 f"{WHERE}: world {self._ended.index(True)} ended; with autoreset_mode="
                 f"{mode.value!r} reset it with reset(options={{'reset_mask': mask}}) first"
             )
-        # per-world results in Python lists: cheaper than item-by-item numpy writes
-        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
-        infos: list[dict | None] = [None] * n
-        elapsed, (worlds, faults, supervisors) = self._elapsed, self._bound_batches()
+        worlds, faults, supervisors = self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
         index = np.flatnonzero(stepping).tolist()
-        if self._batched_act:
-            act_batch(
-                self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
-                self._act_scratch,
-            )  # fmt: skip
-        else:
-            for i in index:  # the batch is checked: each world only clips its action
-                env = self.envs[i]
-                worlds.controls[i] = env._act(self._valid(env, actions[i]))
+        self._act_all(actions, stepping, index, worlds, supervisors)
         events = worlds.step(stepping)
         broken = [self.envs[i]._violations() for i in index]  # before the faults' update
         faults.update(stepping, worlds)
@@ -211,39 +200,29 @@ class FluidsVectorEnv(VectorEnv):
             judged[i] = self.envs[i]._judge_recorded(events[i], before)
             going[i] = not self.envs[i]._ended
         supervisors.propose(going, worlds)
+        # per-world results in Python lists: cheaper than item-by-item numpy writes
+        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
+        infos: list[dict | None] = [None] * n
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         for i in index:
             env = self.envs[i]
             rewards[i], terminated[i], infos[i] = env._report(
                 events[i], judged[i], full_info=not batched_infos
             )
-            elapsed[i] += 1
+            self._elapsed[i] += 1
             # TimeLimit: truncated once the episode has taken max_episode_steps steps
-            truncated[i] = limit is not None and elapsed[i] >= limit
+            truncated[i] = limit is not None and self._elapsed[i] >= limit
             self._lights[i] = env.world.light_state
         self._observe(stepping, index, worlds)
-        for i, env in enumerate(self.envs):
-            if not stepping[i]:  # next-step autoreset: this step only resets the world
-                obs, infos[i] = env.reset()
-                self._write(i, obs)
-                elapsed[i] = 0
-            elif mode is AutoresetMode.SAME_STEP and (terminated[i] or truncated[i]):
-                infos[i] = {"final_obs": self._read(i), "final_info": infos[i]}
-                obs, reset_info = env.reset()
-                infos[i].update(reset_info)
-                self._write(i, obs)
-                elapsed[i] = 0
-        if mode is not AutoresetMode.SAME_STEP:
-            self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
-        labels = None
-        if self._batched_act:  # the labels of the worlds whose supervisor just proposed
-            labels = (self._labels, going & stepping)
-            label_batch(self.envs, going, supervisors, self._labels)
-        info = (
-            step_infos(self.envs, worlds, faults, self._lights, infos, events, labels)
-            if batched_infos
-            else batch_infos(infos, n)
-        )
+        self._autoreset(stepping, terminated, truncated, infos)
+        if batched_infos:
+            labels = None
+            if self._batched_act:  # the labels of the worlds whose supervisor just proposed
+                labels = (self._labels, going)
+                label_batch(self.envs, going, supervisors, self._labels)
+            info = step_infos(self.envs, worlds, faults, self._lights, infos, events, labels)
+        else:
+            info = batch_infos(infos, n)
         return (
             self._observations(),
             np.array(rewards, dtype=np.float64),
@@ -251,6 +230,38 @@ class FluidsVectorEnv(VectorEnv):
             np.array(truncated, dtype=np.bool_),
             info,
         )
+
+    def _act_all(self, actions, stepping, index, worlds, supervisors) -> None:
+        """Every stepping world's controls into ``worlds.controls``: at once at the velocity
+        and control levels, else world by world (the batch is checked: each world clips)."""
+        if self._batched_act:
+            act_batch(
+                self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
+                self._act_scratch,
+            )  # fmt: skip
+            return
+        for i in index:
+            env = self.envs[i]
+            worlds.controls[i] = env._act(self._valid(env, actions[i]))
+
+    def _autoreset(self, stepping, terminated, truncated, infos) -> None:
+        """Reset the worlds that ended on the previous step (next-step autoreset) or, with
+        ``"SameStep"``, on this one (their final observation and info kept in their info);
+        record which ended."""
+        mode = self.autoreset_mode
+        for i, env in enumerate(self.envs):
+            if not stepping[i]:
+                obs, infos[i] = env.reset()
+            elif mode is AutoresetMode.SAME_STEP and (terminated[i] or truncated[i]):
+                infos[i] = {"final_obs": self._read(i), "final_info": infos[i]}
+                obs, reset_info = env.reset()
+                infos[i].update(reset_info)
+            else:
+                continue
+            self._write(i, obs)
+            self._elapsed[i] = 0
+        if mode is not AutoresetMode.SAME_STEP:
+            self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per world (``render_mode="rgb_array"``)."""
