@@ -403,7 +403,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         events = self.world.step(self._act(action))
         judged = self._judge(events)
         if not self._ended:
-            self.supervisor.propose(self.world)
+            self.supervisor.prepare(self.world)
         reward, terminated, info = self._report(events, judged)
         return self._observe(), reward, terminated, False, info
 
@@ -412,8 +412,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         ``action`` at its level, the supervisor's loops advanced as if they were executed. Then
         the world steps under them (alone, or with others in a
         :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), :meth:`_judge` takes the
-        new collisions, the supervisor proposes its next controls unless the episode ended
-        (alone, or in a :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`)
+        new collisions, the supervisor plans and proposes its next controls unless the episode
+        ended (alone, or in a
+        :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`)
         :meth:`_report` returns the step's reward, termination and info, and the world is
         observed (alone, or in one call for a batch)."""
         w, sup = self.world, self.supervisor
@@ -425,19 +426,18 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return sup.commit(controls, memory)
 
     def _judge(self, events) -> tuple[int, bool, float]:
-        """After the world stepped with ``events``: faults, termination (``_ended``) and, if
-        the episode goes on, the supervisor's plan. Returns what :meth:`_report` needs: the
-        rules the ego broke in this step, whether it was hit, and the progress it gained."""
+        """After the world stepped with ``events``: faults and termination (``_ended``).
+        Returns what :meth:`_report` needs: the rules the ego broke in this step, whether it
+        was hit, and the progress it gained."""
         broken = self._violations()
         self.faults.update()
-        return self._judge_recorded(events, broken)
+        return self._judge_recorded(events, self._violations() - broken)
 
-    def _judge_recorded(self, events, broken_before: int) -> tuple[int, bool, float]:
+    def _judge_recorded(self, events, broken: int) -> tuple[int, bool, float]:
         """:meth:`_judge` once the fault tracker recorded the step (alone, or in a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`); ``broken_before``:
-        :meth:`_violations` before it did."""
+        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`); ``broken``: the rules the
+        ego broke in it (:meth:`_violations` after the record less before)."""
         w = self.world
-        broken = self._violations() - broken_before  # rules the ego broke in this step
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
         s_now = progress(w, 0)
@@ -448,8 +448,6 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         else:  # every car must arrive; any collision ends the episode
             terminated = bool(w.reached[w.is_car].all()) or bool(events)
         self._ended = terminated
-        if not terminated:
-            self.supervisor.plan(w)
         return broken, ego_hit, gained
 
     def _report(

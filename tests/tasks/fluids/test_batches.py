@@ -54,8 +54,7 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
             batch.controls[i] = sups[i].commit()
         events = batch.step(stepping)
         fault_batch.update(stepping, batch)
-        for i in np.flatnonzero(stepping):
-            sups[i].plan(batched[i])
+        sup_batch.plan(stepping, batch)
         sup_batch.propose(stepping, batch)
         for i in range(len(seeds)):
             if stepping[i]:

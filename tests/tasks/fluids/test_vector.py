@@ -319,6 +319,23 @@ def test_worlds_whose_ego_arrived_drive_on_as_sync_vector_env(level):
     assert ego_gone > 20
 
 
+def test_recovery_paths_are_planned_as_in_sync_vector_env():
+    """An ego steered off its lane (two-lane layout, on the road) gets a recovery path: the
+    batch finds it off its route and plans, equal to SyncVectorEnv."""
+    n, kwargs = 3, {**SMALL, "action_level": "control", "lanes": 2}
+    vec = make_vec("FLUIDS-v1", n, **kwargs)
+    sync = gym.make_vec("FLUIDS-v1", n, vectorization_mode="sync", **kwargs)
+    out = vec.reset(seed=11)
+    assert same(out, sync.reset(seed=11))
+    for t in range(30):
+        actions = out[-1]["supervisor_action"].copy()
+        if 3 <= t < 25:
+            actions[0] = [0.4, 0.5]  # drift left into the other lane
+        out = vec.step(actions)
+        assert same(out, sync.step(actions)), t
+    assert vec.unwrapped.envs[0].supervisor.recoveries > 0
+
+
 def test_disabled_autoreset_refuses_to_step_an_ended_world():
     vec = make_vec("FLUIDS-v0", 2, **SMALL, autoreset_mode="Disabled", max_episode_steps=2)
     out = vec.reset(seed=0)

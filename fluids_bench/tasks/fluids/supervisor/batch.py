@@ -1,9 +1,10 @@
-"""The supervisors of B worlds proposing their controls in one compiled call.
+"""The supervisors of B worlds planning and proposing their controls together.
 
 Each supervisor's targets and PID memory are rows of batched arrays (as the worlds' in
 :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so :meth:`SupervisorBatch.propose`
 is :meth:`DrivingSupervisor.propose` for many worlds at once: :func:`kernels.pid_follow` on each
-row, the same arithmetic as alone.
+row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
+in every world in one call; recovery and the velocity planner run world by world.
 """
 
 from __future__ import annotations
@@ -13,10 +14,26 @@ from numba import njit
 
 from fluids_bench.tasks.fluids.sim.batch import Rows, WorldBatch
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.supervisor.kernels import pid_follow
+from fluids_bench.tasks.fluids.supervisor.kernels import mark_off_route, pid_follow
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+from fluids_bench.tasks.fluids.supervisor.trajectory import OFF_ROUTE_HEADING, OFF_ROUTE_LATERAL
 
 PID_MEMORY = ("steer_prev", "steer_int", "speed_int")
+
+
+@njit(cache=True, nogil=True)
+def mark_off_route_worlds(
+    going, lateral, heading_error, active, is_car, max_lateral, max_heading, out, counts
+):  # pragma: no cover (compiled)
+    """:func:`mark_off_route` on row ``b`` of the per-world arrays where ``going[b]``, into
+    ``out[b]`` and ``counts[b]`` (0 elsewhere)."""
+    for b in range(len(going)):
+        counts[b] = 0
+        if going[b]:
+            counts[b] = mark_off_route(
+                lateral[b], heading_error[b], active[b], is_car, max_lateral, max_heading,
+                out[b],
+            )  # fmt: skip
 
 
 @njit(cache=True, nogil=True)
@@ -47,6 +64,7 @@ class SupervisorBatch:
         n = len(supervisors[0].targets)
         self.proposed = np.zeros((len(supervisors), n, 2))
         self.next_memory = np.zeros((len(supervisors), 3, n))
+        self._off_route = (np.zeros((len(supervisors), n), np.bool_), np.zeros(len(supervisors), np.int64))
         # the memory tuple each supervisor got from the last propose (None: none yet)
         self._handed: list[tuple | None] = [None] * len(supervisors)
 
@@ -58,6 +76,22 @@ class SupervisorBatch:
         """Make ``supervisor`` the one of world ``index`` (its values go into its rows)."""
         self.targets.bind(index, supervisor)
         self.memory.bind(index, supervisor.pid)
+
+    def plan(self, going: np.ndarray, worlds: WorldBatch) -> None:
+        """:meth:`DrivingSupervisor.plan` of each supervisor where ``going``: the cars off
+        their routes found in all worlds in one call, then recovery (where any) and the
+        velocity plan (when due) world by world."""
+        supervisors = self.supervisors
+        if supervisors[0].config.recovery:
+            off, counts = self._off_route
+            mark_off_route_worlds(
+                going, worlds["lateral_error"], worlds["heading_error"], worlds["active"],
+                worlds.worlds[0].is_car, OFF_ROUTE_LATERAL, OFF_ROUTE_HEADING, off, counts,
+            )  # fmt: skip
+            for i in np.flatnonzero(counts).tolist():
+                supervisors[i].recover(worlds.worlds[i], np.flatnonzero(off[i]))
+        for i in np.flatnonzero(going).tolist():
+            supervisors[i].plan_velocity(worlds.worlds[i])
 
     def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)): its

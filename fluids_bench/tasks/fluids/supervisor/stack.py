@@ -85,9 +85,17 @@ class DrivingSupervisor:
         """The first part of :meth:`prepare`: recovery paths, and the velocity plan when due
         (written into :attr:`targets` in place)."""
         if self.config.recovery:
-            for agent in off_route(world):
-                if self.recovery_planner(world).plan(world, int(agent)):
-                    self.recoveries += 1
+            self.recover(world, off_route(world))
+        self.plan_velocity(world)
+
+    def recover(self, world: World, agents: np.ndarray) -> None:
+        """Plan a path back to its route for each of ``agents`` (off their routes)."""
+        for agent in agents:
+            if self.recovery_planner(world).plan(world, int(agent)):
+                self.recoveries += 1
+
+    def plan_velocity(self, world: World) -> None:
+        """The velocity plan, when the planner's period is due."""
         if world.steps % self.config.velocity.period == 0:
             self.targets[:] = (
                 self.planner.plan(world)

@@ -67,10 +67,10 @@ class FluidsVectorEnv(VectorEnv):
        of batched arrays);
     3. one records every world's step for fault labels
        (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
-    4. each env judges its step (``FluidsEnv._judge_recorded``: termination, the supervisor's
-       velocity plan);
-    5. one proposes every supervisor's next controls
-       (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
+    4. each env judges its step (``FluidsEnv._judge_recorded``: termination, rewards' terms);
+    5. the supervisors plan (one call finds every world's cars off their routes; recovery
+       and the velocity planner world by world) and one call proposes every supervisor's next
+       controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
     6. each env reports (``FluidsEnv._report``: reward, ``is_success``);
     7. one observes every world (a noiseless explicit observation; others world by world);
     8. the infos are read from the batched rows for all worlds at once
@@ -192,13 +192,15 @@ class FluidsVectorEnv(VectorEnv):
         index = np.flatnonzero(stepping).tolist()
         self._act_all(actions, stepping, index, worlds, supervisors)
         events = worlds.step(stepping)
-        broken = [self.envs[i]._violations() for i in index]  # before the faults' update
+        before = self._violations(faults)
         faults.update(stepping, worlds)
+        broken = (self._violations(faults) - before).tolist()  # rules broken in this step
         judged: list[tuple | None] = [None] * n
         going = np.zeros(n, dtype=np.bool_)  # stepped, and the episode goes on
-        for i, before in zip(index, broken, strict=True):
-            judged[i] = self.envs[i]._judge_recorded(events[i], before)
+        for i in index:
+            judged[i] = self.envs[i]._judge_recorded(events[i], broken[i])
             going[i] = not self.envs[i]._ended
+        supervisors.plan(going, worlds)
         supervisors.propose(going, worlds)
         # per-world results in Python lists: cheaper than item-by-item numpy writes
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
@@ -230,6 +232,13 @@ class FluidsVectorEnv(VectorEnv):
             np.array(truncated, dtype=np.bool_),
             info,
         )
+
+    def _violations(self, faults: FaultBatch) -> np.ndarray:
+        """``FluidsEnv._violations`` of every world, from the fault trackers' rows."""
+        env = self.envs[0]
+        return int(env.obey_lights) * faults["ran_red"][:, 0].astype(np.int64) + int(
+            env.yield_to_pedestrians
+        ) * faults["failed_to_yield"][:, 0].astype(np.int64)
 
     def _act_all(self, actions, stepping, index, worlds, supervisors) -> None:
         """Every stepping world's controls into ``worlds.controls``: at once at the velocity
