@@ -38,16 +38,15 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
     at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
     the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
     n_t = px.shape[2]
-    # most pairs of candidates never pass the broad phase: find out without a branch per time
-    # (the loop vectorises), then visit the times that do
-    near = False
+    # few times pass the broad phase: find the first and the last that do without a branch
+    # per time (the loop vectorises), then visit only the times between them
+    lo, hi = n_t, -1
     for t in range(n_t):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
-        near |= dx * dx + dy * dy < reach2
-    if not near:
-        return False
-    for t in range(n_t):
+        near = dx * dx + dy * dy < reach2
+        lo, hi = min(lo, t if near else n_t), max(hi, t if near else -1)
+    for t in range(lo, hi + 1):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
         if not dx * dx + dy * dy < reach2:
