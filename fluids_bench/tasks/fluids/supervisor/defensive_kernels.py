@@ -352,8 +352,8 @@ def _give_way(
         for k in range(n_cand):
             goal[a, k] = min(targets[a, k], slowest)
     decel, gains = np.full(n_agents, max_decel), np.full(n_agents, gain)
-    stop = np.zeros((n_agents, n_cand, n_t))
-    go = np.zeros((n_agents, n_cand, n_t))
+    stop = np.empty((n_agents, n_cand, n_t))  # only the rows are set, and read
+    go = np.empty((n_agents, n_cand, n_t))
     hold_then_brake_into(
         go, rows, s0, v0, goal, np.full((n_agents, n_cand), gw_steps), gw_steps, every, dt,
         max_accel, decel, gains,

@@ -82,10 +82,11 @@ def path_samples_into(
 
 @njit(cache=True, nogil=True)
 def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
-    """(px, py, ux, uy): :func:`path_samples_into` into new zeroed arrays."""
+    """(px, py, ux, uy): :func:`path_samples_into` into new arrays, whose rows not in
+    ``rows`` are left unset (no caller reads them; zeroing them cost more than sampling)."""
     shape = proj.shape
-    px, py = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
-    ux, uy = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    px, py = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    ux, uy = np.empty(shape, np.float32), np.empty(shape, np.float32)
     path_samples_into(path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy)
     return px, py, ux, uy
 
