@@ -100,6 +100,21 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
     return box
 
 
+@njit(cache=True, nogil=True)
+def swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
+    """:func:`swept_boxes` from the candidates' boxes (:func:`candidate_boxes`): the same
+    bounds, as min and max are exact, from K boxes instead of K·T points."""
+    box = np.zeros((cbox.shape[0], 4))
+    for a in rows:
+        x0, x1, y0, y1 = now_x[a], now_x[a], now_y[a], now_y[a]
+        for k in range(cbox.shape[1]):
+            x0, x1 = min(x0, cbox[a, k, 0]), max(x1, cbox[a, k, 1])
+            y0, y1 = min(y0, cbox[a, k, 2]), max(y1, cbox[a, k, 3])
+        box[a, 0], box[a, 1] = x0 - bound[a], x1 + bound[a]
+        box[a, 2], box[a, 3] = y0 - bound[a], y1 + bound[a]
+    return box
+
+
 @njit(cache=True, nogil=True, inline="always")
 def boxes_apart(box, i, j):  # pragma: no cover (compiled)
     """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
@@ -378,7 +393,8 @@ def plan_conflicts(
     px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
     now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
-    box, cbox = swept_boxes(px, py, now_x, now_y, bound, rows), candidate_boxes(px, py, rows)
+    cbox = candidate_boxes(px, py, rows)
+    box = swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows)
     table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
     keep = np.zeros(len(first), dtype=np.bool_)
     for p in range(len(first)):
