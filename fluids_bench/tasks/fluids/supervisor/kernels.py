@@ -169,36 +169,33 @@ def projected_arc_lengths(
     A saturated, linear phase of ``n1`` steps, then a geometric approach: ``decay[n + steps]``
     is (1 - gain·dt)^n. Speeds are integrated with the trapezoid rule, as a cumulative sum.
 
-    Each (agent, candidate) lane is its own chain of dependent additions; the lanes are stepped
-    side by side, time outer (as in :func:`hold_then_brake_into`), so that the CPU overlaps
-    them, and each step takes both phases' speeds and keeps one (no branch that changes lane
-    by lane); each lane's arithmetic is unchanged.
+    Each (agent, candidate) lane's speeds come first, phase by phase (no branch per step, and
+    the approach reads ``decay`` in order); then the sums, time outer and lanes inner, so that
+    the lanes' chains of dependent additions overlap. Each lane's arithmetic is unchanged.
     """
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
     n = n_agents * n_cand
-    v_start, goal, slope, n1, e1 = np.empty(n), np.empty(n), np.empty(n), np.empty(n), np.empty(n)
-    prev, travelled = np.empty(n), np.zeros(n)
+    speed = np.empty((steps + 1, n))  # speed[m, q]: lane q's after m steps
     for a in range(n_agents):
         for k in range(n_cand):
             q = a * n_cand + k
             e0 = v0[a] - targets[a, k]
             sign = 1.0 if e0 > 0 else (-1.0 if e0 < 0 else 0.0)
             lim = max_accel if e0 < 0 else max_decel
-            n1[q] = max(0.0, np.ceil((abs(e0) - lim / gain) / (lim * dt)))
-            slope[q] = sign * lim * dt
-            e1[q] = e0 - slope[q] * n1[q]
-            v_start[q], goal[q], prev[q] = v0[a], targets[a, k], v0[a]
+            n1 = max(0.0, np.ceil((abs(e0) - lim / gain) / (lim * dt)))
+            slope = sign * lim * dt
+            e1 = e0 - slope * n1
+            last = int(min(n1, float(steps)))  # the linear phase's last step (n1 is whole)
+            speed[0, q] = v0[a]
+            for m in range(1, last + 1):
+                speed[m, q] = max(v0[a] - slope * float(m), 0.0)
+            for m in range(last + 1, steps + 1):
+                speed[m, q] = max(targets[a, k] + e1 * decay[m - last + steps], 0.0)
+    travelled = np.zeros(n)
     for m in range(1, steps + 1):
-        n_f = float(m)
         for q in range(n):
-            linear = v_start[q] - slope[q] * n_f
-            # its index clamped in the linear phase (where it is out of range and not kept)
-            approach = goal[q] + e1[q] * decay[max(int(n_f - n1[q]), 0) + steps]
-            v = linear if n_f <= n1[q] else approach
-            v = max(v, 0.0)
-            travelled[q] += 0.5 * (prev[q] + v) * dt
-            prev[q] = v
+            travelled[q] += 0.5 * (speed[m - 1, q] + speed[m, q]) * dt
         if m % every == 0:
             for a in range(n_agents):
                 for k in range(n_cand):
