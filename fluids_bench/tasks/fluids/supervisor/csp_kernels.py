@@ -211,8 +211,8 @@ def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cove
     return order
 
 
-# scalars, not the arrays: a compiled call (even inlined) counts references to each array it
-# takes, which cost 20 times the comparison
+# scalars, not the arrays: with the four arrays as arguments (inlined or not) the comparisons
+# took 2.3 us of a 2.5 us sort of 13 agents
 @njit(cache=True, nogil=True)
 def _before(in_a, k_in_a, k_out_a, ag_a, in_b, k_in_b, k_out_b, ag_b):  # pragma: no cover
     """Whether an agent with these keys (inside, key_in, key_out, world index) goes before
