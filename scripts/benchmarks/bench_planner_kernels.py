@@ -1,13 +1,16 @@
-"""The velocity planner's two costliest compiled kernels, replayed, as JSON: µs per call.
+"""The velocity planner's compiled kernels, replayed, as JSON: µs per call.
 
 Records the arguments of every :func:`defensive_kernels.defensive_forbid` and
-:func:`kernels.plan_conflicts` call of seeded ``FLUIDS-v1`` episodes in the S2 scene (the
-four-way, the ego plus 10 supervised cars and 5 pedestrians, the control level, the explicit
-observation; the ego follows the supervisor's label, so as the learner's it is uncontrolled and
-``defensive_forbid`` runs at every plan), then replays those calls in recorded order,
-``--repeats`` times, pinned to ``--core``: the median replay's wall time per call counts (µs,
-``time.perf_counter``). Each kernel's outputs are hashed over the replay (``outputs_sha256``),
-so two revisions that should agree bit for bit can be compared from their JSON.
+:func:`kernels.plan_conflicts` call (its two costliest kernels) and of every
+:func:`plan_kernels.plan_head` and :func:`plan_kernels.plan_tail` call (the whole compiled tick)
+of seeded ``FLUIDS-v1`` episodes in the S2 scene (the four-way, the ego plus 10 supervised cars
+and 5 pedestrians, the control level, the explicit observation; the ego follows the
+supervisor's label, so as the learner's it is uncontrolled and ``defensive_forbid`` runs at
+every plan), then replays those calls in recorded order, ``--repeats`` times, pinned to
+``--core``: the median replay's wall time per call counts (µs, ``time.perf_counter``). Each
+kernel's outputs are hashed over the replay (``outputs_sha256``; for ``plan_tail`` also the
+targets it writes into its ``out`` argument), so two revisions that should agree bit for bit
+can be compared from their JSON.
 
 Run it pinned and on a quiet core, e.g. ``taskset -c 0 python
 scripts/benchmarks/bench_planner_kernels.py``; compare revisions by running it on each with
@@ -33,7 +36,12 @@ from fluids_bench.tasks.fluids.supervisor import velocity
 
 ENV_ID = "FLUIDS-v1"
 S2 = {"num_cars": 10, "num_pedestrians": 5, "action_level": "control", "obs_type": "explicit"}
-KERNELS = ("defensive_forbid", "plan_conflicts")
+# recorded from the step-by-step plan (where each inner kernel is a Python call), and from the
+# compiled plan (its two halves)
+STEPWISE_KERNELS = ("defensive_forbid", "plan_conflicts")
+COMPILED_KERNELS = ("plan_head", "plan_tail")
+KERNELS = STEPWISE_KERNELS + COMPILED_KERNELS
+WRITES_OUT = {"plan_tail"}  # kernels whose last argument is an output
 
 
 class Recorder:
@@ -55,16 +63,18 @@ class Recorder:
         return self.kernel(*args)
 
 
-def record(episodes: int, max_steps: int) -> dict[str, list[tuple]]:
-    """Every call of the two kernels in ``episodes`` seeded episodes (seed 0, 1, ...) of at
-    most ``max_steps`` steps each."""
-    recorders = {name: Recorder(getattr(velocity, name)) for name in KERNELS}
+def record(episodes: int, max_steps: int, names: tuple[str, ...], stepwise: bool):
+    """Every call of the kernels ``names`` (in :mod:`velocity`'s namespace) in ``episodes``
+    seeded episodes (seed 0, 1, ...) of at most ``max_steps`` steps each, the env planning
+    step by step (:meth:`VelocityPlanner.plan_stepwise`) with ``stepwise``."""
+    recorders = {name: Recorder(getattr(velocity, name)) for name in names}
     for name, rec in recorders.items():
         setattr(velocity, name, rec)
-    # the env's plan runs both kernels inside one compiled call; the step-by-step plan (equal
-    # to it bit for bit) calls them from Python, where the recorders stand in
+    # the env's plan runs the inner kernels inside one compiled call; the step-by-step plan
+    # (equal to it bit for bit) calls them from Python, where the recorders stand in
     compiled_plan = velocity.VelocityPlanner.plan
-    velocity.VelocityPlanner.plan = velocity.VelocityPlanner.plan_stepwise
+    if stepwise:
+        velocity.VelocityPlanner.plan = velocity.VelocityPlanner.plan_stepwise
     try:
         env = gym.make(ENV_ID, **S2)
         for seed in range(episodes):
@@ -83,16 +93,21 @@ def record(episodes: int, max_steps: int) -> dict[str, list[tuple]]:
 
 def _digest(h, out) -> None:
     for part in out if isinstance(out, tuple) else (out,):
+        part = np.asarray(part)
         h.update(str((part.dtype.str, part.shape)).encode())
         h.update(np.ascontiguousarray(part))
 
 
-def replay(kernel, calls: list[tuple], repeats: int) -> dict:
+def replay(kernel, calls: list[tuple], repeats: int, writes_out: bool = False) -> dict:
     """Median µs per call over ``repeats`` replays of ``calls`` (after one untimed warm-up
-    replay, which also hashes the outputs)."""
+    replay, which also hashes the outputs; with ``writes_out``, also each call's last
+    argument after it: calls of one shape share that array, so entries a call does not
+    write keep an earlier call's, the same in every revision)."""
     h = hashlib.sha256()
     for args in calls:
         _digest(h, kernel(*args))
+        if writes_out:
+            _digest(h, args[-1])
     runs = []
     for _ in range(repeats):
         t0 = time.perf_counter()
@@ -116,12 +131,16 @@ def main() -> None:
     add_results_option(parser)
     args = parser.parse_args()
     announce(
-        f"~{round(1 + args.episodes / 4 + args.repeats / 15)} s on one core (and compiling, cold)"
+        f"~{round(2 + args.episodes / 2 + args.repeats / 8)} s on one core (and compiling, cold)"
     )
     core = max(os.sched_getaffinity(0)) if args.core is None else args.core
     os.sched_setaffinity(0, {core})
-    calls = record(args.episodes, args.max_steps)
-    kernels = {name: replay(getattr(velocity, name), calls[name], args.repeats) for name in KERNELS}
+    calls = record(args.episodes, args.max_steps, STEPWISE_KERNELS, stepwise=True)
+    calls |= record(args.episodes, args.max_steps, COMPILED_KERNELS, stepwise=False)
+    kernels = {
+        name: replay(getattr(velocity, name), calls[name], args.repeats, name in WRITES_OUT)
+        for name in KERNELS
+    }
     emit(
         {
             "benchmark": "bench_planner_kernels",

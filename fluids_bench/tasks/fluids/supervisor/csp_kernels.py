@@ -22,7 +22,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _hide(dom, dlen, hid, hlen, v, value):  # pragma: no cover (compiled)
     """Domain.hideValue: remove ``value`` from v's list (shifting the rest) onto its stack."""
     at = 0
@@ -35,14 +35,14 @@ def _hide(dom, dlen, hid, hlen, v, value):  # pragma: no cover (compiled)
     hlen[v] += 1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _push(states, slen, dlen, v):  # pragma: no cover (compiled)
     """Domain.pushState: remember v's current length."""
     states[v, slen[v]] = dlen[v]
     slen[v] += 1
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _pop(states, slen, dom, dlen, hid, hlen, v):  # pragma: no cover (compiled)
     """Domain.popState: the values hidden since the matching push go back, at the end, in the
     order they were hidden."""
@@ -55,14 +55,15 @@ def _pop(states, slen, dom, dlen, hid, hlen, v):  # pragma: no cover (compiled)
         hlen[v] -= diff
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _check(
-    cons, first, second, bad, assigned, value, forward, dom, dlen, hid, hlen
+    cons, first, second, bad, assigned, value, forward, dom, dlen, hid, hlen, snapshot
 ):  # pragma: no cover (compiled)
     """The constraints of ``var`` (indices ``cons``, in the order they were added), after it
     got its value: a constraint with both variables assigned must hold; with one unassigned
     (and ``forward``: some domain was pushed) that variable's clashing values are hidden, and
-    an emptied domain fails it. False at the first failing constraint."""
+    an emptied domain fails it. False at the first failing constraint. ``snapshot`` (K,):
+    scratch for the domain's list as it was before hiding."""
     for c in cons:
         a, b = first[c], second[c]
         if assigned[a] and assigned[b]:
@@ -73,10 +74,10 @@ def _check(
             continue
         u = b if assigned[a] else a
         if dlen[u]:
-            snapshot = np.empty(dlen[u], np.int64)
-            for i in range(dlen[u]):
+            n_snap = dlen[u]
+            for i in range(n_snap):
                 snapshot[i] = dom[u, i]
-            for x in snapshot:
+            for x in snapshot[:n_snap]:
                 clash = bad[c, value[a], x] if u == b else bad[c, x, value[b]]
                 if clash:
                     _hide(dom, dlen, hid, hlen, u, x)
@@ -118,6 +119,7 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
     depth = 0
     values, n_values = np.zeros(k, np.int64), 0
     push = np.zeros(n, np.bool_)
+    snapshot = np.empty(k, np.int64)  # _check's scratch
     while True:
         var = -1
         for v in order:
@@ -161,7 +163,9 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
                 if push[v]:
                     _push(states, slen, dlen, v)
             cons = cons_of[var, : n_cons[var]]
-            if _check(cons, first, second, bad, assigned, value, forward, dom, dlen, hid, hlen):
+            if _check(
+                cons, first, second, bad, assigned, value, forward, dom, dlen, hid, hlen, snapshot
+            ):
                 break
             for v in range(n):
                 if push[v]:
@@ -194,22 +198,32 @@ def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cove
     for i in range(1, n):  # insertion sort on (not inside, key_in, key_out, index)
         a = order[i]
         j = i - 1
-        while j >= 0 and _before(a, order[j], agents, inside, key_in, key_out):
-            order[j + 1] = order[j]
+        while j >= 0:
+            b = order[j]
+            if not _before(
+                inside[a], key_in[a], key_out[a], agents[a],
+                inside[b], key_in[b], key_out[b], agents[b],
+            ):  # fmt: skip
+                break
+            order[j + 1] = b
             j -= 1
         order[j + 1] = a
     return order
 
 
+# scalars, not the arrays: with the four arrays as arguments (inlined or not) the comparisons
+# took 2.3 us of a 2.5 us sort of 13 agents
 @njit(cache=True, nogil=True)
-def _before(a, b, agents, inside, key_in, key_out):  # pragma: no cover (compiled)
-    if inside[a] != inside[b]:
-        return inside[a]
-    if key_in[a] != key_in[b]:
-        return key_in[a] < key_in[b]
-    if key_out[a] != key_out[b]:
-        return key_out[a] < key_out[b]
-    return agents[a] < agents[b]
+def _before(in_a, k_in_a, k_out_a, ag_a, in_b, k_in_b, k_out_b, ag_b):  # pragma: no cover
+    """Whether an agent with these keys (inside, key_in, key_out, world index) goes before
+    one with those (:func:`priority_order`)."""
+    if in_a != in_b:
+        return in_a
+    if k_in_a != k_in_b:
+        return k_in_a < k_in_b
+    if k_out_a != k_out_b:
+        return k_out_a < k_out_b
+    return ag_a < ag_b
 
 
 @njit(cache=True, nogil=True)

@@ -40,9 +40,22 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
     """Agent ``ld``'s position in agent ``f``'s frame (along, across; m) and whether the two
     head within 45° of each other (world indices)."""
     c, s = math.cos(state[f, 2]), -math.sin(state[f, 2])
+    along, across = _in_frame(state, f, ld, c, s)
+    return along, across, _aligned(state, f, ld)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _in_frame(state, f, ld, c, s):  # pragma: no cover (compiled)
+    """Agent ``ld``'s position in agent ``f``'s frame (along, across; m); ``c``, ``s``: the
+    cosine and minus the sine of f's heading (world indices)."""
     dx, dy = state[ld, 0] - state[f, 0], state[ld, 1] - state[f, 1]
-    aligned = abs(wrap_angle(state[ld, 2] - state[f, 2])) < math.pi / 4
-    return dx * c - dy * s, dx * s + dy * c, aligned
+    return dx * c - dy * s, dx * s + dy * c
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _aligned(state, f, ld):  # pragma: no cover (compiled)
+    """Agents ``f`` and ``ld`` head within 45° of each other (world indices)."""
+    return abs(wrap_angle(state[ld, 2] - state[f, 2])) < math.pi / 4
 
 
 @njit(cache=True, nogil=True, inline="always")
@@ -224,11 +237,14 @@ def _follow_supervised(
     ls = np.empty_like(fs)
     n_pairs = 0
     for f in idx:
+        # each follower's frame once (not per pair), and the heading test (a floored
+        # modulo) only for the few cars right ahead of it
+        c, sn = math.cos(state[agents[f], 2]), -math.sin(state[agents[f], 2])
         for ld in idx:
             if f == ld:
                 continue
-            along, across, aligned = _relative(state, agents[f], agents[ld])
-            if aligned and along > 0 and abs(across) < 2.0:
+            along, across = _in_frame(state, agents[f], agents[ld], c, sn)
+            if along > 0 and abs(across) < 2.0 and _aligned(state, agents[f], agents[ld]):
                 fs[n_pairs], ls[n_pairs] = f, ld
                 n_pairs += 1
     if n_pairs == 0:
@@ -336,8 +352,8 @@ def _give_way(
         for k in range(n_cand):
             goal[a, k] = min(targets[a, k], slowest)
     decel, gains = np.full(n_agents, max_decel), np.full(n_agents, gain)
-    stop = np.zeros((n_agents, n_cand, n_t))
-    go = np.zeros((n_agents, n_cand, n_t))
+    stop = np.empty((n_agents, n_cand, n_t))  # only the rows are set, and read
+    go = np.empty((n_agents, n_cand, n_t))
     hold_then_brake_into(
         go, rows, s0, v0, goal, np.full((n_agents, n_cand), gw_steps), gw_steps, every, dt,
         max_accel, decel, gains,

@@ -38,16 +38,15 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
     at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
     the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
     n_t = px.shape[2]
-    # most pairs of candidates never pass the broad phase: find out without a branch per time
-    # (the loop vectorises), then visit the times that do
-    near = False
+    # few times pass the broad phase: find the first and the last that do without a branch
+    # per time (the loop vectorises), then visit only the times between them
+    lo, hi = n_t, -1
     for t in range(n_t):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
-        near |= dx * dx + dy * dy < reach2
-    if not near:
-        return False
-    for t in range(n_t):
+        near = dx * dx + dy * dy < reach2
+        lo, hi = min(lo, t if near else n_t), max(hi, t if near else -1)
+    for t in range(lo, hi + 1):
         dx = px[i, a, t] - px[j, b, t]
         dy = py[i, a, t] - py[j, b, t]
         if not dx * dx + dy * dy < reach2:
@@ -83,10 +82,11 @@ def path_samples_into(
 
 @njit(cache=True, nogil=True)
 def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
-    """(px, py, ux, uy): :func:`path_samples_into` into new zeroed arrays."""
+    """(px, py, ux, uy): :func:`path_samples_into` into new arrays, whose rows not in
+    ``rows`` are left unset (no caller reads them; zeroing them cost more than sampling)."""
     shape = proj.shape
-    px, py = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
-    ux, uy = np.zeros(shape, np.float32), np.zeros(shape, np.float32)
+    px, py = np.empty(shape, np.float32), np.empty(shape, np.float32)
+    ux, uy = np.empty(shape, np.float32), np.empty(shape, np.float32)
     path_samples_into(path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy)
     return px, py, ux, uy
 
@@ -97,6 +97,21 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
     box = np.zeros((px.shape[0], 4))
     for a in rows:
         box[a, 0], box[a, 1], box[a, 2], box[a, 3] = swept_box(px, py, now_x, now_y, bound, a)
+    return box
+
+
+@njit(cache=True, nogil=True)
+def swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
+    """:func:`swept_boxes` from the candidates' boxes (:func:`candidate_boxes`): the same
+    bounds, as min and max are exact, from K boxes instead of K·T points."""
+    box = np.zeros((cbox.shape[0], 4))
+    for a in rows:
+        x0, x1, y0, y1 = now_x[a], now_x[a], now_y[a], now_y[a]
+        for k in range(cbox.shape[1]):
+            x0, x1 = min(x0, cbox[a, k, 0]), max(x1, cbox[a, k, 1])
+            y0, y1 = min(y0, cbox[a, k, 2]), max(y1, cbox[a, k, 3])
+        box[a, 0], box[a, 1] = x0 - bound[a], x1 + bound[a]
+        box[a, 2], box[a, 3] = y0 - bound[a], y1 + bound[a]
     return box
 
 
@@ -153,30 +168,38 @@ def projected_arc_lengths(
 
     A saturated, linear phase of ``n1`` steps, then a geometric approach: ``decay[n + steps]``
     is (1 - gain·dt)^n. Speeds are integrated with the trapezoid rule, as a cumulative sum.
+
+    Each (agent, candidate) lane's speeds come first, phase by phase (no branch per step, and
+    the approach reads ``decay`` in order); then the sums, time outer and lanes inner, so that
+    the lanes' chains of dependent additions overlap. Each lane's arithmetic is unchanged.
     """
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
+    n = n_agents * n_cand
+    speed = np.empty((steps + 1, n))  # speed[m, q]: lane q's after m steps
     for a in range(n_agents):
         for k in range(n_cand):
+            q = a * n_cand + k
             e0 = v0[a] - targets[a, k]
             sign = 1.0 if e0 > 0 else (-1.0 if e0 < 0 else 0.0)
             lim = max_accel if e0 < 0 else max_decel
             n1 = max(0.0, np.ceil((abs(e0) - lim / gain) / (lim * dt)))
             slope = sign * lim * dt
             e1 = e0 - slope * n1
-            prev, travelled = v0[a], 0.0
-            for m in range(1, steps + 1):
-                n = float(m)
-                v = (
-                    v0[a] - slope * n
-                    if n <= n1
-                    else targets[a, k] + e1 * decay[int(n - n1) + steps]
-                )
-                v = max(v, 0.0)
-                travelled += 0.5 * (prev + v) * dt
-                prev = v
-                if m % every == 0:
-                    out[a, k, m // every - 1] = s0[a] + travelled
+            last = int(min(n1, float(steps)))  # the linear phase's last step (n1 is whole)
+            speed[0, q] = v0[a]
+            for m in range(1, last + 1):
+                speed[m, q] = max(v0[a] - slope * float(m), 0.0)
+            for m in range(last + 1, steps + 1):
+                speed[m, q] = max(targets[a, k] + e1 * decay[m - last + steps], 0.0)
+    travelled = np.zeros(n)
+    for m in range(1, steps + 1):
+        for q in range(n):
+            travelled[q] += 0.5 * (speed[m - 1, q] + speed[m, q]) * dt
+        if m % every == 0:
+            for a in range(n_agents):
+                for k in range(n_cand):
+                    out[a, k, m // every - 1] = s0[a] + travelled[a * n_cand + k]
     return out
 
 
@@ -367,7 +390,8 @@ def plan_conflicts(
     px, py, ux, uy = path_samples(path_c64, path_dir, agents, s_proj, rows, inv_spacing)
     now_x, now_y, crossing = positions_now(agents, state, route, enter_s, is_car, s, offset, front)
     offs_a, radius_a, bound = offs[agents], radius[agents], reach[agents]
-    box, cbox = swept_boxes(px, py, now_x, now_y, bound, rows), candidate_boxes(px, py, rows)
+    cbox = candidate_boxes(px, py, rows)
+    box = swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows)
     table = np.zeros((len(first), n_cand, n_cand), dtype=np.bool_)
     keep = np.zeros(len(first), dtype=np.bool_)
     for p in range(len(first)):
