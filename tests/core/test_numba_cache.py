@@ -15,7 +15,7 @@ import sys
 from pathlib import Path
 
 import fluids_bench
-from fluids_bench.core.numba_cache import default_cache_dir, use_user_cache_dir
+from fluids_bench.core.numba_cache import default_cache_dir, kernel_digest, use_user_cache_dir
 
 PACKAGE = Path(fluids_bench.__file__).parent
 
@@ -57,12 +57,26 @@ def test_compiling_the_kernels_writes_nothing_into_the_package(tmp_path):
     assert len(_cache_files(tmp_path / "xdg" / "fluids-bench" / "numba")) >= 10
 
 
+def test_an_edited_kernel_file_gets_a_new_cache_directory(tmp_path):
+    """numba would keep a caller's machine code when only a kernel it calls changes: the
+    cache directory is named by the kernel sources, so any kernel edit recompiles them all."""
+    root = tmp_path / "fluids_bench"
+    shutil.copytree(PACKAGE, root, ignore=shutil.ignore_patterns("__pycache__"))
+    before = kernel_digest(root)
+    (root / "cli.py").write_text((root / "cli.py").read_text() + "\n# not a kernel module\n")
+    assert kernel_digest.__wrapped__(root) == before
+    kernels = root / "tasks" / "fluids" / "sim" / "kernels.py"
+    kernels.write_text(kernels.read_text() + "\n# an edited kernel module\n")
+    assert kernel_digest.__wrapped__(root) != before
+
+
 def test_cache_dir_follows_xdg_and_home_and_respects_the_users_choice():
     assert use_user_cache_dir({"NUMBA_CACHE_DIR": "/mine"}) == "/mine"
     env = {"XDG_CACHE_HOME": "/x"}
-    assert use_user_cache_dir(env) == os.path.join("/x", "fluids-bench", "numba")
-    assert env["NUMBA_CACHE_DIR"] == os.path.join("/x", "fluids-bench", "numba")
-    home = os.path.join(os.path.expanduser("~"), ".cache", "fluids-bench", "numba")
+    ours = os.path.join("/x", "fluids-bench", "numba", kernel_digest())
+    assert use_user_cache_dir(env) == ours
+    assert env["NUMBA_CACHE_DIR"] == ours
+    home = os.path.join(os.path.expanduser("~"), ".cache", "fluids-bench", "numba", kernel_digest())
     assert default_cache_dir({}) == home
     assert default_cache_dir({"XDG_CACHE_HOME": "relative/dir"}) == home  # XDG: absolute only
     assert use_user_cache_dir({"NUMBA_CACHE_DIR": ""}) == home  # empty means unset, as numba
