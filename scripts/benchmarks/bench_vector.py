@@ -216,18 +216,23 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     prof.disable()
     stats = pstats.Stats(prof)
     vector_step = _cum(stats, VECTOR, "step")
-    planner = _cum(stats, "supervisor/velocity.py", "plan", (("supervisor/stack.py", "plan"),))
+    planner = _cum(
+        stats, "supervisor/velocity.py", "plan", (("supervisor/stack.py", "plan_velocity"),)
+    )
     # (a list comprehension is its own frame before Python 3.12)
     in_infos = (("vector/infos.py", "step_infos"), ("vector/infos.py", "<listcomp>"))
-    labels = _cum(stats, ENV, "supervisor_action", in_infos)
+    # labels: read from the rows at the velocity and control levels, else asked world by world
+    labels = _cum(stats, ENV, "supervisor_action", in_infos, required=False) + _cum(
+        stats, "vector/act.py", "label_batch", IN_STEP, required=False
+    )
     # the phases of a vector step (FluidsVectorEnv's docstring), each for all worlds
     parts = {
-        "actions to controls": _cum(stats, "vector/act.py", "act_batch", IN_STEP),
+        "actions to controls": _cum(stats, VECTOR, "_act_all", IN_STEP),
         "world step and fault record": _cum(stats, "sim/batch.py", "step", IN_STEP)
         + _cum(stats, "sim/batch.py", "update", IN_STEP),
         "velocity planner": planner,
         "supervisor: recovery check, proposal, labels": _cum(
-            stats, "supervisor/stack.py", "plan", ((ENV, "_judge_recorded"),)
+            stats, "supervisor/batch.py", "plan", IN_STEP
         )
         - planner
         + _cum(stats, "supervisor/batch.py", "propose", IN_STEP)
@@ -286,7 +291,7 @@ def main() -> None:
     parser.add_argument("--cars", type=int, nargs="+", default=[5, 10, 20, 30])
     parser.add_argument("--agents-batch", type=int, default=16, help="B of the agents part")
     parser.add_argument(
-        "--process-steps", type=int, default=4000, help="env-steps per process (processes part)"
+        "--process-steps", type=int, default=32000, help="env-steps per process (processes part)"
     )
     parser.add_argument("--profile-steps", type=int, default=1000, help="env-steps profiled")
     parser.add_argument(

@@ -80,7 +80,7 @@ class WorldBatch(Rows):
         :attr:`controls` (written by the caller), as :meth:`World.step` would; returns each
         world's new collisions (empty for the others)."""
         worlds, rows = self.worlds, self.rows
-        index = np.flatnonzero(stepping).tolist()
+        index = stepping.nonzero()[0].tolist()
         for i in index:
             worlds[i].begin_step()
             self._steps[i] = worlds[i].steps
@@ -118,7 +118,7 @@ class FaultBatch(Rows):
     def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
         trackers, lights, slots = self.objects, self._lights, self._slots
-        for i in np.flatnonzero(stepping).tolist():
+        for i in stepping.nonzero()[0].tolist():
             tracker = trackers[i]
             tracker._follow_routes()
             lights[i] = tracker.world.light_state

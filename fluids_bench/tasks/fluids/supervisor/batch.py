@@ -88,9 +88,9 @@ class SupervisorBatch:
                 going, worlds["lateral_error"], worlds["heading_error"], worlds["active"],
                 worlds.worlds[0].is_car, OFF_ROUTE_LATERAL, OFF_ROUTE_HEADING, off, counts,
             )  # fmt: skip
-            for i in np.flatnonzero(counts).tolist():
+            for i in counts.nonzero()[0].tolist():
                 supervisors[i].recover(worlds.worlds[i], np.flatnonzero(off[i]))
-        for i in np.flatnonzero(going).tolist():
+        for i in going.nonzero()[0].tolist():
             supervisors[i].plan_velocity(worlds.worlds[i])
 
     def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
@@ -105,7 +105,7 @@ class SupervisorBatch:
             memory["steer_prev"], memory["steer_int"], memory["speed_int"], w.dt, pid._gains,
             pid._limits, pid.gain, pid.low, pid.high, self.proposed, self.next_memory,
         )  # fmt: skip
-        for i in np.flatnonzero(going).tolist():
+        for i in going.nonzero()[0].tolist():
             sup, next_memory = self.supervisors[i], self.next_memory[i]
             sup.proposed = self.proposed[i]
             sup._memory = self._handed[i] = (next_memory[0], next_memory[1], next_memory[2])
@@ -115,7 +115,7 @@ class SupervisorBatch:
         where ``mask``: one array copy for all whose proposal came from :meth:`propose`, the
         others (a reset, a restore) one by one."""
         batched = np.zeros(len(mask), dtype=np.bool_)
-        for i in np.flatnonzero(mask).tolist():
+        for i in mask.nonzero()[0].tolist():
             sup = self.supervisors[i]
             if sup._memory is self._handed[i]:
                 batched[i] = True

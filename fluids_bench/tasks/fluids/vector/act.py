@@ -49,7 +49,7 @@ def act_batch(
     chosen = stepping & worlds["active"][:, 0]
     proposal = stepping & ~chosen if level == "velocity" else stepping
     controls = worlds.controls
-    for i in np.flatnonzero(proposal).tolist():
+    for i in proposal.nonzero()[0].tolist():
         controls[i] = envs[i].supervisor.proposed
     supervisors.commit_proposals(proposal)
     if level == "control":  # DrivingSupervisor.denormalise of the ego's row

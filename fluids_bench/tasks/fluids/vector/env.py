@@ -170,7 +170,7 @@ class FluidsVectorEnv(VectorEnv):
         options = dict(options or {})
         mask = self._reset_mask(options.pop("reset_mask", None))
         infos: list[dict | None] = [None] * self.num_envs
-        for i in np.flatnonzero(mask).tolist():
+        for i in mask.nonzero()[0].tolist():
             obs, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
             self._write(i, obs)
             self._elapsed[i], self._ended[i] = 0, False
@@ -189,7 +189,7 @@ class FluidsVectorEnv(VectorEnv):
             )
         worlds, faults, supervisors = self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
-        index = np.flatnonzero(stepping).tolist()
+        index = stepping.nonzero()[0].tolist()
         self._act_all(actions, stepping, index, worlds, supervisors)
         events = worlds.step(stepping)
         before = self._violations(faults)

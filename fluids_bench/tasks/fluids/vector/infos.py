@@ -106,7 +106,7 @@ def step_infos(
     else:
         values, known = labels
         values = values.copy()
-        for i in np.flatnonzero(~known).tolist():
+        for i in (~known).nonzero()[0].tolist():
             values[i] = envs[i].supervisor_action()
         column(SUPERVISOR_ACTION_KEY, values)
     collisions = np.empty(n, dtype=object)
