@@ -89,14 +89,22 @@ def plan_head(
 
 @njit(cache=True, nogil=True)
 def plan_tail(
-    agents, targets, s_proj, allowed, first, second, d_now,
+    agents, targets, s_proj, allowed, first, second, gap_abs,
     state, s, offset, front, is_car, route, enter_s,
     offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin, out,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """The CSP's pairs and conflicts (:func:`kernels.plan_conflicts`, none without candidate
     pairs) and its answer (:func:`csp_kernels.plan_choice`); writes each agent's chosen target
-    into ``out`` (N,) and returns whether the CSP was solved."""
+    into ``out`` (N,) and returns whether the CSP was solved. ``gap_abs`` (P, 9): numpy's abs
+    of the circle gaps; their minimum per pair (exact, as numpy's ``min(axis=1)``) is the
+    distance now."""
     if len(first):
+        d_now = np.empty(len(first), gap_abs.dtype)
+        for p in range(len(first)):
+            d = gap_abs[p, 0]
+            for k in range(1, gap_abs.shape[1]):
+                d = min(d, gap_abs[p, k])
+            d_now[p] = d
         pairs, conflict = plan_conflicts(
             agents, s_proj, first, second, d_now,
             state, s, offset, front, is_car, route, enter_s,

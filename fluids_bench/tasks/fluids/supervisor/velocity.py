@@ -56,7 +56,6 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
 from fluids_bench.tasks.fluids.supervisor.plan_kernels import plan_head, plan_tail
 from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
-_NO_GAPS = np.zeros(0, dtype=np.float32)  # no candidate pair: no distances
 CURVE_LOOK_AHEAD = 24  # path samples (12 m) ahead whose curvature limits the speed now
 GIVE_WAY_HORIZON = 8.0  # s projected when giving way to an uncontrolled agent (_give_way)
 GIVE_WAY_LOOK_AHEAD = 40.0  # m of route whose curves slow a car that goes on (_give_way)
@@ -486,9 +485,8 @@ class VelocityPlanner:
             world.path_c64, world.path_dir, self._decay, self._hold_wild, self._ints,
             self._floats, CURVE_LOOK_AHEAD, cfg.yield_to_pedestrians, defensive,
         )  # fmt: skip
-        d_now = np.abs(gaps).min(axis=1) if len(first) else _NO_GAPS  # numpy's: see conflicts
         solved = plan_tail(
-            agents, targets, s_proj, allowed, first, second, d_now,
+            agents, targets, s_proj, allowed, first, second, np.abs(gaps),  # numpy's abs
             world.state, world.s, world.offset, self._front, world.is_car, world.route,
             routes.enter_s, self._offs32, self._radius, self._reach, world.path_c64,
             world.path_dir, 1.0 / PATH_SPACING, cfg.margin, cfg.pedestrian_margin, out,
