@@ -278,6 +278,13 @@ def test_a_real_sigint_keeps_finished_episodes(monkeypatch, capsys):
             os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the terminal
         return []
 
+    # a process started in the background by a shell ignores SIGINT (and Python then installs
+    # no handler): give this one Python's, as a terminal's foreground process has
+    previous = signal.signal(signal.SIGINT, signal.default_int_handler)
+
     argv = ["--env", "GridWorld-v0", "--dataset", "tt/s-v0", "--episodes", "2", "--max-steps", "4"]
-    assert run_teleop(monkeypatch, [*argv, *FAST], sigint) == 130
+    try:
+        assert run_teleop(monkeypatch, [*argv, *FAST], sigint) == 130
+    finally:
+        signal.signal(signal.SIGINT, previous)
     assert minari.load_dataset("tt/s-v0").total_episodes == 1
