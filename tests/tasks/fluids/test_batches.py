@@ -66,9 +66,10 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
                 assert events[i] == []
             _same(batched[i], alone[i])
             for name in ("steer_prev", "steer_int", "speed_int"):
-                assert getattr(sups[i].pid, name).tobytes() == getattr(
-                    sups_alone[i].pid, name
-                ).tobytes()
+                assert (
+                    getattr(sups[i].pid, name).tobytes()
+                    == getattr(sups_alone[i].pid, name).tobytes()
+                )
             assert sups[i].proposed.tobytes() == sups_alone[i].proposed.tobytes()
             assert sups[i].targets.tobytes() == sups_alone[i].targets.tobytes()
             assert trackers[i]._recorded == trackers_alone[i]._recorded

@@ -48,8 +48,13 @@ def _path_rows(path, heading, length, clearance, width):
     for row, values in ((z, path[:, 0] + 1j * path[:, 1]), (h, heading), (c, clearance)):
         row[:m] = values[:m]
         row[m:] = values[m - 1]
-    return z, h, c, np.exp(1j * h).astype(np.complex64), z.astype(np.complex64), min(
-        length, (m - 1) * PATH_SPACING
+    return (
+        z,
+        h,
+        c,
+        np.exp(1j * h).astype(np.complex64),
+        z.astype(np.complex64),
+        min(length, (m - 1) * PATH_SPACING),
     )
 
 
@@ -60,9 +65,12 @@ def route_rows(layout: Layout, width: int) -> RouteRows:
     table = layout.routes
     rows = [
         _path_rows(
-            table.path[r], table.heading[r], float(table.length[r]),
-            layout.route_clearance[r], width,
-        )  # fmt: skip
+            table.path[r],
+            table.heading[r],
+            float(table.length[r]),
+            layout.route_clearance[r],
+            width,
+        )
         for r in range(len(table.names))
     ]
     stacked = RouteRows(*(np.array(column) for column in zip(*rows, strict=True)))

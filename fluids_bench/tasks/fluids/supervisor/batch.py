@@ -64,7 +64,10 @@ class SupervisorBatch:
         n = len(supervisors[0].targets)
         self.proposed = np.zeros((len(supervisors), n, 2))
         self.next_memory = np.zeros((len(supervisors), 3, n))
-        self._off_route = (np.zeros((len(supervisors), n), np.bool_), np.zeros(len(supervisors), np.int64))
+        self._off_route = (
+            np.zeros((len(supervisors), n), np.bool_),
+            np.zeros(len(supervisors), np.int64),
+        )
         # the memory tuple each supervisor got from the last propose (None: none yet)
         self._handed: list[tuple | None] = [None] * len(supervisors)
 

@@ -16,7 +16,11 @@ import numpy as np
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.sim.batch import WorldBatch
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.supervisor.batch import PID_MEMORY, SupervisorBatch, pid_follow_worlds
+from fluids_bench.tasks.fluids.supervisor.batch import (
+    PID_MEMORY,
+    SupervisorBatch,
+    pid_follow_worlds,
+)
 
 BATCHED_LEVELS = ("velocity", "control")
 

@@ -17,10 +17,9 @@ zero-mean Gaussian noise with variance ``noise_var`` is added to every continuou
 from __future__ import annotations
 
 import numpy as np
-
-from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from numba import njit
 
+from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.sensors.kernels import EGO, GOAL, LIGHT, PER_AGENT, fill_explicit
 from fluids_bench.tasks.fluids.sim.world import World
 
