@@ -70,12 +70,13 @@ def actions_for(level: str, space, labels, rng: np.random.Generator, t: int) -> 
     return out
 
 
+@pytest.mark.parametrize("n", [1, 3])  # one world takes the scalar env's own step
 @pytest.mark.parametrize("level", LEVELS)
-def test_world_i_is_the_scalar_env_seeded_s_plus_i(level):
+def test_world_i_is_the_scalar_env_seeded_s_plus_i(level, n):
     """Observations, rewards, flags and infos (labels included) of each world equal the scalar
     env's (gym.make, same kwargs, seed s + i), through terminations, truncations (a 20-step
     limit) and next-step autoresets."""
-    n, seed, limit = 3, 11, 20
+    seed, limit = 11, 20
     kwargs = {**SMALL, "action_level": level, "max_episode_steps": limit}
     vec = make_vec("FLUIDS-v1", n, **kwargs)
     scalars = [gym.make("FLUIDS-v1", **kwargs) for _ in range(n)]
@@ -113,7 +114,8 @@ def test_world_i_is_the_scalar_env_seeded_s_plus_i(level):
         seen["terminated"] += int(terminated.sum())
         seen["truncated"] += int(truncated.sum())
         ended = terminated | truncated
-    assert seen["truncated"] and seen["autoreset"]
+    assert seen["autoreset"]
+    assert seen["truncated"] or (n == 1 and level in CRASH)  # (a lone crashing world ends first)
     if level in CRASH:
         assert seen["terminated"]
 

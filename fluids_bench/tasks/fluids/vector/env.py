@@ -77,7 +77,8 @@ class FluidsVectorEnv(VectorEnv):
        (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; the labels come from
        each env; with ``"SameStep"`` autoresets, world by world).
 
-    The parts are the scalar env's own, so equality holds by construction. The vector layer
+    The parts are the scalar env's own, so equality holds by construction. A batch of one
+    world steps with the scalar env's ``step`` itself (the phases' fixed costs would exceed it). The vector layer
     checks the whole action batch before any world moves, writes observations into
     preallocated batched arrays and builds the batched infos key by key for all worlds at once.
 
@@ -187,6 +188,8 @@ class FluidsVectorEnv(VectorEnv):
                 f"{WHERE}: world {self._ended.index(True)} ended; with autoreset_mode="
                 f"{mode.value!r} reset it with reset(options={{'reset_mask': mask}}) first"
             )
+        if n == 1:  # one world: the batched phases' fixed costs would exceed its step
+            return self._step_alone(actions)
         worlds, faults, supervisors = self._bound_batches()
         stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
         index = stepping.nonzero()[0].tolist()
@@ -231,6 +234,28 @@ class FluidsVectorEnv(VectorEnv):
             np.array(terminated, dtype=np.bool_),
             np.array(truncated, dtype=np.bool_),
             info,
+        )
+
+    def _step_alone(self, actions):
+        """:meth:`step` of a batch of one: the scalar env's own step (its action checked with
+        the batch, then clipped), with the same autoresets and infos."""
+        env, limit = self.envs[0], self.max_episode_steps
+        rewards, terminated, truncated, infos = [0.0], [False], [False], [None]
+        stepping = np.array([not self._ended[0]])
+        if stepping[0]:
+            obs, rewards[0], terminated[0], _, infos[0] = env._step_valid(
+                self._valid(env, actions[0])
+            )
+            self._elapsed[0] += 1
+            truncated[0] = limit is not None and self._elapsed[0] >= limit
+            self._write(0, obs)
+        self._autoreset(stepping, terminated, truncated, infos)
+        return (
+            self._observations(),
+            np.array(rewards, dtype=np.float64),
+            np.array(terminated, dtype=np.bool_),
+            np.array(truncated, dtype=np.bool_),
+            batch_infos(infos, 1),
         )
 
     def _violations(self, faults: FaultBatch) -> np.ndarray:
