@@ -108,7 +108,8 @@ class FaultBatch(Rows):
     def __init__(self, trackers: list[FaultTracker]) -> None:
         super().__init__(trackers, PER_TRACKER)
         first = trackers[0]
-        self._lights = np.zeros((len(trackers), len(first.world.light_state)), dtype=np.int8)
+        # each world's light states, as recorded by the last update (its rows that stepped)
+        self.lights = np.zeros((len(trackers), len(first.world.light_state)), dtype=np.int8)
         self._slots = np.zeros(len(trackers), dtype=np.int64)
 
     @property
@@ -117,7 +118,7 @@ class FaultBatch(Rows):
 
     def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
-        trackers, lights, slots = self.objects, self._lights, self._slots
+        trackers, lights, slots = self.objects, self.lights, self._slots
         for i in stepping.nonzero()[0].tolist():
             tracker = trackers[i]
             tracker._follow_routes()

@@ -100,18 +100,29 @@ class SupervisorBatch:
         """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)): its
         ``proposed`` and PID memory become views of this batch's output rows, which the next
         call overwrites (a supervisor commits its memory into its own rows before then)."""
-        pid, w = self.supervisors[0].pid, worlds.worlds[0]  # the scene's shared constants
-        memory = self.memory
-        pid_follow_worlds(
-            going, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
-            pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, self.targets["targets"],
-            memory["steer_prev"], memory["steer_int"], memory["speed_int"], w.dt, pid._gains,
-            pid._limits, pid.gain, pid.low, pid.high, self.proposed, self.next_memory,
-        )  # fmt: skip
+        self.follow(going, worlds, self.targets["targets"], self.proposed, self.next_memory)
         for i in going.nonzero()[0].tolist():
             sup, next_memory = self.supervisors[i], self.next_memory[i]
             sup.proposed = self.proposed[i]
             sup._memory = self._handed[i] = (next_memory[0], next_memory[1], next_memory[2])
+
+    def follow(
+        self,
+        mask: np.ndarray,
+        worlds: WorldBatch,
+        targets: np.ndarray,
+        out: np.ndarray,
+        memory: np.ndarray,
+    ) -> None:
+        """``PIDController.controls`` toward ``targets`` (B, N) for each world where ``mask``:
+        the controls into ``out`` (B, N, 2), the loops' next memory into ``memory`` (B, 3, N)."""
+        pid, w, rows = self.supervisors[0].pid, worlds.worlds[0], self.memory
+        pid_follow_worlds(
+            mask, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
+            pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, targets,
+            rows["steer_prev"], rows["steer_int"], rows["speed_int"], w.dt, pid._gains,
+            pid._limits, pid.gain, pid.low, pid.high, out, memory,
+        )  # fmt: skip
 
     def commit_proposals(self, mask: np.ndarray) -> None:
         """``DrivingSupervisor.commit()`` (of its own proposal's memory) for each supervisor

@@ -15,11 +15,9 @@ import numpy as np
 
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.sim.batch import WorldBatch
-from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.supervisor.batch import (
     PID_MEMORY,
     SupervisorBatch,
-    pid_follow_worlds,
 )
 
 BATCHED_LEVELS = ("velocity", "control")
@@ -67,16 +65,9 @@ def act_batch(
     memory = scratch.setdefault("memory", np.empty_like(supervisors.next_memory))
     np.copyto(targets, supervisors.targets["targets"])
     targets[:, 0] = values[:, 0]
-    pid, rows = first.supervisor.pid, worlds.rows
-    mem = supervisors.memory
-    pid_follow_worlds(
-        chosen, rows["path_z"], rows["s"], rows["path_len"], pid.min_ahead, pid.ahead_time,
-        PATH_SPACING, rows["state"], pid.is_car, targets, mem["steer_prev"], mem["steer_int"],
-        mem["speed_int"], world.dt, pid._gains, pid._limits, pid.gain, pid.low, pid.high,
-        controls, memory,
-    )  # fmt: skip
+    supervisors.follow(chosen, worlds, targets, controls, memory)
     for k, name in enumerate(PID_MEMORY):  # PIDController.commit of that PID's memory
-        mem[name][chosen] = memory[chosen, k]
+        supervisors.memory[name][chosen] = memory[chosen, k]
 
 
 def label_batch(

@@ -145,8 +145,6 @@ class FluidsVectorEnv(VectorEnv):
         )
         self._worlds = WorldBatch([env.world for env in self.envs])
         self._faults = FaultBatch([env.faults for env in self.envs])
-        lights = len(self.envs[0].world.light_state)
-        self._lights = np.zeros((self.num_envs, lights), dtype=np.int8)  # states of each world
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
         # velocity and control actions: every world's controls in array operations (act.py)
         self._batched_act = self.envs[0].action_level in BATCHED_LEVELS
@@ -217,15 +215,14 @@ class FluidsVectorEnv(VectorEnv):
             self._elapsed[i] += 1
             # TimeLimit: truncated once the episode has taken max_episode_steps steps
             truncated[i] = limit is not None and self._elapsed[i] >= limit
-            self._lights[i] = env.world.light_state
-        self._observe(stepping, index, worlds)
+        self._observe(stepping, index, worlds, faults.lights)
         self._autoreset(stepping, terminated, truncated, infos)
         if batched_infos:
             labels = None
             if self._batched_act:  # the labels of the worlds whose supervisor just proposed
                 labels = (self._labels, going)
                 label_batch(self.envs, going, supervisors, self._labels)
-            info = step_infos(self.envs, worlds, faults, self._lights, infos, events, labels)
+            info = step_infos(self.envs, worlds, faults, faults.lights, infos, events, labels)
         else:
             info = batch_infos(infos, n)
         return (
@@ -424,14 +421,14 @@ class FluidsVectorEnv(VectorEnv):
             )
         return mask
 
-    def _observe(self, stepping: np.ndarray, index: list[int], worlds: WorldBatch) -> None:
+    def _observe(self, stepping, index, worlds: WorldBatch, lights: np.ndarray) -> None:
         """Write the observation of every world that stepped (``index``: where ``stepping``;
-        their light states in ``_lights``) into the batch: one call for all when the
-        observation allows it, else world by world (a noisy or image observation, drawn with
-        each world's own generator)."""
+        ``lights``: their light states) into the batch: one call for all when the observation
+        allows it, else world by world (a noisy or image observation, drawn with each world's
+        own generator)."""
         observer = self.envs[0].observer
         if observer.batchable and index:
-            self._obs[stepping] = observer.observe_worlds(stepping, worlds, self._lights)
+            self._obs[stepping] = observer.observe_worlds(stepping, worlds, lights)
             return
         for i in index:
             self._write(i, self.envs[i]._observe())
