@@ -54,7 +54,7 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
             batch.controls[i] = sups[i].commit()
         events = batch.step(stepping)
         fault_batch.update(stepping, batch)
-        sup_batch.plan(stepping, batch)
+        sup_batch.plan(stepping, batch, fault_batch.lights)
         sup_batch.propose(stepping, batch)
         for i in range(len(seeds)):
             if stepping[i]:
@@ -91,3 +91,23 @@ def test_bound_worlds_are_views_and_rebinding_copies_the_values_in():
     batch.bind(0, fresh)
     assert batch.worlds[0] is fresh and np.shares_memory(fresh.state, batch.rows["state"][0])
     np.testing.assert_array_equal(batch.rows["state"][0], expected)
+
+
+def test_batched_velocity_plan_equals_each_planner_and_zeroes_a_world_without_agents():
+    worlds = _worlds([11, 12, 13])
+    for world in worlds:  # a few steps in, so that the plans differ from the first one
+        sup = DrivingSupervisor(world, NO_RECOVERY)
+        for _ in range(7):
+            sup.step(world)
+    worlds[1].active[:] = False  # nothing to plan: its targets become 0
+    batch = WorldBatch(worlds)
+    sups = [DrivingSupervisor(w, NO_RECOVERY) for w in worlds]
+    sup_batch = SupervisorBatch(sups)
+    lights = np.stack([w.light_state for w in worlds])
+    batch.times[:] = [w.time for w in worlds]
+    for sup in sups:
+        sup.targets[:] = 7.0  # overwritten by the plan (world 2 is not due)
+    sup_batch.plan_velocities(np.array([0, 1]), batch, lights)
+    assert sups[0].targets.tobytes() == sups[0].planner.plan(worlds[0]).tobytes()
+    assert sups[0].targets.any() and np.all(sups[1].targets == 0.0)
+    assert np.all(sups[2].targets == 7.0)

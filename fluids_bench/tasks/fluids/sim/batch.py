@@ -29,7 +29,7 @@ from fluids_bench.tasks.fluids.sim.world import (
 # the World arrays that differ between worlds of one scene (written by steps, spawns, paths)
 PER_WORLD = (
     "state", "params", "active", "s", "offset", "path_z", "path_heading", "path_len",
-    "path_clearance", "nearest", "lateral_error", "heading_error", "route", "entered",
+    "path_clearance", "path_c64", "path_dir", "nearest", "lateral_error", "heading_error", "route", "entered",
     "reached", "_offroad_candidates",
 )  # fmt: skip
 # the FaultTracker arrays (each world's own; written in place)
@@ -68,7 +68,8 @@ class WorldBatch(Rows):
         super().__init__(worlds, PER_WORLD)
         first = worlds[0]
         self.controls = np.zeros((len(worlds), first.n, 2))
-        self._steps = np.zeros(len(worlds), dtype=np.int64)
+        self.steps = np.zeros(len(worlds), dtype=np.int64)  # each world's step count
+        self.times = np.zeros(len(worlds))  # each world's clock after its last step (s)
         self._maybe = np.zeros(len(worlds), dtype=np.bool_)
 
     @property
@@ -82,15 +83,16 @@ class WorldBatch(Rows):
         worlds, rows = self.worlds, self.rows
         index = stepping.nonzero()[0].tolist()
         for i in index:
-            worlds[i].begin_step()
-            self._steps[i] = worlds[i].steps
+            world = worlds[i]
+            world.begin_step()
+            self.steps[i], self.times[i] = world.steps, world.time
         w = worlds[0]  # the arrays every world shares
         kernels.advance_worlds(
             stepping, rows["state"], self.controls, w.is_car, rows["params"], w.dt,
             rows["active"], rows["s"], rows["offset"], rows["path_z"], rows["path_heading"],
             rows["path_len"], rows["path_clearance"], PATH_SPACING, *PROGRESS_WINDOW,
             rows["nearest"], rows["lateral_error"], rows["heading_error"], w.front,
-            rows["route"], w.layout.routes.enter_s, rows["entered"], self._steps, w.length,
+            rows["route"], w.layout.routes.enter_s, rows["entered"], self.steps, w.length,
             GOAL_TOLERANCE, rows["reached"], w._circle_offsets, w._circle_samples,
             w._circle_radius, w._reach2, rows["_offroad_candidates"], self._maybe,
         )  # fmt: skip
@@ -129,7 +131,7 @@ class FaultBatch(Rows):
         record_steps(
             stepping, rows["s"], rows["offset"], w.front, self["_enter"], self["_light_of"],
             self["_prev_lights"], lights, STOP, self["entry_step"], self["ran_red"],
-            worlds._steps, rows["state"], self["_ring"], slots, trackers[0]._yield_check,
+            worlds.steps, rows["state"], self["_ring"], slots, trackers[0]._yield_check,
             rows["route"], rows["active"], w.is_car, cw.car_enter, self["_prev_at"],
             self["_prev_occupied"], self["_warned"], self["failed_to_yield"], w.width,
             cw.centre, cw.axis, cw.half,

@@ -4,7 +4,9 @@ Each supervisor's targets and PID memory are rows of batched arrays (as the worl
 :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so :meth:`SupervisorBatch.propose`
 is :meth:`DrivingSupervisor.propose` for many worlds at once: :func:`kernels.pid_follow` on each
 row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
-in every world in one call; recovery and the velocity planner run world by world.
+in every world in one call and runs the velocity planner of every world due to plan in two
+(:func:`plan_kernels.plan_head_worlds`, :func:`plan_kernels.plan_tail_worlds`); only recovery
+(rare: a car off its route) runs world by world.
 """
 
 from __future__ import annotations
@@ -15,8 +17,10 @@ from numba import njit
 from fluids_bench.tasks.fluids.sim.batch import Rows, WorldBatch
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.supervisor.kernels import mark_off_route, pid_follow
+from fluids_bench.tasks.fluids.supervisor.plan_kernels import plan_head_worlds, plan_tail_worlds
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 from fluids_bench.tasks.fluids.supervisor.trajectory import OFF_ROUTE_HEADING, OFF_ROUTE_LATERAL
+from fluids_bench.tasks.fluids.supervisor.velocity import CURVE_LOOK_AHEAD
 
 PID_MEMORY = ("steer_prev", "steer_int", "speed_int")
 
@@ -80,10 +84,11 @@ class SupervisorBatch:
         self.targets.bind(index, supervisor)
         self.memory.bind(index, supervisor.pid)
 
-    def plan(self, going: np.ndarray, worlds: WorldBatch) -> None:
+    def plan(self, going: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
         """:meth:`DrivingSupervisor.plan` of each supervisor where ``going``: the cars off
-        their routes found in all worlds in one call, then recovery (where any) and the
-        velocity plan (when due) world by world."""
+        their routes found in all worlds in one call and recovered world by world (where any),
+        then the velocity plan of every world due for one (:meth:`plan_velocities`).
+        ``lights``: each world's light states now (B, L)."""
         supervisors = self.supervisors
         if supervisors[0].config.recovery:
             off, counts = self._off_route
@@ -93,8 +98,47 @@ class SupervisorBatch:
             )  # fmt: skip
             for i in counts.nonzero()[0].tolist():
                 supervisors[i].recover(worlds.worlds[i], np.flatnonzero(off[i]))
-        for i in going.nonzero()[0].tolist():
-            supervisors[i].plan_velocity(worlds.worlds[i])
+        period = supervisors[0].config.velocity.period
+        due = np.flatnonzero(going & (worlds.steps % period == 0))
+        if len(due):
+            self.plan_velocities(due, worlds, lights)
+
+    def plan_velocities(self, due: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
+        """:meth:`VelocityPlanner.plan` of the worlds ``due`` (indices) into their rows of
+        :attr:`targets`: two compiled calls around numpy's abs of all their circle gaps. Every
+        world's planner shares the scene's constants (the vector env's worlds are all of one
+        scene), so the first world's planner lends them."""
+        sup, w = self.supervisors[0], worlds.worlds[0]
+        planner = sup.planner
+        cfg = planner.config
+        planner._bind(w)
+        defensive = sup.uncontrolled is not None
+        uncontrolled = sup.uncontrolled if defensive else planner._none_uncontrolled
+        routes, light_program, cw = w.layout.routes, w.lights, planner._crosswalks
+        heads, gaps, starts = plan_head_worlds(
+            due, uncontrolled, planner.fractions,
+            worlds["state"], worlds["s"], worlds["offset"], planner._front, w.is_car,
+            worlds["active"], w.width, worlds["route"], worlds["entered"], w.max_speed,
+            planner._brake_limit, routes.curvature, routes.speed_limit, routes.enter_s,
+            routes.light, routes.stop_s, planner._across, lights, light_program.ends,
+            light_program.cycle, light_program.offset, worlds.times, cw.centre, cw.axis,
+            cw.half, cw.car_enter, cw.walk_crosswalk, cw.walk_enter, planner._turns[1],
+            planner._offs32, planner._radius, planner._reach, worlds["path_c64"],
+            worlds["path_dir"], planner._decay, planner._hold_wild, planner._ints,
+            planner._floats, CURVE_LOOK_AHEAD, cfg.yield_to_pedestrians, defensive,
+        )  # fmt: skip
+        failed = plan_tail_worlds(
+            due, heads, np.abs(gaps), starts,  # numpy's abs, as alone
+            worlds["state"], worlds["s"], worlds["offset"], planner._front, w.is_car,
+            worlds["route"], routes.enter_s, planner._offs32, planner._radius, planner._reach,
+            worlds["path_c64"], worlds["path_dir"], 1.0 / PATH_SPACING, cfg.margin,
+            cfg.pedestrian_margin, self.targets["targets"],
+        )  # fmt: skip
+        if failed >= 0:  # cannot happen (all-stop is feasible); fail loudly if it does
+            raise RuntimeError(
+                f"velocity CSP of world {int(due[failed])} has no solution; the all-stop "
+                "invariant is broken"
+            )
 
     def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)): its

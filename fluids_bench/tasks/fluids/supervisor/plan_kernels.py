@@ -7,12 +7,19 @@ distances with numpy's complex abs, the reference's (its vectorised loop may dif
 library's ``hypotf`` in the last bit, so it stays numpy's). Each step is the kernel the
 planner's methods call one by one, in the same order on the same arrays: one Python call per
 half instead of seven, and no numpy temporaries in between.
+
+:func:`plan_head_worlds` and :func:`plan_tail_worlds` are the two halves for every due world of
+a batch (rows of (B, ...) arrays), with numpy's abs taken once over all their gaps between them:
+numpy's complex abs gives each element the same bits wherever it lies in an array (its SIMD
+loop loads a short tail masked, not through a scalar loop), which the batch's equality tests
+check against the scalar env.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+from numba.typed import List
 
 from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
@@ -118,3 +125,76 @@ def plan_tail(
     for a in range(len(agents)):
         out[agents[a]] = targets[a, choice[a]]
     return solved
+
+
+@njit(cache=True, nogil=True)
+def plan_head_worlds(
+    due, uncontrolled, fractions,
+    state, s, offset, front, is_car, active, width, route, entered, max_speed, brake_limit,
+    curvature, speed_limit, enter_s, route_light, stop_s, across,
+    light_state, ends, cycle, light_offset, times,
+    cw_centre, cw_axis, cw_half, car_enter, walk_crosswalk, walk_enter, turning,
+    offs, radius, reach, path_c64, path_dir, decay, hold_wild, ints, floats, look,
+    yield_to_pedestrians, defensive,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`plan_head` of world ``b`` for each ``b`` in ``due``, its planned agents the
+    active ones. The per-world arrays (``state`` … ``entered``, ``light_state``, ``times``,
+    ``path_c64``, ``path_dir``) are rows (B, ...); the others are the scene's. Returns each
+    due world's (agents, targets, s_proj, allowed, first, second), all their gaps stacked
+    (P, 9), and where each world's start in them (len(due) + 1,)."""
+    heads = List()
+    chunks = List()
+    starts = np.zeros(len(due) + 1, np.int64)
+    n_cand = len(fractions)
+    for j in range(len(due)):
+        b = due[j]
+        agents = np.flatnonzero(active[b])
+        if len(agents):
+            targets, s_proj, allowed, first, second, gaps = plan_head(
+                agents, uncontrolled, fractions,
+                state[b], s[b], offset[b], front, is_car, active[b], width, route[b],
+                entered[b], max_speed, brake_limit, curvature, speed_limit, enter_s,
+                route_light, stop_s, across, light_state[b], ends, cycle, light_offset,
+                times[b], cw_centre, cw_axis, cw_half, car_enter, walk_crosswalk, walk_enter,
+                turning, offs, radius, reach, path_c64[b], path_dir[b], decay, hold_wild,
+                ints, floats, look, yield_to_pedestrians, defensive,
+            )  # fmt: skip
+        else:  # nothing to plan (its targets stay 0)
+            targets = np.empty((0, n_cand))
+            s_proj = np.empty((0, n_cand, 1))
+            allowed = np.empty((0, n_cand), np.bool_)
+            first, second = np.empty(0, np.int64), np.empty(0, np.int64)
+            gaps = np.empty((0, 9), np.complex64)
+        heads.append((agents, targets, s_proj, allowed, first, second))
+        chunks.append(gaps)
+        starts[j + 1] = starts[j] + len(gaps)
+    stacked = np.empty((starts[-1], 9), np.complex64)
+    for j in range(len(due)):
+        stacked[starts[j] : starts[j + 1]] = chunks[j]
+    return heads, stacked, starts
+
+
+@njit(cache=True, nogil=True)
+def plan_tail_worlds(
+    due, heads, gap_abs, starts,
+    state, s, offset, front, is_car, route, enter_s,
+    offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin, out,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`plan_tail` of each due world from :func:`plan_head_worlds`' results
+    (``gap_abs``: numpy's abs of its stacked gaps): row ``b`` of ``out`` (B, N) becomes world
+    ``b``'s targets (0 for its inactive agents). Returns the position in ``due`` of the first
+    world whose CSP had no solution, or -1."""
+    for j in range(len(due)):
+        b = due[j]
+        out[b, :] = 0.0
+        agents, targets, s_proj, allowed, first, second = heads[j]
+        if not len(agents):
+            continue
+        solved = plan_tail(
+            agents, targets, s_proj, allowed, first, second, gap_abs[starts[j] : starts[j + 1]],
+            state[b], s[b], offset[b], front, is_car, route[b], enter_s, offs, radius, reach,
+            path_c64[b], path_dir[b], inv_spacing, margin, pedestrian_margin, out[b],
+        )  # fmt: skip
+        if not solved:
+            return j
+    return -1

@@ -68,9 +68,9 @@ class FluidsVectorEnv(VectorEnv):
     3. one records every world's step for fault labels
        (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
     4. each env judges its step (``FluidsEnv._judge_recorded``: termination, rewards' terms);
-    5. the supervisors plan (one call finds every world's cars off their routes; recovery
-       and the velocity planner world by world) and one call proposes every supervisor's next
-       controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
+    5. the supervisors plan (one call finds every world's cars off their routes, recovery
+       runs world by world where any is; two calls plan the velocities of every world due for
+       a plan) and one call proposes every supervisor's next controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
     6. each env reports (``FluidsEnv._report``: reward, ``is_success``);
     7. one observes every world (a noiseless explicit observation; others world by world);
     8. the infos are read from the batched rows for all worlds at once
@@ -201,7 +201,7 @@ class FluidsVectorEnv(VectorEnv):
         for i in index:
             judged[i] = self.envs[i]._judge_recorded(events[i], broken[i])
             going[i] = not self.envs[i]._ended
-        supervisors.plan(going, worlds)
+        supervisors.plan(going, worlds, faults.lights)
         supervisors.propose(going, worlds)
         # per-world results in Python lists: cheaper than item-by-item numpy writes
         rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
