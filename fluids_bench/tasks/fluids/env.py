@@ -450,14 +450,12 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self._ended = terminated
         return broken, ego_hit, gained
 
-    def _report(
-        self, events, judged: tuple[int, bool, float], full_info: bool = True
-    ) -> tuple[float, bool, dict]:
-        """The step's reward, termination and info, once the supervisor proposed; without
-        ``full_info`` the info holds only ``is_success`` (when the episode ended): a batch
-        builds the rest of :meth:`_info` for all its worlds at once."""
+    def _report(self, events, judged: tuple[int, bool, float]) -> tuple[float, bool, dict]:
+        """The step's reward, termination and info, once the supervisor proposed (a batch
+        computes the reward and ``is_success`` of all its worlds at once:
+        :mod:`~fluids_bench.tasks.fluids.vector.judge`)."""
         w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
-        info = self._info(events) if full_info else {}
+        info = self._info(events)
         if terminated:
             cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
             # with obey_lights, running a red light fails the episode too; with

@@ -29,8 +29,8 @@ from fluids_bench.tasks.fluids.sim.world import (
 # the World arrays that differ between worlds of one scene (written by steps, spawns, paths)
 PER_WORLD = (
     "state", "params", "active", "s", "offset", "path_z", "path_heading", "path_len",
-    "path_clearance", "path_c64", "path_dir", "nearest", "lateral_error", "heading_error", "route", "entered",
-    "reached", "_offroad_candidates",
+    "path_clearance", "path_c64", "path_dir", "collided", "nearest", "lateral_error",
+    "heading_error", "route", "entered", "reached", "_offroad_candidates",
 )  # fmt: skip
 # the FaultTracker arrays (each world's own; written in place)
 PER_TRACKER = (

@@ -20,6 +20,7 @@ from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
+from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
 
 WHERE = "FluidsVectorEnv"
 # the vector env's own arguments; every other one goes to each world's FluidsEnv
@@ -67,11 +68,12 @@ class FluidsVectorEnv(VectorEnv):
        of batched arrays);
     3. one records every world's step for fault labels
        (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
-    4. each env judges its step (``FluidsEnv._judge_recorded``: termination, rewards' terms);
+    4. the steps are judged for all worlds at once (termination, the rewards' terms:
+       :func:`~.judge.judge_worlds`, ``FluidsEnv._judge_recorded``'s arithmetic on the rows);
     5. the supervisors plan (one call finds every world's cars off their routes, recovery
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
-    6. each env reports (``FluidsEnv._report``: reward, ``is_success``);
+    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
     7. one observes every world (a noiseless explicit observation; others world by world);
     8. the infos are read from the batched rows for all worlds at once
        (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; the labels come from
@@ -196,27 +198,26 @@ class FluidsVectorEnv(VectorEnv):
         before = self._violations(faults)
         faults.update(stepping, worlds)
         broken = (self._violations(faults) - before).tolist()  # rules broken in this step
-        judged: list[tuple | None] = [None] * n
-        going = np.zeros(n, dtype=np.bool_)  # stepped, and the episode goes on
-        for i in index:
-            judged[i] = self.envs[i]._judge_recorded(events[i], broken[i])
-            going[i] = not self.envs[i]._ended
+        judged = judge_worlds(self.envs, index, worlds, events, broken)
+        going = stepping & ~judged.terminated  # stepped, and the episode goes on
         supervisors.plan(going, worlds, faults.lights)
         supervisors.propose(going, worlds)
-        # per-world results in Python lists: cheaper than item-by-item numpy writes
-        rewards, terminated, truncated = [0.0] * n, [False] * n, [False] * n
+        reward, success = report_worlds(self.envs, judged, worlds, faults)
+        rewards = np.where(stepping, reward, 0.0)
+        terminated = stepping & judged.terminated
+        elapsed = np.array(self._elapsed) + stepping
+        self._elapsed = elapsed.tolist()
+        # TimeLimit: truncated once the episode has taken max_episode_steps steps
+        truncated = stepping & (elapsed >= (limit if limit is not None else np.inf))
         infos: list[dict | None] = [None] * n
+        for i in terminated.nonzero()[0].tolist():
+            infos[i] = {"is_success": bool(success[i])}
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
-        for i in index:
-            env = self.envs[i]
-            rewards[i], terminated[i], infos[i] = env._report(
-                events[i], judged[i], full_info=not batched_infos
-            )
-            self._elapsed[i] += 1
-            # TimeLimit: truncated once the episode has taken max_episode_steps steps
-            truncated[i] = limit is not None and self._elapsed[i] >= limit
+        if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
+            for i in index:
+                infos[i] = {**self.envs[i]._info(events[i]), **(infos[i] or {})}
         self._observe(stepping, index, worlds, faults.lights)
-        self._autoreset(stepping, terminated, truncated, infos)
+        self._autoreset(stepping, terminated.tolist(), truncated.tolist(), infos)
         if batched_infos:
             labels = None
             if self._batched_act:  # the labels of the worlds whose supervisor just proposed
@@ -225,13 +226,7 @@ class FluidsVectorEnv(VectorEnv):
             info = step_infos(self.envs, worlds, faults, faults.lights, infos, events, labels)
         else:
             info = batch_infos(infos, n)
-        return (
-            self._observations(),
-            np.array(rewards, dtype=np.float64),
-            np.array(terminated, dtype=np.bool_),
-            np.array(truncated, dtype=np.bool_),
-            info,
-        )
+        return self._observations(), rewards, terminated, truncated, info
 
     def _step_alone(self, actions):
         """:meth:`step` of a batch of one: the scalar env's own step (its action checked with

@@ -1,0 +1,84 @@
+"""Termination, rewards and ``is_success`` of every world of a batch, as arrays.
+
+:func:`judge_worlds` is ``FluidsEnv._judge_recorded`` and :func:`report_worlds` the reward and
+``is_success`` of ``FluidsEnv._report`` for all stepping worlds at once, read from the batch's
+rows with the same float operations in the same order (so each world's reward has the bits the
+scalar env gives it). Each env keeps its own episode bookkeeping (``_last_s``, ``_ended``,
+``_route_length``: what its snapshots hold); the batch reads and writes it once per step.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from fluids_bench.tasks.fluids.scenario import (
+    COLLISION_PENALTY,
+    SUCCESS_BONUS,
+    VIOLATION_PENALTY,
+)
+from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
+
+
+@dataclass
+class Judged:
+    """One step's verdict for every world (entries of worlds that did not step are unused)."""
+
+    terminated: np.ndarray  # bool (B,)
+    ego_hit: np.ndarray  # bool (B,): the ego was in a new collision
+    any_hit: np.ndarray  # bool (B,): the world had a new collision
+    gained: np.ndarray  # (B,) metres of route the ego covered in the step
+    broken: np.ndarray  # int (B,) rules the ego broke in the step
+
+
+def judge_worlds(envs, index: list[int], worlds: WorldBatch, events: list, broken) -> Judged:
+    """``FluidsEnv._judge_recorded`` of the worlds in ``index`` (those that stepped, with
+    ``events`` their new collisions and ``broken`` the rules their egos broke)."""
+    env, rows, n = envs[0], worlds.rows, len(envs)
+    ego_hit, any_hit = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
+    for i in index:
+        if events[i]:
+            any_hit[i] = True
+            ego_hit[i] = any(e.a == 0 or e.b == 0 for e in events[i])
+    reached = rows["reached"][:, 0]
+    offset = rows["offset"][:, 0]
+    # scenario.progress: past the path's end once arrived
+    s_now = np.where(reached, rows["path_len"][:, 0] + offset, rows["s"][:, 0] + offset)
+    gained = s_now - np.array([e._last_s for e in envs])
+    if env.done_when == "ego":
+        terminated = reached | ego_hit
+    else:  # every car must arrive; any collision ends the episode
+        terminated = rows["reached"][:, env.world.is_car].all(axis=1) | any_hit
+    s_list, ended = s_now.tolist(), terminated.tolist()
+    for i in index:
+        envs[i]._last_s, envs[i]._ended = s_list[i], ended[i]
+    return Judged(terminated, ego_hit, any_hit, gained, np.asarray(broken, dtype=np.int64))
+
+
+def report_worlds(
+    envs, judged: Judged, worlds: WorldBatch, faults: FaultBatch
+) -> tuple[np.ndarray, np.ndarray]:
+    """Each world's reward (B,) and ``is_success`` (B,; meaningful where it terminated), as
+    ``FluidsEnv._report`` gives them (:func:`~fluids_bench.tasks.fluids.scenario.step_reward`
+    and ``step_reward_v1``)."""
+    env, rows = envs[0], worlds.rows
+    if env.done_when == "ego":
+        success = rows["reached"][:, 0] & ~rows["collided"][:, 0]
+        failed_by = judged.ego_hit
+    else:
+        cars = env.world.is_car
+        success = rows["reached"][:, cars].all(axis=1) & ~rows["collided"][:, cars].any(axis=1)
+        failed_by = judged.any_hit
+    if env.obey_lights:
+        success &= ~faults["ran_red"][:, 0]
+    if env.yield_to_pedestrians:
+        success &= ~faults["failed_to_yield"][:, 0]
+    route_length = np.array([e._route_length for e in envs])
+    if env.reward_version == 0:
+        penalty = np.where(judged.ego_hit, COLLISION_PENALTY, 0.0)
+        return judged.gained / route_length - penalty, success
+    penalty = np.where(failed_by, COLLISION_PENALTY, 0.0)
+    bonus = np.where(judged.terminated & success, SUCCESS_BONUS, 0.0)
+    reward = judged.gained / route_length - penalty - VIOLATION_PENALTY * judged.broken + bonus
+    return reward, success
