@@ -68,6 +68,31 @@ def test_return_above_one_and_a_half_exactly_when_success(env_id):
     assert len(set(outcomes)) == 2, "both outcomes should occur in these seeds"
 
 
+def test_end_on_violation_ends_the_episode_where_a_rule_is_broken_and_nothing_else_changes():
+    """Full speed runs red lights and fails to yield: with ``end_on_violation`` the episode
+    ends in the step of the first violation, with that step's reward and observation as
+    without it, and ``is_success`` False (it could no longer hold)."""
+    kw = {"action_level": "velocity", "max_episode_steps": 300}
+    ended, violations = gym.make("FLUIDS-v2", **kw), 0
+    going_on = gym.make("FLUIDS-v2", end_on_violation=False, **kw)
+    assert ended.unwrapped.end_on_violation and not going_on.unwrapped.end_on_violation
+    full = np.ones(1, dtype=np.float32)  # the fastest target speed
+    for seed in range(8):
+        (o1, _), (o2, _) = ended.reset(seed=seed), going_on.reset(seed=seed)
+        while True:
+            o1, r1, t1, tr1, i1 = ended.step(full)
+            o2, r2, t2, tr2, i2 = going_on.step(full)
+            assert np.array_equal(o1, o2) and r1 == r2 and tr1 == tr2
+            broke = i2["ego_ran_red_light"] or i2["ego_failed_to_yield"]
+            assert t1 == (t2 or broke)
+            if t1 or tr1:
+                break
+        if broke:
+            violations += 1
+            assert i1["is_success"] is False and r1 < 0  # this step's progress, minus 1
+    assert violations >= 2, "full speed should break a rule in some of these seeds"
+
+
 def test_options_are_checked():
     with pytest.raises(ValueError, match="action_scale"):
         gym.make("FLUIDS-v1", action_scale="unit")
@@ -75,3 +100,5 @@ def test_options_are_checked():
         gym.make("FLUIDS-v1", reward_version=2)
     with pytest.raises(ValueError, match="obs_scale"):
         gym.make("FLUIDS-v1", obs_scale="whitened")
+    with pytest.raises(ValueError, match="end_on_violation"):
+        gym.make("FLUIDS-v1", end_on_violation="yes")

@@ -50,10 +50,13 @@ def judge_worlds(envs, index: list[int], worlds: WorldBatch, events: list, broke
         terminated = reached | ego_hit
     else:  # every car must arrive; any collision ends the episode
         terminated = rows["reached"][:, env.world.is_car].all(axis=1) | any_hit
+    broken = np.asarray(broken, dtype=np.int64)
+    if env.end_on_violation:  # is_success can no longer hold
+        terminated |= broken > 0
     s_list, ended = s_now.tolist(), terminated.tolist()
     for i in index:
         envs[i]._last_s, envs[i]._ended = s_list[i], ended[i]
-    return Judged(terminated, ego_hit, any_hit, gained, np.asarray(broken, dtype=np.int64))
+    return Judged(terminated, ego_hit, any_hit, gained, broken)
 
 
 def report_worlds(
