@@ -34,6 +34,7 @@ SHARED_RENDERERS = (
     (r"sweep_(singulation|singulation_size|track|grasping|fluids)", "sweep_study"),
     (r"bench_(singulation|grasping)", "bench_tasks"),
     (r"rl_(dag|singulation|grasping|track)", "rl_tasks"),
+    (r"rl_(hopper|walker2d|halfcheetah|humanoid)(_sac)?", "rl_tasks"),
     (r"rl_fluids_v2_(2m|sac)", "rl_fluids_v2"),
 )
 

@@ -17,9 +17,8 @@ supervisor's label every step, and the ego follows it (control level). Parts:
 * ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch`` into its
   phases (see ``FluidsVectorEnv``): actions to controls, the world step with the fault record,
   the velocity planner, the rest of the supervisor (recovery check, PID proposal, labels), the
-  observation, the infos, resets, and the per-world Python that remains (judging each step,
-  rewards) with the vector layer's own work. A deterministic profiler inflates Python calls:
-  read fractions, not times.
+  observation, the infos, judging and rewards, resets, and the vector layer's own work. A
+  deterministic profiler inflates Python calls: read fractions, not times.
 
 The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
 ``processes`` part: ``nice -n 5 python scripts/benchmarks/bench_vector.py``.
@@ -217,7 +216,7 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     stats = pstats.Stats(prof)
     vector_step = _cum(stats, VECTOR, "step")
     planner = _cum(
-        stats, "supervisor/velocity.py", "plan", (("supervisor/stack.py", "plan_velocity"),)
+        stats, "supervisor/batch.py", "plan_velocities", (("supervisor/batch.py", "plan"),)
     )
     # (a list comprehension is its own frame before Python 3.12)
     in_infos = (("vector/infos.py", "step_infos"), ("vector/infos.py", "<listcomp>"))
@@ -239,10 +238,12 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
         + labels,
         "observation": _cum(stats, VECTOR, "_observe", IN_STEP),
         "infos (without labels)": _cum(stats, "vector/infos.py", "step_infos", IN_STEP) - labels,
+        "judging and rewards": _cum(stats, "vector/judge.py", "judge_worlds", IN_STEP)
+        + _cum(stats, "vector/judge.py", "report_worlds", IN_STEP),
         "resets": _cum(stats, ENV, "reset", IN_STEP, required=False),
     }
-    # judging (termination, progress, violations), rewards and the vector layer's own work
-    parts["per-world Python and vector layer"] = vector_step - sum(parts.values())
+    # the vector layer's own work: action checks, autoreset checks, result arrays
+    parts["vector layer"] = vector_step - sum(parts.values())
     return {
         "num_envs": n,
         "batch_steps": batch_steps,
