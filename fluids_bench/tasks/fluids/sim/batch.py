@@ -86,6 +86,8 @@ class WorldBatch(Rows):
             world = worlds[i]
             world.begin_step()
             self.steps[i], self.times[i] = world.steps, world.time
+            # World.finish_step's lights, here: they depend on the clock alone
+            world.light_state = world.lights.states(world.time)
         w = worlds[0]  # the arrays every world shares
         kernels.advance_worlds(
             stepping, rows["state"], self.controls, w.is_car, rows["params"], w.dt,
@@ -96,10 +98,10 @@ class WorldBatch(Rows):
             GOAL_TOLERANCE, rows["reached"], w._circle_offsets, w._circle_samples,
             w._circle_radius, w._reach2, rows["_offroad_candidates"], self._maybe,
         )  # fmt: skip
+        # the rest of World.finish_step: the exact check where the broad phase found candidates
         events: list[list[Collision]] = [[] for _ in worlds]
-        maybe = self._maybe.tolist()
-        for i in index:
-            events[i] = worlds[i].finish_step(maybe[i])
+        for i in (self._maybe & stepping).nonzero()[0].tolist():
+            events[i] = worlds[i].collide()
         return events
 
 

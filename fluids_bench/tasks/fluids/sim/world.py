@@ -278,10 +278,14 @@ class World:
 
     def finish_step(self, maybe_collided: bool) -> list[Collision]:
         """The part of :meth:`step` after the agents moved: the lights at the new time and,
-        when the broad phase found candidates, the exact collision check."""
+        when the broad phase found candidates, the exact collision check (a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` looks the lights up right after
+        :meth:`begin_step` and calls :meth:`collide` only where needed)."""
         self.light_state = self.lights.states(self.time)
-        if not maybe_collided:
-            return []
+        return self.collide() if maybe_collided else []
+
+    def collide(self) -> list[Collision]:
+        """This step's exact collision check, once the broad phase found candidates."""
         events = self._collisions(self._offroad_candidates)
         self.log.extend(events)
         return events
