@@ -231,9 +231,20 @@ class _QLidar:
             size = low.shape[0] * (3 + labels - 1)
             self.space = spaces.Box(-1.0, 1.0, (size,), np.float32)
 
+        # noiseless: observe_worlds can read a batch in one call (noise draws per world)
+        self.batchable = self.sensor.noise_std == 0 and self.sensor.dropout == 0
+
     def observe(self, world: World, rng: np.random.Generator) -> np.ndarray:
         obs = self.sensor.observe(world, rng)
         return obs if self.scale is None else self.scale(obs)
+
+    def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
+        """:meth:`observe` of each world of ``worlds`` where ``stepping``, as rows (noiseless
+        only, see :attr:`batchable`)."""
+        obs = self.sensor.cast_worlds(stepping, worlds, lights)[stepping].astype(np.float32)
+        if self.scale is None:
+            return obs
+        return self.scale(obs).reshape(len(obs), -1)  # row by row, flattened per world
 
 
 _FACTORIES = {"explicit": _Explicit, "birdseye": _BirdsEye, "qlidar": _QLidar}
@@ -260,7 +271,7 @@ class Observer:
     @property
     def batchable(self) -> bool:
         """Whether :meth:`observe_worlds` can observe a batch of worlds in one call (a single
-        noiseless explicit observation)."""
+        noiseless explicit or quasi-LIDAR observation)."""
         return self.single and getattr(next(iter(self.parts.values())), "batchable", False)
 
     def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:

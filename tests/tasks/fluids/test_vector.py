@@ -130,6 +130,9 @@ def test_world_i_is_the_scalar_env_seeded_s_plus_i(level, n):
         ("FLUIDS-v1", "SameStep", {"obs_noise": 0.5}),
         ("FLUIDS-v2", "NextStep", {"obs_type": ["explicit", "qlidar"]}),
         ("FLUIDS-v2", "NextStep", {"action_level": "velocity"}),  # normalised targets
+        # the quasi-LIDAR in one call: version 0, version 1 normalised
+        ("FLUIDS-v0", "NextStep", {"obs_type": "qlidar"}),
+        ("FLUIDS-Sensitivity-v2", "NextStep", {"action_level": "velocity"}),
     ],
 )
 def test_the_batch_equals_sync_vector_env(env_id, mode, extra):

@@ -74,7 +74,8 @@ class FluidsVectorEnv(VectorEnv):
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
     6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
-    7. one observes every world (a noiseless explicit observation; others world by world);
+    7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
+       world by world);
     8. the infos are read from the batched rows for all worlds at once
        (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; the labels come from
        each env; with ``"SameStep"`` autoresets, world by world).

@@ -45,6 +45,7 @@ from dataclasses import dataclass
 
 import numpy as np
 import shapely
+from numba import njit
 
 from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of
 from fluids_bench.tasks.fluids.sim.layout.compiled import Layout
@@ -243,6 +244,32 @@ class QLidarSensor:
             _V1_LABELS, goal.real, goal.imag, self.max_range,
         )  # fmt: skip
 
+    def cast_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
+        """:meth:`cast` of the ego of each world of ``worlds`` (a
+        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) where ``stepping``, as rows
+        (B, m, 4) in one compiled call; ``lights``: each world's light states (B, L). Rows of
+        the other worlds are left as they were."""
+        w, rows, ed = worlds.worlds[0], worlds.rows, self.edges
+        # version 0 passes version 1's tables unused (one compiled signature for both)
+        g = self.respect or respect_geometry(w.layout)
+        n = len(stepping)
+        if getattr(self, "_rows", None) is None or len(self._rows) != n:
+            self._rows = np.zeros((n, *self.shape))
+        goal_x, goal_y = np.zeros(n), np.zeros(n)
+        if self.version == 1:  # _cast_v1's goal point, for every world at once
+            s = np.minimum(rows["s"][:, 0] + WAYPOINT_AHEAD, rows["path_len"][:, 0])
+            k = np.minimum(np.rint(s / PATH_SPACING), rows["path_z"].shape[2] - 1)
+            goal = rows["path_z"][np.arange(n), 0, k.astype(np.int64)]
+            goal_x, goal_y = goal.real.copy(), goal.imag.copy()
+        qlidar_cast_worlds(
+            stepping, rows["state"], rows["active"], w.length, w.width, w.is_car, self._cos,
+            self._sin, self.max_range, ed.a, ed.e, ed.angle, ed.mid, ed.half, _LABEL_CODES,
+            self.version == 1, g.line_a, g.line_e, g.line_angle, g.line_light, lights, STOP,
+            CAUTION, g.cw_a, g.cw_e, g.cw_angle, g.cw_centre, g.cw_axis, g.cw_half, _V1_LABELS,
+            goal_x, goal_y, self._rows,
+        )  # fmt: skip
+        return self._rows
+
     def observe(self, world, rng: np.random.Generator, ego: int = 0) -> np.ndarray:
         out = self.cast(world, ego)
         if self.noise_std > 0 or self.dropout > 0:
@@ -260,3 +287,27 @@ class QLidarSensor:
 _V1_LABELS = np.array([RED_LIGHT_HIT, YELLOW_LIGHT_HIT, PEDESTRIAN_HIT, GOAL_ROW], dtype=float)
 _NONE = np.zeros((0, 3))
 _NONE_DROPPED = np.zeros(0, dtype=bool)
+
+
+@njit(cache=True, nogil=True)
+def qlidar_cast_worlds(
+    stepping, state, active, length, width, is_car, cos_k, sin_k, max_range,
+    edge_a, edge_e, edge_angle, edge_mid, edge_half, labels, v1,
+    line_a, line_e, line_angle, line_light, light_state, stop_code, caution_code,
+    cw_a, cw_e, cw_angle, cw_centre, cw_axis, cw_half, v1_labels, goal_x, goal_y, out,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`kernels.qlidar_cast` (and with ``v1`` :func:`kernels.qlidar_v1_extras`) of agent
+    0 on row ``b`` of the per-world arrays, into ``out[b]``, where ``stepping[b]``."""
+    for b in range(len(stepping)):
+        if stepping[b]:
+            qlidar_cast(
+                state[b], active[b], length, width, is_car, 0, cos_k, sin_k, max_range,
+                edge_a, edge_e, edge_angle, edge_mid, edge_half, labels, out[b],
+            )  # fmt: skip
+            if v1:
+                qlidar_v1_extras(
+                    out[b], state[b], active[b], is_car, width, 0, cos_k, sin_k, line_a,
+                    line_e, line_angle, line_light, light_state[b], stop_code, caution_code,
+                    cw_a, cw_e, cw_angle, cw_centre, cw_axis, cw_half, v1_labels, goal_x[b],
+                    goal_y[b], max_range,
+                )  # fmt: skip
