@@ -19,6 +19,9 @@ supervisor's label every step, and the ego follows it (control level). Parts:
   the velocity planner, the rest of the supervisor (recovery check, PID proposal, labels), the
   observation, the infos, judging and rewards, resets, and the vector layer's own work. A
   deterministic profiler inflates Python calls: read fractions, not times.
+* ``kernels``: CPU microseconds per env-step at B = ``--kernel-batch`` spent inside each of the
+  step's compiled calls (timed by wrapping them), against the whole step: a floor for any
+  design that keeps these kernels, however little Python runs around them.
 
 The single-process parts run pinned to ``--core`` (default: the last core). Run it with both cores free for the
 ``processes`` part: ``nice -n 5 python scripts/benchmarks/bench_vector.py``.
@@ -252,6 +255,60 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     }
 
 
+# ---------------------------------------------------------------------- compiled share
+# the vector step's compiled calls, by the module attribute the step looks them up through
+KERNELS = {
+    "world step (advance_worlds)": ("fluids_bench.tasks.fluids.sim.kernels", "advance_worlds"),
+    "fault record (record_steps)": ("fluids_bench.tasks.fluids.sim.batch", "record_steps"),
+    "off-route check": ("fluids_bench.tasks.fluids.supervisor.batch", "mark_off_route_worlds"),
+    "velocity planner, first half": ("fluids_bench.tasks.fluids.supervisor.batch", "plan_head_worlds"),
+    "velocity planner, second half": ("fluids_bench.tasks.fluids.supervisor.batch", "plan_tail_worlds"),
+    "PID (proposals, labels)": ("fluids_bench.tasks.fluids.supervisor.batch", "pid_follow_worlds"),
+    "observation (fill_explicit_worlds)": ("fluids_bench.tasks.fluids.observations", "fill_explicit_worlds"),
+}  # fmt: skip
+
+
+def kernels(n: int, batch_steps: int, kwargs: dict) -> dict:
+    """CPU µs per env-step inside each compiled call of the vector step, and the whole step."""
+    import importlib
+
+    spent = dict.fromkeys(KERNELS, 0.0)
+
+    def timer(part: str, f):
+        def timed(*args):
+            t = time.process_time()
+            try:
+                return f(*args)
+            finally:
+                spent[part] += time.process_time() - t
+
+        return timed
+
+    originals = {}
+    for part, (module, name) in KERNELS.items():
+        mod = importlib.import_module(module)
+        originals[part] = (mod, name, getattr(mod, name))
+        setattr(mod, name, timer(part, getattr(mod, name)))
+    try:
+        runner = Runner("vector", n, kwargs)
+        spent.update(dict.fromkeys(KERNELS, 0.0))
+        c0 = time.process_time()
+        runner.run(batch_steps)
+        cpu = time.process_time() - c0
+    finally:
+        for mod, name, f in originals.values():
+            setattr(mod, name, f)
+    env_steps = n * batch_steps
+    per = {k: round(1e6 * v / env_steps, 2) for k, v in spent.items()}
+    return {
+        "num_envs": n,
+        "env_steps": env_steps,
+        "us_per_env_step": round(1e6 * cpu / env_steps, 2),
+        "compiled_us_per_env_step": round(sum(per.values()), 2),
+        "by_call": per,
+    }
+
+
 # ---------------------------------------------------------------------- plot
 def plot(data: dict, path: str) -> None:
     import matplotlib
@@ -295,6 +352,7 @@ def main() -> None:
         "--process-steps", type=int, default=32000, help="env-steps per process (processes part)"
     )
     parser.add_argument("--profile-steps", type=int, default=1000, help="env-steps profiled")
+    parser.add_argument("--kernel-batch", type=int, default=64, help="B of the kernels part")
     parser.add_argument(
         "--core",
         type=int,
@@ -317,6 +375,7 @@ def main() -> None:
         for c in args.cars
     ]
     split = profile(args.agents_batch, max(4, args.profile_steps // args.agents_batch), S2)
+    compiled = kernels(args.kernel_batch, max(8, args.steps // args.kernel_batch), S2)
     os.sched_setaffinity(0, everywhere)
     cores = sorted(everywhere)[:2]
     pair = None
@@ -341,6 +400,7 @@ def main() -> None:
         "agents": agents_rows,
         "processes": pair,
         "profile": split,
+        "kernels": compiled,
     }
     if args.image:
         plot(data, args.image)

@@ -1,7 +1,8 @@
 """docs/results/bench_vector.json (scripts/benchmarks/bench_vector.py --results): batched FLUIDS.
 
 Parts: ``batch`` (default: env-steps per CPU-second by B), ``agents`` (scaling in agents),
-``processes`` (one process vs two on two cores), ``profile`` (where a vector step's time goes).
+``processes`` (one process vs two on two cores), ``profile`` (where a vector step's time goes),
+``kernels`` (the time inside the step's compiled calls).
 """
 
 import sys
@@ -83,7 +84,28 @@ def _profile(data) -> str:
     )
 
 
-PARTS = {"batch": _batch, "agents": _agents, "processes": _processes, "profile": _profile}
+def _kernels(data) -> str:
+    k = data.get("kernels")
+    if not k:
+        return "(not measured in this run)"
+    out = ["| compiled call | CPU µs per env-step |", "|---|---|"]
+    for name, us in k["by_call"].items():
+        out.append(f"| {name} | {us:.2f} |")
+    out.append(f"| **all compiled calls** | **{k['compiled_us_per_env_step']:.2f}** |")
+    out.append(f"| the whole step | {k['us_per_env_step']:.2f} |")
+    return (
+        "\n".join(out) + f"\n\nVector entry point at B = {k['num_envs']}, {k['env_steps']:,} "
+        "env-steps; each compiled call of the step timed (CPU time) by a wrapper."
+    )
+
+
+PARTS = {
+    "batch": _batch,
+    "agents": _agents,
+    "processes": _processes,
+    "profile": _profile,
+    "kernels": _kernels,
+}
 
 
 def render(data, part: str = "batch", **_) -> str:
