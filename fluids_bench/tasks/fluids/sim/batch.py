@@ -110,8 +110,11 @@ class FaultBatch(Rows):
     :class:`WorldBatch`'s worlds."""
 
     def __init__(self, trackers: list[FaultTracker]) -> None:
-        super().__init__(trackers, PER_TRACKER)
         first = trackers[0]
+        # the routes each tracker last followed here (FaultTracker._follow_routes recomputes
+        # its zone thresholds only when they change); -2: bound since, not followed yet
+        self._followed = np.full((len(trackers), len(first.world.route)), -2, dtype=np.int64)
+        super().__init__(trackers, PER_TRACKER)
         # each world's light states, as recorded by the last update (its rows that stepped)
         self.lights = np.zeros((len(trackers), len(first.world.light_state)), dtype=np.int8)
         self._slots = np.zeros(len(trackers), dtype=np.int64)
@@ -120,12 +123,22 @@ class FaultBatch(Rows):
     def trackers(self) -> list[FaultTracker]:
         return self.objects
 
+    def bind(self, index: int, obj) -> None:
+        super().bind(index, obj)
+        self._followed[index] = -2
+
     def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
         trackers, lights, slots = self.objects, self.lights, self._slots
+        # FaultTracker._follow_routes, called only where the routes changed since the last
+        # call (elsewhere it would find its thresholds current)
+        routes = worlds["route"]
+        changed = stepping & (routes != self._followed).any(axis=1)
+        for i in changed.nonzero()[0].tolist():
+            trackers[i]._follow_routes()
+        self._followed[changed] = routes[changed]
         for i in stepping.nonzero()[0].tolist():
             tracker = trackers[i]
-            tracker._follow_routes()
             lights[i] = tracker.world.light_state
             slots[i] = tracker._recorded % HISTORY
             tracker._recorded += 1
