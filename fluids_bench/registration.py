@@ -35,13 +35,11 @@ FAIR: dict[str, Any] = {
 }
 # v2: RL-ready v1 (same scenes, same success): normalised actions ([-1, 1] at every continuous
 # level, labels in the same units), a reward that agrees with is_success, flat observations
-# scaled to [-1, 1], episodes that end where is_success can no longer hold; see the env
-# card's Rewards, Episode End and Version History
+# scaled to [-1, 1]; see the env card's Rewards and Version History
 RL_READY: dict[str, Any] = {
     "action_scale": "normalized",
     "reward_version": 1,
     "obs_scale": "normalized",
-    "end_on_violation": True,
 }
 # FLUIDS-v1's default scene is busy enough to discriminate: 8 walkers, and 60 s, which the
 # yielding supervisor needs with them
@@ -89,13 +87,11 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
 # PettingZoo's ``max_cycles`` keyword (the registry tests shorten episodes with it).
 _MULTI = "fluids_bench.tasks.fluids.multi_agent:parallel_env"
 _MULTI_FAIR = {k: v for k, v in FAIR.items() if k != "obey_lights"}
-_MULTI_RL_READY = {k: v for k, v in RL_READY.items() if k != "end_on_violation"}
 PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v0": (_MULTI, {}),
     # (the multi-agent env has no obey_lights option: FAIR less that one)
     "FLUIDS-MultiAgent-v1": (_MULTI, dict(_MULTI_FAIR)),
-    # (nor rules that fail an agent's success other than collisions: no end_on_violation)
-    "FLUIDS-MultiAgent-v2": (_MULTI, {**_MULTI_FAIR, **_MULTI_RL_READY}),
+    "FLUIDS-MultiAgent-v2": (_MULTI, {**_MULTI_FAIR, **RL_READY}),
 }
 
 # Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or

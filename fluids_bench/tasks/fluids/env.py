@@ -124,8 +124,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     | success | +1 | the step that ends the episode with ``info["is_success"]`` |
 
     So a successful episode returns 2 (plus the few centimetres driven past the goal over the
-    route's length); a failed one at most the progress it made (under 1 for a timeout, below 0
-    after a collision, a red light or a failure to yield, which end the episode in the v2 ids:
+    route's length); a failed one at most the progress it made (under 1 for a timeout, about 0
+    for an arrival after a red light, below 0 after a collision, or after a red light with
     ``end_on_violation``): a return above 1.5 means success. A timeout costs the success bonus
     (the env does not see ``TimeLimit``'s truncation).
 
@@ -141,11 +141,11 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
     (with a car, a pedestrian, or leaving the road). ``done_when="all"`` (the sensitivity
     analysis' criterion): terminated when every car has arrived or on any collision (after the
-    ego arrives, actions are ignored and rewards are 0). With ``end_on_violation`` (the v2
-    ids), also terminated in the step the ego breaks a rule that fails ``is_success`` (a red
-    light with ``obey_lights``, a failure to yield with ``yield_to_pedestrians``): the
-    episode's outcome is decided there, and an RL agent is not paid for the progress it would
-    make after failing (see Rewards). Truncated by ``TimeLimit`` (``FLUIDS-v0``: 400 steps =
+    ego arrives, actions are ignored and rewards are 0). With ``end_on_violation``, also
+    terminated in the step the ego breaks a rule that fails ``is_success`` (a red light with
+    ``obey_lights``, a failure to yield with ``yield_to_pedestrians``): the episode's outcome
+    is decided there, and an RL agent is not paid for the progress it would make after failing
+    (see Rewards). Truncated by ``TimeLimit`` (``FLUIDS-v0``: 400 steps =
     40 s; ``FLUIDS-v1``: 600; the sensitivity ids: 600).
 
     ## Snapshots and labels
@@ -247,17 +247,16 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``obs_scale``: ``"physical"`` (default) or ``"normalized"`` (the v2 ids): see Observation
       Space.
     * ``end_on_violation``: end the episode when the ego breaks a rule that fails
-      ``is_success`` (default False, True in the v2 ids): see Episode End.
+      ``is_success`` (default False): see Episode End.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
     * v2: v1's scenes, supervisor and success criterion, made RL-ready:
-      ``action_scale="normalized"``, ``reward_version=1``, ``obs_scale="normalized"``,
-      ``end_on_violation=True`` (``FLUIDS-v2``, ``FLUIDS-Sensitivity-v2``). Off-the-shelf PPO
-      learns it where it fails on v1 (the docs' RL page has the ablation). v0 and v1 are
-      unchanged, bit for bit.
+      ``action_scale="normalized"``, ``reward_version=1``, ``obs_scale="normalized"``
+      (``FLUIDS-v2``, ``FLUIDS-Sensitivity-v2``). Off-the-shelf PPO learns it where it fails
+      on v1 (the docs' RL page has the ablation). v0 and v1 are unchanged, bit for bit.
     * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
       ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
       ``FLUIDS-v1`` also runs 8 pedestrians and 600 steps (60 s), the busier scene that

@@ -73,8 +73,8 @@ def test_end_on_violation_ends_the_episode_where_a_rule_is_broken_and_nothing_el
     ends in the step of the first violation, with that step's reward and observation as
     without it, and ``is_success`` False (it could no longer hold)."""
     kw = {"action_level": "velocity", "max_episode_steps": 300}
-    ended, violations = gym.make("FLUIDS-v2", **kw), 0
-    going_on = gym.make("FLUIDS-v2", end_on_violation=False, **kw)
+    ended, violations = gym.make("FLUIDS-v2", end_on_violation=True, **kw), 0
+    going_on = gym.make("FLUIDS-v2", **kw)
     assert ended.unwrapped.end_on_violation and not going_on.unwrapped.end_on_violation
     full = np.ones(1, dtype=np.float32)  # the fastest target speed
     for seed in range(8):

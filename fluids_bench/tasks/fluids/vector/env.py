@@ -72,7 +72,8 @@ class FluidsVectorEnv(VectorEnv):
        :func:`~.judge.judge_worlds`, ``FluidsEnv._judge_recorded``'s arithmetic on the rows);
     5. the supervisors plan (one call finds every world's cars off their routes, recovery
        runs world by world where any is; two calls plan the velocities of every world due for
-       a plan) and one call proposes every supervisor's next controls (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
+       a plan) and one call proposes every supervisor's next controls
+       (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
     6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
     7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
        world by world);
