@@ -22,6 +22,7 @@ from fluids_bench.tasks.fluids.scenario import (
     DONE_WHEN,
     REWARD_VERSIONS,
     build_scenario,
+    check_failure_penalty,
     is_success,
     progress,
     step_reward,
@@ -248,6 +249,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       Space.
     * ``end_on_violation``: end the episode when the ego breaks a rule that fails
       ``is_success`` (default False): see Episode End.
+    * ``failure_penalty``: the weight of reward version 1's collision, red-light and
+      failure-to-yield terms (default 1; see Rewards).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
@@ -306,6 +309,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         reward_version: int = 0,
         obs_scale: str = "physical",
         end_on_violation: bool = False,
+        failure_penalty: float = 1.0,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -327,6 +331,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         )
         self.reward_version = check_int("FluidsEnv", "reward_version", reward_version, 0, 1)
         self.end_on_violation = check_bool("FluidsEnv", "end_on_violation", end_on_violation)
+        self.failure_penalty = check_failure_penalty(
+            "FluidsEnv", failure_penalty, self.reward_version
+        )
         assert self.reward_version in REWARD_VERSIONS
         scenario = build_scenario(
             "FluidsEnv",
@@ -478,7 +485,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         else:  # every way to fail is_success costs, success pays (see Rewards)
             failed_by = bool(events) if self.done_when == "all" else ego_hit
             succeeded = bool(info.get("is_success", False))
-            reward = step_reward_v1(gained, self._route_length, failed_by, broken, succeeded)
+            reward = step_reward_v1(
+                gained, self._route_length, failed_by, broken, succeeded, self.failure_penalty
+            )
         if self.render_mode == "human":
             self.render()
         return float(reward), terminated, info

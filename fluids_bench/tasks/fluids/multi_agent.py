@@ -30,6 +30,7 @@ from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
     build_scenario,
+    check_failure_penalty,
     is_success,
     progress,
     step_reward,
@@ -228,7 +229,8 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     * ``black_death``: keep finished agents in the episode (see Episode End; default False).
     * ``action_scale``, ``reward_version``, ``obs_scale``: as ``FLUIDS-v0`` (``"physical"``, 0,
       ``"physical"`` by default; ``"normalized"``, 1, ``"normalized"`` in
-      ``FLUIDS-MultiAgent-v2``).
+      ``FLUIDS-MultiAgent-v2``); ``failure_penalty``: as ``FLUIDS-v0`` (the weight of
+      reward version 1's collision term, default 1).
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
@@ -300,6 +302,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         action_scale: str = "physical",
         reward_version: int = 0,
         obs_scale: str = "physical",
+        failure_penalty: float = 1.0,
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
@@ -312,6 +315,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         self.black_death = check_bool(WHERE, "black_death", black_death)
         self.action_scale = check_choice(WHERE, "action_scale", action_scale, levels.ACTION_SCALES)
         self.reward_version = check_int(WHERE, "reward_version", reward_version, 0, 1)
+        self.failure_penalty = check_failure_penalty(WHERE, failure_penalty, self.reward_version)
         scenario = build_scenario(
             WHERE,
             controlled_cars=controlled_cars,
@@ -468,7 +472,12 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             else:  # a collision costs, arriving without one pays (see Rewards)
                 won = arrived and not hit[i] and is_success(w, i)
                 rewards[a] = step_reward_v1(
-                    s_now - self._last_s[i], self._route_length[i], bool(hit[i]), 0, won
+                    s_now - self._last_s[i],
+                    self._route_length[i],
+                    bool(hit[i]),
+                    0,
+                    won,
+                    self.failure_penalty,
                 )
             self._last_s[i] = s_now
             terminations[a] = arrived or bool(hit[i])

@@ -210,18 +210,36 @@ def step_reward(gained: float, route_length: float, collided: bool) -> float:
     return gained / route_length - (COLLISION_PENALTY if collided else 0.0)
 
 
+def check_failure_penalty(where: str, value: Any, reward_version: int) -> float:
+    """``failure_penalty``: a finite weight in [0, 100] of reward version 1's failure terms
+    (collision, red light, failure to yield); with reward version 0 only its default, 1."""
+    penalty = check_float(where, "failure_penalty", value, 0.0, 100.0)
+    if reward_version == 0 and penalty != 1.0:
+        fail(where, "failure_penalty", value, "1.0 with reward_version=0 (it weights reward "
+             "version 1's failure terms); pass reward_version=1 to change it")  # fmt: skip
+    return penalty
+
+
 def step_reward_v1(
-    gained: float, route_length: float, collided: bool, violations: int, succeeded: bool
+    gained: float,
+    route_length: float,
+    collided: bool,
+    violations: int,
+    succeeded: bool,
+    failure_penalty: float = 1.0,
 ) -> float:
     """``reward_version=1``: the progress reward of :func:`step_reward` (1 in total on
-    arrival, minus ``COLLISION_PENALTY`` in a step with a collision that fails the episode),
-    minus ``VIOLATION_PENALTY`` for each rule the step broke that fails ``is_success`` (a red
-    light run, a failure to yield), plus ``SUCCESS_BONUS`` on the step that ends the episode
-    with ``is_success``. A successful episode returns at least 2 (1 + the overshoot past the
-    goal, + 1); a failed one at most the progress made (1 plus that overshoot)."""
+    arrival), minus ``failure_penalty`` times ``COLLISION_PENALTY`` in a step with a collision
+    that fails the episode and times ``VIOLATION_PENALTY`` for each rule the step broke that
+    fails ``is_success`` (a red light run, a failure to yield), plus ``SUCCESS_BONUS`` on the
+    step that ends the episode with ``is_success``. A successful episode returns at least 2
+    (1 + the overshoot past the goal, + 1); a failed one at most the progress made (1 plus that
+    overshoot)."""
+    collision = failure_penalty * COLLISION_PENALTY if collided else 0.0
     return (
-        step_reward(gained, route_length, collided)
-        - VIOLATION_PENALTY * violations
+        gained / route_length
+        - collision
+        - failure_penalty * VIOLATION_PENALTY * violations
         + (SUCCESS_BONUS if succeeded else 0.0)
     )
 

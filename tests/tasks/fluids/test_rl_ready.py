@@ -102,3 +102,40 @@ def test_options_are_checked():
         gym.make("FLUIDS-v1", obs_scale="whitened")
     with pytest.raises(ValueError, match="end_on_violation"):
         gym.make("FLUIDS-v1", end_on_violation="yes")
+
+
+def test_failure_penalty_weights_only_the_failure_terms():
+    """Same seed and actions: rewards differ by (penalty - 1) times the failure terms alone,
+    in the scalar env and the vector env alike; the default keeps v2's rewards."""
+    kw = {"action_level": "velocity", "max_episode_steps": 200}
+    full = np.ones(1, dtype=np.float32)  # fast: red lights, failures to yield, collisions
+    base, heavy = gym.make("FLUIDS-v2", **kw), gym.make("FLUIDS-v2", failure_penalty=3.0, **kw)
+    diffs = []
+    for seed in range(6):
+        base.reset(seed=seed), heavy.reset(seed=seed)
+        ran = yielded = False
+        while True:
+            *_, r1, t1, tr1, i1 = base.step(full)
+            *_, r2, t2, tr2, _ = heavy.step(full)
+            failures = (i1["ego_ran_red_light"] and not ran) + (
+                i1["ego_failed_to_yield"] and not yielded
+            )
+            failures += any(c["a"] == 0 or c["b"] == 0 for c in i1["collisions"])
+            ran, yielded = i1["ego_ran_red_light"], i1["ego_failed_to_yield"]
+            assert r2 - r1 == pytest.approx(-2.0 * failures, abs=1e-9)
+            diffs.append(failures)
+            if t1 or tr1:
+                break
+    assert sum(diffs) >= 3, "full speed should fail in some of these seeds"
+    vec = gym.make_vec(
+        "FLUIDS-v2", 2, vectorization_mode="vector_entry_point", failure_penalty=3.0, **kw
+    )
+    sync = gym.make_vec("FLUIDS-v2", 2, vectorization_mode="sync", failure_penalty=3.0, **kw)
+    vec.reset(seed=0), sync.reset(seed=0)
+    for _ in range(150):
+        a = np.ones((2, 1), dtype=np.float32)
+        assert np.array_equal(vec.step(a)[1], sync.step(a)[1])
+    with pytest.raises(ValueError, match="failure_penalty"):
+        gym.make("FLUIDS-v1", failure_penalty=2.0)  # reward version 0
+    with pytest.raises(ValueError, match="failure_penalty"):
+        gym.make("FLUIDS-v2", failure_penalty=-1.0)

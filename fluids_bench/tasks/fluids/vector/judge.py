@@ -81,7 +81,9 @@ def report_worlds(
     if env.reward_version == 0:
         penalty = np.where(judged.ego_hit, COLLISION_PENALTY, 0.0)
         return judged.gained / route_length - penalty, success
-    penalty = np.where(failed_by, COLLISION_PENALTY, 0.0)
+    weight = env.failure_penalty
+    penalty = np.where(failed_by, weight * COLLISION_PENALTY, 0.0)
     bonus = np.where(judged.terminated & success, SUCCESS_BONUS, 0.0)
-    reward = judged.gained / route_length - penalty - VIOLATION_PENALTY * judged.broken + bonus
+    violations = weight * VIOLATION_PENALTY * judged.broken
+    reward = judged.gained / route_length - penalty - violations + bonus
     return reward, success
