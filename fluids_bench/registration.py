@@ -41,6 +41,10 @@ RL_READY: dict[str, Any] = {
     "reward_version": 1,
     "obs_scale": "normalized",
 }
+# v3: v2 with its failure terms (collision, red light, failure to yield) weighted 3 instead of
+# 1, so that at PPO's discount a policy that waits its turn is clearly worth more than one that
+# rushes (measured on the docs' RL page)
+RL_READY_V3: dict[str, Any] = {**RL_READY, "failure_penalty": 3.0}
 # FLUIDS-v1's default scene is busy enough to discriminate: 8 walkers, and 60 s, which the
 # yielding supervisor needs with them
 BUSY_SCENE: dict[str, Any] = {"num_pedestrians": 8}
@@ -59,6 +63,8 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "FLUIDS-Sensitivity-v1": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR}),
     "FLUIDS-v2": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR, **RL_READY}),
     "FLUIDS-Sensitivity-v2": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR, **RL_READY}),
+    "FLUIDS-v3": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR, **RL_READY_V3}),
+    "FLUIDS-Sensitivity-v3": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR, **RL_READY_V3}),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
@@ -92,6 +98,7 @@ PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     # (the multi-agent env has no obey_lights option: FAIR less that one)
     "FLUIDS-MultiAgent-v1": (_MULTI, dict(_MULTI_FAIR)),
     "FLUIDS-MultiAgent-v2": (_MULTI, {**_MULTI_FAIR, **RL_READY}),
+    "FLUIDS-MultiAgent-v3": (_MULTI, {**_MULTI_FAIR, **RL_READY_V3}),
 }
 
 # Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or
@@ -131,9 +138,11 @@ def register_envs() -> None:
     # Gymnasium warns "FLUIDS-v0 is out of date, consider v1" on every make. Here v0 and v1 are
     # not deprecated: v0 is the source's setting, kept bit-reproducible for the datasets and
     # sweeps built on it, v1 the fair-benchmark defaults in physical units (what IL datasets
-    # record), next to v2's RL-ready form. Silence that advice for our ids only.
+    # record), v2 the RL-ready form that v3 reweights. Silence that advice for our ids only.
     superseded = "|".join(
-        k for k in ENV_SPECS if k[-2:] in ("v0", "v1") and k[:-1] + str(int(k[-1]) + 1) in ENV_SPECS
+        k
+        for k in ENV_SPECS
+        if k[-2:] in ("v0", "v1", "v2") and k[:-1] + str(int(k[-1]) + 1) in ENV_SPECS
     )
     warnings.filterwarnings(
         "ignore",

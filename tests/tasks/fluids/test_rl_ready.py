@@ -93,6 +93,14 @@ def test_end_on_violation_ends_the_episode_where_a_rule_is_broken_and_nothing_el
     assert violations >= 2, "full speed should break a rule in some of these seeds"
 
 
+def test_v3_is_v2_with_the_failure_terms_weighted_three():
+    for family in ("FLUIDS-", "FLUIDS-Sensitivity-"):
+        v2, v3 = gym.spec(family + "v2"), gym.spec(family + "v3")
+        assert v3.kwargs == {**v2.kwargs, "failure_penalty": 3.0}
+        assert v3.max_episode_steps == v2.max_episode_steps
+    assert gym.make("FLUIDS-v3").unwrapped.failure_penalty == 3.0
+
+
 def test_options_are_checked():
     with pytest.raises(ValueError, match="action_scale"):
         gym.make("FLUIDS-v1", action_scale="unit")
