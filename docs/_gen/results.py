@@ -35,7 +35,7 @@ SHARED_RENDERERS = (
     (r"bench_(singulation|grasping)", "bench_tasks"),
     (r"rl_(dag|singulation|grasping|track)", "rl_tasks"),
     (r"rl_(hopper|walker2d|halfcheetah|humanoid)(_sac)?", "rl_tasks"),
-    (r"rl_fluids_v2_(2m|sac|end_on_violation_2m|failure_penalty)", "rl_fluids_v2"),
+    (r"rl_fluids_v2_(2m|sac|end_on_violation_2m)|rl_fluids_v3(_1m)?", "rl_fluids_v2"),
 )
 
 

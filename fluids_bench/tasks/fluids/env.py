@@ -112,23 +112,24 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     episode that reaches the goal earns 1 in total), minus 1 in a step where the ego is in a
     collision. Running a red light or failing to yield fails ``is_success`` but costs nothing.
 
-    ``reward_version=1`` (the v2 ids; :func:`~fluids_bench.tasks.fluids.scenario.step_reward_v1`):
+    ``reward_version=1`` (the v2 and v3 ids; :func:`~fluids_bench.tasks.fluids.scenario.step_reward_v1`):
     a reward that agrees with ``is_success``; every way to fail it costs, success pays. Per
     step, the sum of
 
     | term | weight | when |
     |---|---|---|
     | progress | +1 over the route | the route's metres gained this step over its length |
-    | collision | −1 | a step with a collision that fails the episode: the ego's with ``done_when="ego"``, any with ``"all"`` |
-    | red light | −1 | the step the ego enters its junction against a red light (``obey_lights``) |
-    | failure to yield | −1 | the step the ego drives onto an occupied crosswalk it could have stopped for (``yield_to_pedestrians``) |
+    | collision | −1 (v3: −3) | a step with a collision that fails the episode: the ego's with ``done_when="ego"``, any with ``"all"`` |
+    | red light | −1 (v3: −3) | the step the ego enters its junction against a red light (``obey_lights``) |
+    | failure to yield | −1 (v3: −3) | the step the ego drives onto an occupied crosswalk it could have stopped for (``yield_to_pedestrians``) |
     | success | +1 | the step that ends the episode with ``info["is_success"]`` |
 
     So a successful episode returns 2 (plus the few centimetres driven past the goal over the
     route's length); a failed one at most the progress it made (under 1 for a timeout, about 0
     for an arrival after a red light, below 0 after a collision, or after a red light with
     ``end_on_violation``): a return above 1.5 means success. A timeout costs the success bonus
-    (the env does not see ``TimeLimit``'s truncation).
+    (the env does not see ``TimeLimit``'s truncation). The failure terms' weight is
+    ``failure_penalty`` (1 in v2, 3 in v3).
 
     ## Starting State
     Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
@@ -250,12 +251,16 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``end_on_violation``: end the episode when the ego breaks a rule that fails
       ``is_success`` (default False): see Episode End.
     * ``failure_penalty``: the weight of reward version 1's collision, red-light and
-      failure-to-yield terms (default 1; see Rewards).
+      failure-to-yield terms (default 1, 3 in the v3 ids; see Rewards).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
+    * v3: v2 with the reward's failure terms weighted 3 (``failure_penalty=3.0``;
+      ``FLUIDS-v3``, ``FLUIDS-Sensitivity-v3``): with PPO's default discount a policy that
+      waits its turn is then clearly worth more than one that rushes, and PPO with its
+      defaults reaches BC's success (the docs' RL page). The ids to train RL agents on.
     * v2: v1's scenes, supervisor and success criterion, made RL-ready:
       ``action_scale="normalized"``, ``reward_version=1``, ``obs_scale="normalized"``
       (``FLUIDS-v2``, ``FLUIDS-Sensitivity-v2``). Off-the-shelf PPO learns it where it fails

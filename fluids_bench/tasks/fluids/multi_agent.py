@@ -235,6 +235,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
       agent highlighted).
 
     ## Version History
+    * v3: v2 with the collision term weighted 3 (``failure_penalty=3.0``), as ``FLUIDS-v3``.
     * v2: v1 made RL-ready: normalised actions and labels, a reward that pays success, flat
       observations in [-1, 1] (``action_scale``, ``reward_version``, ``obs_scale``).
     * v1: defensive, pedestrian-yielding background drivers by default; fault labels in
