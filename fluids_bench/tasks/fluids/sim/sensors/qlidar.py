@@ -200,6 +200,7 @@ class QLidarSensor:
         self.respect = respect_geometry(layout) if version == 1 else None
         self.labels = LABELS_V1 if version == 1 else LABELS
         self.shape = (self.rays + (version == 1), 4)
+        self._rows: np.ndarray | None = None  # cast_worlds' output rows, reused between calls
 
     @property
     def bounds(self) -> tuple[np.ndarray, np.ndarray]:
@@ -253,7 +254,7 @@ class QLidarSensor:
         # version 0 passes version 1's tables unused (one compiled signature for both)
         g = self.respect or respect_geometry(w.layout)
         n = len(stepping)
-        if getattr(self, "_rows", None) is None or len(self._rows) != n:
+        if self._rows is None or len(self._rows) != n:
             self._rows = np.zeros((n, *self.shape))
         goal_x, goal_y = np.zeros(n), np.zeros(n)
         if self.version == 1:  # _cast_v1's goal point, for every world at once
