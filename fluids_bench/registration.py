@@ -51,7 +51,7 @@ BUSY_SCENE: dict[str, Any] = {"num_pedestrians": 8}
 _FLUIDS = "fluids_bench.tasks.fluids.env:FluidsEnv"
 # every id of the scalar FLUIDS env also has a native vector env: gym.make_vec(id, B,
 # vectorization_mode="vector_entry_point") steps B worlds behind one VectorEnv
-_FLUIDS_VECTOR = "fluids_bench.tasks.fluids.vector.env:FluidsVectorEnv"
+_FLUIDS_VECTOR = "fluids_bench.tasks.fluids.vector.workers:make_vector_env"
 VECTOR_ENTRY_POINTS: dict[str, str] = {_FLUIDS: _FLUIDS_VECTOR}
 
 # id -> (entry point, max_episode_steps, default kwargs)

@@ -25,6 +25,8 @@ from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
 WHERE = "FluidsVectorEnv"
 # the vector env's own arguments; every other one goes to each world's FluidsEnv
 OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
+# the vector entry point's, for worker processes (vector/workers.py)
+WORKER_ARGUMENTS = ("num_workers", "context")
 # the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
 # so that core.snapshot.restore can put it into a gym.make env, and back)
 MAKE_WRAPPERS = ("TimeLimit", "OrderEnforcing", "PassiveEnvChecker")
@@ -132,7 +134,7 @@ class FluidsVectorEnv(VectorEnv):
         if unknown:
             raise ValueError(
                 f"{WHERE}: unknown argument(s) {', '.join(map(repr, unknown))}; allowed: "
-                f"{sorted([*allowed, *OWN_ARGUMENTS])}"
+                f"{sorted([*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])}"
             )
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
