@@ -14,6 +14,11 @@ supervisor's label every step, and the ego follows it (control level). Parts:
   and 30 cars (30 is that layout's most with the ego) and 5 pedestrians.
 * ``processes``: one process stepping a batch on one core, then two at once on two cores
   (each pinned to its own); the ratio of their total env-steps per wall-second.
+* ``workers``: one batch of ``--workers-batch`` worlds stepped by one process and by
+  ``num_workers=2`` (half in this process, half in a worker process), in alternating blocks of
+  ``--worker-steps`` batch steps on the same worlds (the two envs stay in the same states); the
+  median of the blocks' ratios of env-steps per wall-second. Unlike ``processes``, the two
+  halves meet at every step (the actions of all worlds in, the results of all out).
 * ``profile``: cProfile's split of the vector env's step at B = ``--agents-batch`` into its
   phases (see ``FluidsVectorEnv``): actions to controls, the world step with the fault record,
   the velocity planner, the rest of the supervisor (recovery check, PID proposal, labels), the
@@ -55,6 +60,10 @@ def agents(kwargs: dict) -> int:
 def make(kind: str, n: int, kwargs: dict):
     if kind == "scalar":
         return gym.make(ENV_ID, **kwargs)
+    if kind == "workers":
+        return gym.make_vec(
+            ENV_ID, n, vectorization_mode="vector_entry_point", num_workers=2, **kwargs
+        )
     mode = "sync" if kind == "sync" else "vector_entry_point"
     return gym.make_vec(ENV_ID, n, vectorization_mode=mode, **kwargs)
 
@@ -173,6 +182,33 @@ def processes(n: int, batch_steps: int, kwargs: dict, cores: list[int]) -> dict:
         "batch_steps_per_process": batch_steps,
         "runs": runs,
         "ratio": round(runs[str(len(cores))]["steps_per_s"] / runs["1"]["steps_per_s"], 3),
+    }
+
+
+# ---------------------------------------------------------------------- worker processes
+def workers(n: int, block_steps: int, blocks: int, kwargs: dict) -> dict:
+    """Env-steps per wall-second of one batch of ``n`` worlds in one process and over two
+    (``num_workers=2``), in alternating blocks; the median of the blocks' ratios."""
+    runners = {kind: Runner(kind, n, kwargs) for kind in ("vector", "workers")}
+    rates: dict[str, list[float]] = {kind: [] for kind in runners}
+    for _ in range(blocks):
+        for kind, runner in runners.items():
+            t0 = time.perf_counter()
+            runner.run(block_steps)
+            rates[kind].append(n * block_steps / (time.perf_counter() - t0))
+    for runner in runners.values():
+        runner.env.close()
+    ratios = [w / v for v, w in zip(rates["vector"], rates["workers"], strict=True)]
+    return {
+        "num_envs": n,
+        "num_workers": 2,
+        "block_steps": block_steps,
+        "blocks": blocks,
+        "one_process_steps_per_s": round(float(np.median(rates["vector"])), 1),
+        "two_workers_steps_per_s": round(float(np.median(rates["workers"])), 1),
+        "runs_one_process": [round(r, 1) for r in rates["vector"]],
+        "runs_two_workers": [round(r, 1) for r in rates["workers"]],
+        "ratio": round(float(np.median(ratios)), 3),
     }
 
 
@@ -351,6 +387,11 @@ def main() -> None:
     parser.add_argument(
         "--process-steps", type=int, default=32000, help="env-steps per process (processes part)"
     )
+    parser.add_argument("--workers-batch", type=int, default=128, help="B of the workers part")
+    parser.add_argument(
+        "--worker-steps", type=int, default=100, help="batch steps per block (workers part)"
+    )
+    parser.add_argument("--worker-blocks", type=int, default=10, help="blocks (workers part)")
     parser.add_argument("--profile-steps", type=int, default=1000, help="env-steps profiled")
     parser.add_argument("--kernel-batch", type=int, default=64, help="B of the kernels part")
     parser.add_argument(
@@ -378,11 +419,12 @@ def main() -> None:
     compiled = kernels(args.kernel_batch, max(8, args.steps // args.kernel_batch), S2)
     os.sched_setaffinity(0, everywhere)
     cores = sorted(everywhere)[:2]
-    pair = None
+    pair = together = None
     if len(cores) == 2:
         pair = processes(
             args.agents_batch, max(8, args.process_steps // args.agents_batch), S2, cores
         )
+        together = workers(args.workers_batch, args.worker_steps, args.worker_blocks, S2)
     data = {
         "benchmark": "bench_vector",
         "fluids_bench": fluids_bench.__version__,
@@ -399,6 +441,7 @@ def main() -> None:
         "batch": batch,
         "agents": agents_rows,
         "processes": pair,
+        "workers": together,
         "profile": split,
         "kernels": compiled,
     }

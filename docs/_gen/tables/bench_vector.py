@@ -1,7 +1,8 @@
 """docs/results/bench_vector.json (scripts/benchmarks/bench_vector.py --results): batched FLUIDS.
 
 Parts: ``batch`` (default: env-steps per CPU-second by B), ``agents`` (scaling in agents),
-``processes`` (one process vs two on two cores), ``profile`` (where a vector step's time goes),
+``processes`` (one process vs two on two cores), ``workers`` (one batch in one process vs over
+two with ``num_workers=2``), ``profile`` (where a vector step's time goes),
 ``kernels`` (the time inside the step's compiled calls).
 """
 
@@ -72,6 +73,20 @@ def _processes(data) -> str:
     )
 
 
+def _workers(data) -> str:
+    w = data.get("workers")
+    if not w:
+        return "(not measured in this run)"
+    return (
+        "| one batch of B worlds | env-steps per wall-second (median block) |\n|---|---|\n"
+        f"| one process | {n(w['one_process_steps_per_s'])} |\n"
+        f"| `num_workers=2` | {n(w['two_workers_steps_per_s'])} |\n\n"
+        f"B = {w['num_envs']}, {w['blocks']} alternating blocks of {w['block_steps']} batch "
+        f"steps on the same worlds. Two workers give **{w['ratio']:.2f}×** one process (the "
+        "median of the blocks' ratios)."
+    )
+
+
 def _profile(data) -> str:
     p = data["profile"]
     out = ["| part of the step | share of the time |", "|---|---|"]
@@ -103,6 +118,7 @@ PARTS = {
     "batch": _batch,
     "agents": _agents,
     "processes": _processes,
+    "workers": _workers,
     "profile": _profile,
     "kernels": _kernels,
 }
