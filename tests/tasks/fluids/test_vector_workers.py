@@ -153,6 +153,8 @@ def test_call_and_attributes_reach_every_world():
         ({"num_workers": 1.5}, ValueError, "'num_workers'"),
         ({"num_workers": 4}, ValueError, r"'num_workers' is 4; allowed: an integer in \[1, 3\]"),
         ({"num_workers": 2, "context": "teleport"}, ValueError, "'context'"),
+        ({"num_workers": 1, "context": "teleport"}, ValueError, "'context'"),
+        ({"num_workrs": 2}, ValueError, "unknown argument.*'num_workrs'.*'num_workers'"),
         # the scalar env's own checks, raised in a worker, reach the caller as they are
         ({"num_workers": 2, "num_cars": -1}, ValueError, "'num_cars'"),
         ({"num_workers": 2, "action_levle": "x"}, ValueError, "unknown argument.*'action_levle'"),
