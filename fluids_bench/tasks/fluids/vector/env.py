@@ -37,6 +37,45 @@ def _scalar_arguments() -> list[str]:
     return [p.name for p in params if p.name != "self" and p.kind == p.POSITIONAL_OR_KEYWORD]
 
 
+def world_seeds(seed: Any, n: int) -> list[int | None]:
+    """Each of ``n`` worlds' reset seed: None, ``seed + i`` for an integer, or a list's i-th."""
+    seed = as_seed(seed)
+    if seed is None:
+        return [None] * n
+    if isinstance(seed, int) and not isinstance(seed, bool):
+        return [seed + i for i in range(n)]
+    if isinstance(seed, list | tuple) and len(seed) == n:
+        return [as_seed(s) for s in seed]
+    fail(WHERE, "seed", seed, f"None, an integer (world i gets seed + i) or a list of {n} seeds")
+
+
+def check_reset_mask(mask: Any, n: int) -> np.ndarray:
+    """``options["reset_mask"]``: a bool array over the ``n`` worlds, some set."""
+    if (
+        not isinstance(mask, np.ndarray)
+        or mask.dtype != np.bool_
+        or mask.shape != (n,)
+        or not mask.any()
+    ):
+        fail(
+            WHERE,
+            'options["reset_mask"]',
+            mask,
+            f"a numpy bool array of shape ({n},) with at least one True",
+        )
+    return mask
+
+
+def attribute_values(values: Any, n: int) -> list | tuple:
+    """``set_attr``'s values: one per world from a list or tuple of ``n``, else ``values`` for
+    all (as ``SyncVectorEnv.set_attr``)."""
+    if not isinstance(values, list | tuple):
+        values = [values] * n
+    if len(values) != n:
+        fail(WHERE, "values", values, f"one value, or a list of {n} values")
+    return values
+
+
 class FluidsVectorEnv(VectorEnv):
     """B independent FLUIDS worlds behind one Gymnasium 1.x ``VectorEnv``.
 
@@ -315,10 +354,7 @@ class FluidsVectorEnv(VectorEnv):
     def set_attr(self, name: str, values: Any) -> None:
         """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
         else the same value on all (as ``SyncVectorEnv.set_attr``)."""
-        if not isinstance(values, list | tuple):
-            values = [values] * self.num_envs
-        if len(values) != self.num_envs:
-            fail(WHERE, "values", values, f"one value, or a list of {self.num_envs} values")
+        values = attribute_values(values, self.num_envs)
         for env, value in zip(self.envs, values, strict=True):
             setattr(env, name, value)
 
@@ -389,36 +425,12 @@ class FluidsVectorEnv(VectorEnv):
         return int(index)
 
     def _seeds(self, seed: Any) -> list[int | None]:
-        seed = as_seed(seed)
-        if seed is None:
-            return [None] * self.num_envs
-        if isinstance(seed, int) and not isinstance(seed, bool):
-            return [seed + i for i in range(self.num_envs)]
-        if isinstance(seed, list | tuple) and len(seed) == self.num_envs:
-            return [as_seed(s) for s in seed]
-        fail(
-            WHERE,
-            "seed",
-            seed,
-            f"None, an integer (world i gets seed + i) or a list of {self.num_envs} seeds",
-        )
+        return world_seeds(seed, self.num_envs)
 
     def _reset_mask(self, mask: Any) -> np.ndarray:
         if mask is None:
             return np.ones(self.num_envs, dtype=np.bool_)
-        if (
-            not isinstance(mask, np.ndarray)
-            or mask.dtype != np.bool_
-            or mask.shape != (self.num_envs,)
-            or not mask.any()
-        ):
-            fail(
-                WHERE,
-                'options["reset_mask"]',
-                mask,
-                f"a numpy bool array of shape ({self.num_envs},) with at least one True",
-            )
-        return mask
+        return check_reset_mask(mask, self.num_envs)
 
     def _observe(self, stepping, index, worlds: WorldBatch, lights: np.ndarray) -> None:
         """Write the observation of every world that stepped (``index``: where ``stepping``;

@@ -23,9 +23,14 @@ import numpy as np
 from gymnasium.vector import AutoresetMode, VectorEnv
 from gymnasium.vector.utils import batch_space
 
-from fluids_bench.core.validation import as_seed, check_int, fail, is_int
+from fluids_bench.core.validation import check_int, fail, is_int
 from fluids_bench.tasks.fluids.vector.actions import check_batch
-from fluids_bench.tasks.fluids.vector.env import FluidsVectorEnv
+from fluids_bench.tasks.fluids.vector.env import (
+    FluidsVectorEnv,
+    attribute_values,
+    check_reset_mask,
+    world_seeds,
+)
 
 WHERE = "FluidsVectorEnv"
 # how long close() waits for a worker to exit before terminating it (s)
@@ -231,22 +236,11 @@ class FluidsWorkerVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every world (or those of ``options["reset_mask"]``); world i gets the seed the
         single-process env gives it (``seed + i``, or the list's i-th)."""
-        seeds = self._seeds(seed)
+        seeds = world_seeds(seed, self.num_envs)
         options = dict(options or {})
         mask = options.pop("reset_mask", None)
         if mask is not None:
-            if (
-                not isinstance(mask, np.ndarray)
-                or mask.dtype != np.bool_
-                or mask.shape != (self.num_envs,)
-                or not mask.any()
-            ):
-                fail(
-                    WHERE,
-                    'options["reset_mask"]',
-                    mask,
-                    f"a numpy bool array of shape ({self.num_envs},) with at least one True",
-                )
+            check_reset_mask(mask, self.num_envs)
         busy = []
         for w, (a, b) in enumerate(self._slices()):
             part = None if mask is None else mask[a:b]
@@ -329,10 +323,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
     def set_attr(self, name: str, values: Any) -> None:
         """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
         else the same value on all (as ``SyncVectorEnv.set_attr``)."""
-        if not isinstance(values, list | tuple):
-            values = [values] * self.num_envs
-        if len(values) != self.num_envs:
-            fail(WHERE, "values", values, f"one value, or a list of {self.num_envs} values")
+        values = attribute_values(values, self.num_envs)
         for w, (a, b) in enumerate(self._slices()):
             self._send(w, "set_attr", (name, list(values[a:b])))
         self._gather()
@@ -398,21 +389,6 @@ class FluidsWorkerVectorEnv(VectorEnv):
         for w in range(self.num_workers):
             self._send(w, name, args)
         return self._gather()
-
-    def _seeds(self, seed: Any) -> list[int | None]:
-        seed = as_seed(seed)
-        if seed is None:
-            return [None] * self.num_envs
-        if isinstance(seed, int) and not isinstance(seed, bool):
-            return [seed + i for i in range(self.num_envs)]
-        if isinstance(seed, list | tuple) and len(seed) == self.num_envs:
-            return [as_seed(s) for s in seed]
-        fail(
-            WHERE,
-            "seed",
-            seed,
-            f"None, an integer (world i gets seed + i) or a list of {self.num_envs} seeds",
-        )
 
     def _concat(self, parts: list[Any]) -> Any:
         if isinstance(parts[0], dict):
