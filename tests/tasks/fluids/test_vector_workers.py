@@ -204,3 +204,14 @@ def test_spawned_workers_import_the_package_themselves():
     actions = one.supervisor_action()
     assert same(vec.step(actions), one.step(actions))
     vec.close()
+
+
+def test_frames_come_from_every_worker():
+    vec = make_vec(3, 2, env_id="FLUIDS-v0", **SMALL, render_mode="rgb_array")
+    one = make_vec(3, env_id="FLUIDS-v0", **SMALL, render_mode="rgb_array")
+    vec.reset(seed=2)
+    one.reset(seed=2)
+    frames = vec.render()
+    assert len(frames) == 3 and frames[2].ndim == 3 and frames[2].dtype == np.uint8
+    assert same(frames, one.render())
+    vec.close()
