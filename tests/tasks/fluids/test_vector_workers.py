@@ -215,3 +215,24 @@ def test_frames_come_from_every_worker():
     assert len(frames) == 3 and frames[2].ndim == 3 and frames[2].dtype == np.uint8
     assert same(frames, one.render())
     vec.close()
+
+
+def test_an_interrupted_step_leaves_the_env_refusing_until_closed(monkeypatch):
+    """Ctrl-C during a step (here in this process's slice, after the worker got its actions)
+    leaves the worker's answer unread: later calls must refuse rather than read it."""
+    vec = make_vec(4, 2, **SMALL, action_level="velocity")
+    vec.reset(seed=3)
+    local = vec._pipes[0].env
+
+    def interrupted(actions):
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(local, "step", interrupted)
+    with pytest.raises(KeyboardInterrupt):
+        vec.step(np.zeros((4, 1), np.float32))
+    monkeypatch.undo()
+    with pytest.raises(RuntimeError, match="interrupted"):
+        vec.step(np.zeros((4, 1), np.float32))
+    processes = list(vec._processes.values())
+    vec.close()
+    assert not any(p.is_alive() for p in processes)

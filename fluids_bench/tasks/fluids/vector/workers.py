@@ -173,7 +173,9 @@ class FluidsWorkerVectorEnv(VectorEnv):
     platform's). Every other argument is ``FluidsVectorEnv``'s and is checked there (its error
     is raised here). Each slice keeps one core busy for the whole step: use at most one per
     core. ``close()`` (or leaving a ``with`` block) stops the workers; a worker that died
-    raises ``RuntimeError`` naming it at the next call.
+    raises ``RuntimeError`` naming it at the next call. After a call interrupted by Ctrl-C the
+    slices may be a step apart: every later call raises ``RuntimeError`` until the env is
+    closed (make a new one).
     """
 
     def __init__(
@@ -191,6 +193,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
         _check_context(context)
         self.starts = split(self.num_envs, self.num_workers)
         self._pipes: list[Any] = []  # worker w's connection (w = 0: this process's slice)
+        self._interrupted = False  # a call stopped half-way: the workers are out of step
         self._processes: dict[int, Any] = {}  # the worker processes, by slice
         self.closed = False
         ctx = mp.get_context(context)
@@ -361,25 +364,38 @@ class FluidsWorkerVectorEnv(VectorEnv):
     def _send(self, w: int, name: str, args: tuple) -> None:
         if self.closed:
             raise RuntimeError(f"{WHERE}: the env is closed")
+        if self._interrupted:
+            raise RuntimeError(
+                f"{WHERE}: a call was interrupted (Ctrl-C) while the workers answered, so their "
+                "worlds may be a step apart; close() this env and make a new one"
+            )
         try:
             self._pipes[w].send((name, args))
         except (BrokenPipeError, OSError) as error:
             raise RuntimeError(f"{WHERE}: worker {w} is not running ({error})") from None
+        except BaseException:
+            self._interrupted = True  # sent to some workers only
+            raise
 
     def _gather(self, workers: list[int] | None = None) -> list[Any]:
         """Each worker's answer (all of them, or ``workers``'), in order; a worker's exception
         is raised here, as it was raised there."""
         workers = list(range(self.num_workers)) if workers is None else workers
         answers, failure = [], None
-        for w in workers:
-            try:
-                answer = self._pipes[w].recv()
-            except EOFError:
-                code = self._processes[w].exitcode
-                answer = ("error", RuntimeError(f"{WHERE}: worker {w} died (exit code {code})"), "")
-            if answer[0] == "error" and failure is None:
-                failure = answer
-            answers.append(answer[1] if answer[0] == "ok" else None)
+        try:
+            for w in workers:
+                try:
+                    answer = self._pipes[w].recv()
+                except EOFError:
+                    code = self._processes[w].exitcode
+                    error = RuntimeError(f"{WHERE}: worker {w} died (exit code {code})")
+                    answer = ("error", error, "")
+                if answer[0] == "error" and failure is None:
+                    failure = answer
+                answers.append(answer[1] if answer[0] == "ok" else None)
+        except BaseException:  # Ctrl-C: answers left unread would answer the next call
+            self._interrupted = True
+            raise
         if failure is not None:  # every answer was read first: the pipes stay in step
             raise failure[1]
         return answers
