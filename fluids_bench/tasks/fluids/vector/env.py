@@ -49,6 +49,13 @@ def world_seeds(seed: Any, n: int) -> list[int | None]:
     fail(WHERE, "seed", seed, f"None, an integer (world i gets seed + i) or a list of {n} seeds")
 
 
+def world_index(index: Any, n: int) -> int:
+    """A world's index among ``n``, as an int."""
+    if not is_int(index) or not 0 <= index < n:
+        fail(WHERE, "index", index, f"an integer in [0, {n - 1}]")
+    return int(index)
+
+
 def check_reset_mask(mask: Any, n: int) -> np.ndarray:
     """``options["reset_mask"]``: a bool array over the ``n`` worlds, some set."""
     if (
@@ -210,9 +217,14 @@ class FluidsVectorEnv(VectorEnv):
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
         """Reset every world (or those of ``options["reset_mask"]``); see the class docstring
         for seeds."""
-        seeds = self._seeds(seed)
+        seeds = world_seeds(seed, self.num_envs)
         options = dict(options or {})
-        mask = self._reset_mask(options.pop("reset_mask", None))
+        mask = options.pop("reset_mask", None)
+        mask = (
+            np.ones(self.num_envs, np.bool_)
+            if mask is None
+            else check_reset_mask(mask, self.num_envs)
+        )
         infos: list[dict | None] = [None] * self.num_envs
         for i in mask.nonzero()[0].tolist():
             obs, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
@@ -370,7 +382,7 @@ class FluidsVectorEnv(VectorEnv):
     def snapshot(self, index: int) -> WrappedSnapshot:
         """World ``index``'s state, as :func:`fluids_bench.core.snapshot.snapshot` gives it for a
         ``gym.make`` env of the same id (restore it there, or here with :meth:`restore`)."""
-        env = self.envs[self._index(index)]
+        env = self.envs[world_index(index, self.num_envs)]
         counters = {
             "TimeLimit": {"_elapsed_steps": self._elapsed[index]},
             "OrderEnforcing": {"_has_reset": self._has_reset},
@@ -383,7 +395,7 @@ class FluidsVectorEnv(VectorEnv):
         """Continue world ``index`` from ``snap`` (from :meth:`snapshot` or from
         :func:`fluids_bench.core.snapshot.snapshot` of a ``gym.make`` env of the same id and
         kwargs); its next step is the one that env would take."""
-        env = self.envs[self._index(index)]
+        env = self.envs[world_index(index, self.num_envs)]
         if not isinstance(snap, WrappedSnapshot):
             raise TypeError(
                 f"{WHERE}.restore: snap is {type(snap).__name__}; allowed: a WrappedSnapshot "
@@ -418,19 +430,6 @@ class FluidsVectorEnv(VectorEnv):
             return int(action)
         values = action.reshape(-1).tolist()
         return levels.clip(env.action_level, values, self._bounds, env.world, env.action_scale)
-
-    def _index(self, index: Any) -> int:
-        if not is_int(index) or not 0 <= index < self.num_envs:
-            fail(WHERE, "index", index, f"an integer in [0, {self.num_envs - 1}]")
-        return int(index)
-
-    def _seeds(self, seed: Any) -> list[int | None]:
-        return world_seeds(seed, self.num_envs)
-
-    def _reset_mask(self, mask: Any) -> np.ndarray:
-        if mask is None:
-            return np.ones(self.num_envs, dtype=np.bool_)
-        return check_reset_mask(mask, self.num_envs)
 
     def _observe(self, stepping, index, worlds: WorldBatch, lights: np.ndarray) -> None:
         """Write the observation of every world that stepped (``index``: where ``stepping``;

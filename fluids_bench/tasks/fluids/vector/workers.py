@@ -29,6 +29,7 @@ from fluids_bench.tasks.fluids.vector.env import (
     FluidsVectorEnv,
     attribute_values,
     check_reset_mask,
+    world_index,
     world_seeds,
 )
 
@@ -168,7 +169,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
     this process and the others by W − 1 worker processes; the same API, spaces, metadata and
     results as one ``FluidsVectorEnv`` of B worlds.
 
-    ``num_workers``: slices, this process's included (an integer in [2, num_envs]); ``context``: the
+    ``num_workers``: slices, this process's included (an integer in [1, num_envs]; the entry
+    point builds this class from 2 on); ``context``: the
     ``multiprocessing`` start method (``"fork"``, ``"spawn"``, ``"forkserver"``; default: the
     platform's). Every other argument is ``FluidsVectorEnv``'s and is checked there (its error
     is raised here). Each slice keeps one core busy for the whole step: use at most one per
@@ -356,10 +358,10 @@ class FluidsWorkerVectorEnv(VectorEnv):
         return list(zip(self.starts[:-1], self.starts[1:], strict=True))
 
     def _owner(self, index: Any) -> tuple[int, int]:
-        if not is_int(index) or not 0 <= index < self.num_envs:
-            fail(WHERE, "index", index, f"an integer in [0, {self.num_envs - 1}]")
+        """The slice holding world ``index``, and the world's index in it."""
+        index = world_index(index, self.num_envs)
         w = int(np.searchsorted(self.starts, index, side="right")) - 1
-        return w, int(index) - self.starts[w]
+        return w, index - self.starts[w]
 
     def _send(self, w: int, name: str, args: tuple) -> None:
         if self.closed:
