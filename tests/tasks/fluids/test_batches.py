@@ -7,6 +7,7 @@ from __future__ import annotations
 import copy
 
 import numpy as np
+import pytest
 
 from fluids_bench.tasks.fluids.sim.batch import PER_TRACKER, PER_WORLD, FaultBatch, WorldBatch
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
@@ -54,7 +55,7 @@ def test_batches_step_and_propose_as_alone_and_leave_masked_worlds_alone():
             batch.controls[i] = sups[i].commit()
         events = batch.step(stepping)
         fault_batch.update(stepping, batch)
-        sup_batch.plan(stepping, batch, fault_batch.lights)
+        sup_batch.plan(stepping, batch, batch.lights)
         sup_batch.propose(stepping, batch)
         for i in range(len(seeds)):
             if stepping[i]:
@@ -91,6 +92,25 @@ def test_bound_worlds_are_views_and_rebinding_copies_the_values_in():
     batch.bind(0, fresh)
     assert batch.worlds[0] is fresh and np.shares_memory(fresh.state, batch.rows["state"][0])
     np.testing.assert_array_equal(batch.rows["state"][0], expected)
+    # the clock and the light lookup are entries of the batch's arrays too
+    assert np.shares_memory(fresh._clock, batch.times[0:1])
+    assert np.shares_memory(fresh._step_count, batch.steps[0:1])
+    assert fresh.light_state is fresh.lights.current
+    assert np.shares_memory(fresh.light_state, batch.lights[0])
+
+
+def test_batched_clock_reads_the_ticks_a_world_counts_alone_and_a_clock_set_by_hand_ticks_alone():
+    worlds = _worlds([1, 2, 3])
+    batch = WorldBatch(worlds)
+    alone = _worlds([1])[0]
+    worlds[2].time = 0.05  # off the ticks: advanced by World.begin_step itself
+    stepping = np.array([True, False, True])
+    for _ in range(2000):
+        batch._advance_clocks(stepping, worlds[0].dt)
+        alone.begin_step()
+    assert (worlds[0].time, worlds[0].steps) == (alone.time, alone.steps)
+    assert (worlds[1].time, worlds[1].steps) == (0.0, 0)
+    assert worlds[2].steps == 2000 and worlds[2].time == pytest.approx(200.05)
 
 
 def test_batched_velocity_plan_equals_each_planner_and_zeroes_a_world_without_agents():
@@ -104,7 +124,6 @@ def test_batched_velocity_plan_equals_each_planner_and_zeroes_a_world_without_ag
     sups = [DrivingSupervisor(w, NO_RECOVERY) for w in worlds]
     sup_batch = SupervisorBatch(sups)
     lights = np.stack([w.light_state for w in worlds])
-    batch.times[:] = [w.time for w in worlds]
     for sup in sups:
         sup.targets[:] = 7.0  # overwritten by the plan (world 2 is not due)
     sup_batch.plan_velocities(np.array([0, 1]), batch, lights)

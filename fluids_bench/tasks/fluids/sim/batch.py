@@ -24,6 +24,7 @@ from fluids_bench.tasks.fluids.sim.world import (
     PROGRESS_WINDOW,
     Collision,
     World,
+    clock_ticks,
 )
 
 # the World arrays that differ between worlds of one scene (written by steps, spawns, paths)
@@ -35,13 +36,17 @@ PER_WORLD = (
 # the FaultTracker arrays (each world's own; written in place)
 PER_TRACKER = (
     "entry_step", "ran_red", "failed_to_yield", "_prev_at", "_prev_occupied", "_warned",
-    "_enter", "_light_of", "_ring", "_prev_lights",
+    "_enter", "_light_of", "_ring", "_prev_lights", "_recorded",
 )  # fmt: skip
+# the World's clock (0-d arrays) and its light program's last lookup
+CLOCK = ("_clock", "_step_count")
+LIGHT_LOOKUP = ("current", "_valid")
 
 
 class Rows:
     """Named arrays of B objects stored as rows of (B, ...) arrays: each object's attribute is
-    a view of its row. The objects must write those arrays in place, never reassign them."""
+    a view of its row (a 0-d array's, of one entry). The objects must write those arrays in
+    place, never reassign them."""
 
     def __init__(self, objects: list, names: tuple[str, ...]) -> None:
         self.objects = list(objects)
@@ -57,7 +62,7 @@ class Rows:
         become views of that row."""
         for name, rows in self.rows.items():
             rows[index] = getattr(obj, name)
-            setattr(obj, name, rows[index])
+            setattr(obj, name, rows[index, ...])
         self.objects[index] = obj
 
 
@@ -65,30 +70,40 @@ class WorldBatch(Rows):
     """Row storage and the batched step of ``worlds`` (all of one scene, with one layout)."""
 
     def __init__(self, worlds: list[World]) -> None:
+        self.clocks = Rows(worlds, CLOCK)
+        self.lookups = Rows([w.lights for w in worlds], LIGHT_LOOKUP)
         super().__init__(worlds, PER_WORLD)
         first = worlds[0]
         self.controls = np.zeros((len(worlds), first.n, 2))
-        self.steps = np.zeros(len(worlds), dtype=np.int64)  # each world's step count
-        self.times = np.zeros(len(worlds))  # each world's clock after its last step (s)
+        self.steps = self.clocks["_step_count"]  # each world's step count (B,)
+        self.times = self.clocks["_clock"]  # each world's clock (s)
+        self.lights = self.lookups["current"]  # each world's light states (B, L)
         self._maybe = np.zeros(len(worlds), dtype=np.bool_)
 
     @property
     def worlds(self) -> list[World]:
         return self.objects
 
+    def bind(self, index: int, world: World) -> None:
+        super().bind(index, world)
+        self.clocks.bind(index, world)
+        self.lookups.bind(index, world.lights)
+        world.light_state = world.lights.current
+
     def step(self, stepping: np.ndarray) -> list[list[Collision]]:
         """Advance the worlds where ``stepping`` (bool, (B,)) is set under their rows of
         :attr:`controls` (written by the caller), as :meth:`World.step` would; returns each
         world's new collisions (empty for the others)."""
         worlds, rows = self.worlds, self.rows
-        index = stepping.nonzero()[0].tolist()
-        for i in index:
-            world = worlds[i]
-            world.begin_step()
-            self.steps[i], self.times[i] = world.steps, world.time
-            # World.finish_step's lights, here: they depend on the clock alone
-            world.light_state = world.lights.states(world.time)
         w = worlds[0]  # the arrays every world shares
+        self._advance_clocks(stepping, w.dt)
+        # World.finish_step's lights, here (they depend on the clock alone): looked up again
+        # only in the worlds whose time left the interval their last lookup holds for
+        if self.lights.shape[1]:
+            lo, hi = self.lookups["_valid"][:, 0], self.lookups["_valid"][:, 1]
+            expired = stepping & ~((lo <= self.times) & (self.times < hi))
+            for i in expired.nonzero()[0].tolist():
+                worlds[i].lights.states(worlds[i].time)
         kernels.advance_worlds(
             stepping, rows["state"], self.controls, w.is_car, rows["params"], w.dt,
             rows["active"], rows["s"], rows["offset"], rows["path_z"], rows["path_heading"],
@@ -104,6 +119,18 @@ class WorldBatch(Rows):
             events[i] = worlds[i].collide()
         return events
 
+    def _advance_clocks(self, stepping: np.ndarray, dt: float) -> None:
+        """:meth:`World.begin_step` of every stepping world: its new time read from
+        :func:`clock_ticks` (a clock set by hand off the ticks advances alone)."""
+        steps, times = self.steps, self.times
+        ticks = clock_ticks(dt, int(steps.max()) + 1)
+        on_tick = ticks[steps] == times
+        ticking = stepping & on_tick
+        steps[ticking] += 1
+        times[ticking] = ticks[steps[ticking]]
+        for i in (stepping & ~on_tick).nonzero()[0].tolist():
+            self.worlds[i].begin_step()
+
 
 class FaultBatch(Rows):
     """Row storage and the batched :meth:`FaultTracker.update` of the trackers of a
@@ -115,9 +142,6 @@ class FaultBatch(Rows):
         # its zone thresholds only when they change); -2: bound since, not followed yet
         self._followed = np.full((len(trackers), len(first.world.route)), -2, dtype=np.int64)
         super().__init__(trackers, PER_TRACKER)
-        # each world's light states, as recorded by the last update (its rows that stepped)
-        self.lights = np.zeros((len(trackers), len(first.world.light_state)), dtype=np.int8)
-        self._slots = np.zeros(len(trackers), dtype=np.int64)
 
     @property
     def trackers(self) -> list[FaultTracker]:
@@ -129,7 +153,7 @@ class FaultBatch(Rows):
 
     def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
         """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
-        trackers, lights, slots = self.objects, self.lights, self._slots
+        trackers = self.objects
         # FaultTracker._follow_routes, called only where the routes changed since the last
         # call (elsewhere it would find its thresholds current)
         routes = worlds["route"]
@@ -137,12 +161,10 @@ class FaultBatch(Rows):
         for i in changed.nonzero()[0].tolist():
             trackers[i]._follow_routes()
         self._followed[changed] = routes[changed]
-        for i in stepping.nonzero()[0].tolist():
-            tracker = trackers[i]
-            lights[i] = tracker.world.light_state
-            slots[i] = tracker._recorded % HISTORY
-            tracker._recorded += 1
-        w, cw, rows = worlds.worlds[0], trackers[0]._crosswalks, worlds.rows
+        recorded = self["_recorded"]
+        slots = recorded % HISTORY
+        recorded += stepping
+        w, cw, rows, lights = worlds.worlds[0], trackers[0]._crosswalks, worlds.rows, worlds.lights
         record_steps(
             stepping, rows["s"], rows["offset"], w.front, self["_enter"], self["_light_of"],
             self["_prev_lights"], lights, STOP, self["entry_step"], self["ran_red"],

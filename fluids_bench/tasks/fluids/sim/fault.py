@@ -132,7 +132,9 @@ class FaultTracker:
         self._enter = np.full(n, np.inf)  # route_s + front at which each agent enters its zone
         self._light_of = np.full(n, -1, dtype=np.int64)  # the light at each agent's zone
         self._ring = np.empty((HISTORY, n, world.state.shape[1]))  # the last states, a ring
-        self._recorded = 0  # states recorded so far (the newest is in slot recorded - 1)
+        # states recorded so far (the newest is in slot recorded - 1); a 0-d array, so that a
+        # batch keeps it as an entry of its own (sim/batch.py)
+        self._recorded = np.zeros((), dtype=np.int64)
         self._prev_lights = np.array(world.light_state)
         self._turns = route_turns(world.layout.routes)
         self._record()
@@ -162,16 +164,17 @@ class FaultTracker:
         _record_step(
             w.s, w.offset, w.front, self._enter, self._light_of, self._prev_lights,
             w.light_state, STOP, self.entry_step, self.ran_red, w.steps, w.state, self._ring,
-            self._recorded % HISTORY, self._yield_check, w.route, w.active, w.is_car,
+            int(self._recorded) % HISTORY, self._yield_check, w.route, w.active, w.is_car,
             cw.car_enter, self._prev_at, self._prev_occupied, self._warned,
             self.failed_to_yield, w.width, cw.centre, cw.axis, cw.half,
         )  # fmt: skip
-        self._recorded += 1
+        self._recorded[()] += 1
 
     def _history(self) -> list[np.ndarray]:
         """The kept states, oldest first (at most :data:`HISTORY`)."""
-        kept = min(self._recorded, HISTORY)
-        return [self._ring[(self._recorded - kept + k) % HISTORY] for k in range(kept)]
+        recorded = int(self._recorded)
+        kept = min(recorded, HISTORY)
+        return [self._ring[(recorded - kept + k) % HISTORY] for k in range(kept)]
 
     # ------------------------------------------------------------------ labels
     def label(self, a: int, b: int, kind: str) -> dict:

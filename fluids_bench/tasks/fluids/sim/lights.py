@@ -52,26 +52,27 @@ class LightProgram:
         # the tables are read-only and shared by every program of the same lights and scale
         self.ends, self.codes, self.cycle, self.offset = _tables(tuple(lights), scale)
         self._described: dict[bytes, dict[str, str]] = {}
-        self._valid = (np.inf, -np.inf)  # time interval over which self._last holds
-        self._last = np.zeros(0, dtype=np.int8)
+        # the codes of the last lookup (written in place, so that a batch of worlds can keep
+        # them as rows of its own arrays), and the time interval [lo, hi) over which they hold
+        self.current = np.zeros(len(self.names), dtype=np.int8)
+        self._valid = np.array([np.inf, -np.inf])
 
     def __len__(self) -> int:
         return len(self.names)
 
     def states(self, t: float) -> np.ndarray:
-        """State code of every light at time ``t`` (s). Read-only; lights change rarely, so the
-        last answer is reused while ``t`` stays inside the interval it holds for."""
-        if self._valid[0] <= t < self._valid[1]:
-            return self._last
-        if not len(self):
-            return np.zeros(0, dtype=np.int8)
+        """State code of every light at time ``t`` (s): :attr:`current`, updated in place
+        (read it, never write it). Lights change rarely, so the last answer is kept while ``t``
+        stays inside the interval it holds for."""
+        lo, hi = self._valid
+        if lo <= t < hi or not len(self):
+            return self.current
         phase_t = np.mod(t + self.offset, self.cycle)
         idx = (phase_t[:, None] >= self.ends).sum(axis=1)
-        self._last = self.codes[np.arange(len(self)), idx]
-        self._last.setflags(write=False)
+        self.current[:] = self.codes[np.arange(len(self)), idx]
         start = np.where(idx > 0, self.ends[np.arange(len(self)), np.maximum(idx - 1, 0)], 0.0)
-        self._valid = (t - (phase_t - start).min(), t + self.time_to_change(t).min())
-        return self._last
+        self._valid[:] = (t - (phase_t - start).min(), t + self.time_to_change(t).min())
+        return self.current
 
     def time_to_change(self, t: float) -> np.ndarray:
         """Seconds until each light next changes state."""

@@ -90,6 +90,25 @@ class Collision:
         return {"step": self.step, "a": self.a, "b": self.b, "kind": self.kind}
 
 
+_TICKS: dict[float, np.ndarray] = {}
+
+
+def clock_ticks(dt: float, steps: int) -> np.ndarray:
+    """The clock of a world after k steps of ``dt``, for k = 0 … at least ``steps``, as
+    :meth:`World.begin_step` advances it from 0 (read-only, cached per ``dt``): a batch of
+    worlds reads every world's new time from it in one operation, with the same bits."""
+    ticks = _TICKS.get(dt)
+    if ticks is None or len(ticks) <= steps:
+        n = max(steps + 1, 2 * len(ticks) if ticks is not None else 1024)
+        times, t = [0.0], 0.0
+        for _ in range(n - 1):
+            t = round(t + dt, 9)
+            times.append(t)
+        ticks = _TICKS[dt] = np.array(times)
+        ticks.setflags(write=False)
+    return ticks
+
+
 class World:
     """All agents of one scene on one compiled layout. Mutated only by :meth:`step` and the
     placement methods; readers (sensors, renderers, supervisors) must not write to its arrays."""
@@ -143,8 +162,10 @@ class World:
         self.entered = np.full(n, -1, dtype=np.int64)
         # m from each agent's centre to its front along its path (zone entry, stop lines)
         self.front = np.where(self.is_car, self.length / 2, self.width / 2)
-        self.time = 0.0
-        self.steps = 0
+        # the clock as 0-d arrays, read through ``time`` and ``steps``: a batch keeps
+        # them as rows of its own arrays and advances every world's at once (sim/batch.py)
+        self._clock = np.zeros(())
+        self._step_count = np.zeros((), dtype=np.int64)
         self.log: list[Collision] = []
         self.light_state = self.lights.states(0.0)
         self.nearest = np.zeros(n, dtype=np.int64)  # path sample nearest each agent (progress)
@@ -271,10 +292,24 @@ class World:
         )  # fmt: skip
         return self.finish_step(maybe_collided)
 
+    @property
+    def time(self) -> float:
+        """Simulated seconds since the world was made (rounded to the nanosecond)."""
+        return float(self._clock)
+
+    @time.setter
+    def time(self, seconds: float) -> None:
+        self._clock[()] = seconds
+
+    @property
+    def steps(self) -> int:
+        """Steps taken since the world was made."""
+        return int(self._step_count)
+
     def begin_step(self) -> None:
-        """The clock's part of :meth:`step`, before the agents move."""
-        self.time = round(self.time + self.dt, 9)
-        self.steps += 1
+        """The clock's part of :meth:`step`, before the agents move (:func:`clock_ticks`)."""
+        self._clock[()] = round(self.time + self.dt, 9)
+        self._step_count[()] += 1
 
     def finish_step(self, maybe_collided: bool) -> list[Collision]:
         """The part of :meth:`step` after the agents moved: the lights at the new time and,
