@@ -1,6 +1,6 @@
 """The supervisors of B worlds planning and proposing their controls together.
 
-Each supervisor's targets and PID memory are rows of batched arrays (as the worlds' in
+Each supervisor's targets, last proposal and PID memory are rows of batched arrays (as the worlds' in
 :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so :meth:`SupervisorBatch.propose`
 is :meth:`DrivingSupervisor.propose` for many worlds at once: :func:`kernels.pid_follow` on each
 row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
@@ -63,25 +63,24 @@ class SupervisorBatch:
     proposal."""
 
     def __init__(self, supervisors: list[DrivingSupervisor]) -> None:
-        self.targets = Rows(supervisors, ("targets",))
+        self.plans = Rows(supervisors, ("targets", "proposed", "_memory"))
         self.memory = Rows([sup.pid for sup in supervisors], PID_MEMORY)
         n = len(supervisors[0].targets)
-        self.proposed = np.zeros((len(supervisors), n, 2))
-        self.next_memory = np.zeros((len(supervisors), 3, n))
+        # each supervisor's last proposal: its controls (B, N, 2) and the PID memory after
+        # them (B, 3, N)
+        self.proposed, self.next_memory = self.plans["proposed"], self.plans["_memory"]
         self._off_route = (
             np.zeros((len(supervisors), n), np.bool_),
             np.zeros(len(supervisors), np.int64),
         )
-        # the memory tuple each supervisor got from the last propose (None: none yet)
-        self._handed: list[tuple | None] = [None] * len(supervisors)
 
     @property
     def supervisors(self) -> list[DrivingSupervisor]:
-        return self.targets.objects
+        return self.plans.objects
 
     def bind(self, index: int, supervisor: DrivingSupervisor) -> None:
         """Make ``supervisor`` the one of world ``index`` (its values go into its rows)."""
-        self.targets.bind(index, supervisor)
+        self.plans.bind(index, supervisor)
         self.memory.bind(index, supervisor.pid)
 
     def plan(self, going: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
@@ -105,7 +104,7 @@ class SupervisorBatch:
 
     def plan_velocities(self, due: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
         """:meth:`VelocityPlanner.plan` of the worlds ``due`` (indices) into their rows of
-        :attr:`targets`: two compiled calls around numpy's abs of all their circle gaps. Every
+        :attr:`plans`' ``targets``: two compiled calls around numpy's abs of all their circle gaps. Every
         world's planner shares the scene's constants (the vector env's worlds are all of one
         scene), so the first world's planner lends them."""
         sup, w = self.supervisors[0], worlds.worlds[0]
@@ -132,7 +131,7 @@ class SupervisorBatch:
             worlds["state"], worlds["s"], worlds["offset"], planner._front, w.is_car,
             worlds["route"], routes.enter_s, planner._offs32, planner._radius, planner._reach,
             worlds["path_c64"], worlds["path_dir"], 1.0 / PATH_SPACING, cfg.margin,
-            cfg.pedestrian_margin, self.targets["targets"],
+            cfg.pedestrian_margin, self.plans["targets"],
         )  # fmt: skip
         if failed >= 0:  # cannot happen (all-stop is feasible); fail loudly if it does
             raise RuntimeError(
@@ -141,14 +140,9 @@ class SupervisorBatch:
             )
 
     def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
-        """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)): its
-        ``proposed`` and PID memory become views of this batch's output rows, which the next
-        call overwrites (a supervisor commits its memory into its own rows before then)."""
-        self.follow(going, worlds, self.targets["targets"], self.proposed, self.next_memory)
-        for i in going.nonzero()[0].tolist():
-            sup, next_memory = self.supervisors[i], self.next_memory[i]
-            sup.proposed = self.proposed[i]
-            sup._memory = self._handed[i] = (next_memory[0], next_memory[1], next_memory[2])
+        """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)), into
+        the supervisors' rows of :attr:`proposed` and :attr:`next_memory`."""
+        self.follow(going, worlds, self.plans["targets"], self.proposed, self.next_memory)
 
     def follow(
         self,
@@ -170,14 +164,6 @@ class SupervisorBatch:
 
     def commit_proposals(self, mask: np.ndarray) -> None:
         """``DrivingSupervisor.commit()`` (of its own proposal's memory) for each supervisor
-        where ``mask``: one array copy for all whose proposal came from :meth:`propose`, the
-        others (a reset, a restore) one by one."""
-        batched = np.zeros(len(mask), dtype=np.bool_)
-        for i in mask.nonzero()[0].tolist():
-            sup = self.supervisors[i]
-            if sup._memory is self._handed[i]:
-                batched[i] = True
-            else:
-                sup.pid.commit(sup._memory)
+        where ``mask``."""
         for k, name in enumerate(PID_MEMORY):
-            self.memory[name][batched] = self.next_memory[batched, k]
+            self.memory[name][mask] = self.next_memory[mask, k]

@@ -58,8 +58,11 @@ class DrivingSupervisor:
         # world.route, never this
         self.behavior_routes = world.route.copy()
         self.targets = np.zeros(world.n)
+        # the last proposal: every agent's controls and the PID loops' memory after them (rows:
+        # last error, steering integral, speed integral); written in place, so that a batch
+        # keeps them as rows of its own arrays (supervisor/batch.py)
         self.proposed = np.zeros((world.n, 2))
-        self._memory: tuple = ()
+        self._memory = np.zeros((3, world.n))
         self.recoveries = 0
         self.uncontrolled = None
         if self.config.uncontrolled:
@@ -107,7 +110,7 @@ class DrivingSupervisor:
         """The rest of :meth:`prepare`: every agent's controls toward :attr:`targets` (a
         :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch` does this for
         many worlds in one call)."""
-        self.proposed, self._memory = self.pid.controls(world, self.targets)
+        self.proposed[:], self._memory[:] = self.pid.controls(world, self.targets)
 
     def execute(
         self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None

@@ -51,8 +51,7 @@ def act_batch(
     chosen = stepping & worlds["active"][:, 0]
     proposal = stepping & ~chosen if level == "velocity" else stepping
     controls = worlds.controls
-    for i in proposal.nonzero()[0].tolist():
-        controls[i] = envs[i].supervisor.proposed
+    controls[proposal] = supervisors.proposed[proposal]
     supervisors.commit_proposals(proposal)
     if level == "control":  # DrivingSupervisor.denormalise of the ego's row
         car = world.scene.car
@@ -61,9 +60,9 @@ def act_batch(
         controls[chosen, 0] = ego[chosen]
         return
     # velocity: the PID toward the supervisor's targets with the ego's replaced (all agents)
-    targets = scratch.setdefault("targets", np.empty_like(supervisors.targets["targets"]))
+    targets = scratch.setdefault("targets", np.empty_like(supervisors.plans["targets"]))
     memory = scratch.setdefault("memory", np.empty_like(supervisors.next_memory))
-    np.copyto(targets, supervisors.targets["targets"])
+    np.copyto(targets, supervisors.plans["targets"])
     targets[:, 0] = values[:, 0]
     supervisors.follow(chosen, worlds, targets, controls, memory)
     for k, name in enumerate(PID_MEMORY):  # PIDController.commit of that PID's memory
@@ -79,7 +78,7 @@ def label_batch(
     first = envs[0]
     level, world = first.action_level, first.world
     if level == "velocity":
-        value = supervisors.targets["targets"][going, :1]
+        value = supervisors.plans["targets"][going, :1]
         if first.action_scale == "normalized":
             value = levels.to_normalized(level, world, value)
     else:  # DrivingSupervisor.normalise of the ego's proposed controls

@@ -209,8 +209,12 @@ class FluidsVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
         self._dict_obs = isinstance(self._obs, dict)
-        self._elapsed = [0] * self.num_envs  # steps in each world's episode (TimeLimit's count)
-        self._ended = [False] * self.num_envs  # each world's episode ended: autoreset next
+        # steps in each world's episode (TimeLimit's count)
+        self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
+        self._ended = np.zeros(self.num_envs, dtype=np.bool_)  # episode ended: autoreset next
+        # worlds whose env may hold new world, tracker or supervisor objects since the last
+        # step (a reset, a restore, a call): bound to the batches before the next step
+        self._stale = np.zeros(self.num_envs, dtype=np.bool_)
         self._has_reset = False
 
     # ------------------------------------------------------------------ Gymnasium API
@@ -230,6 +234,7 @@ class FluidsVectorEnv(VectorEnv):
             obs, infos[i] = self.envs[i].reset(seed=seeds[i], options=options or None)
             self._write(i, obs)
             self._elapsed[i], self._ended[i] = 0, False
+        self._stale |= mask
         self._has_reset = True
         return self._observations(), batch_infos(infos, self.num_envs)
 
@@ -238,15 +243,15 @@ class FluidsVectorEnv(VectorEnv):
             raise RuntimeError(f"{WHERE}: step() called before reset()")
         actions = check_batch(WHERE, self.single_action_space, self.num_envs, actions)
         n, limit, mode = self.num_envs, self.max_episode_steps, self.autoreset_mode
-        if mode is AutoresetMode.DISABLED and any(self._ended):
+        if mode is AutoresetMode.DISABLED and self._ended.any():
             raise RuntimeError(
-                f"{WHERE}: world {self._ended.index(True)} ended; with autoreset_mode="
+                f"{WHERE}: world {int(self._ended.argmax())} ended; with autoreset_mode="
                 f"{mode.value!r} reset it with reset(options={{'reset_mask': mask}}) first"
             )
         if n == 1:  # one world: the batched phases' fixed costs would exceed its step
             return self._step_alone(actions)
         worlds, faults, supervisors = self._bound_batches()
-        stepping = ~np.array(self._ended, dtype=np.bool_)  # the others autoreset this step
+        stepping = ~self._ended  # the others autoreset this step
         index = stepping.nonzero()[0].tolist()
         self._act_all(actions, stepping, index, worlds, supervisors)
         events = worlds.step(stepping)
@@ -255,15 +260,14 @@ class FluidsVectorEnv(VectorEnv):
         broken = (self._violations(faults) - before).tolist()  # rules broken in this step
         judged = judge_worlds(self.envs, index, worlds, events, broken)
         going = stepping & ~judged.terminated  # stepped, and the episode goes on
-        supervisors.plan(going, worlds, faults.lights)
+        supervisors.plan(going, worlds, worlds.lights)
         supervisors.propose(going, worlds)
         reward, success = report_worlds(self.envs, judged, worlds, faults)
         rewards = np.where(stepping, reward, 0.0)
         terminated = stepping & judged.terminated
-        elapsed = np.array(self._elapsed) + stepping
-        self._elapsed = elapsed.tolist()
+        self._elapsed += stepping
         # TimeLimit: truncated once the episode has taken max_episode_steps steps
-        truncated = stepping & (elapsed >= (limit if limit is not None else np.inf))
+        truncated = stepping & (self._elapsed >= (limit if limit is not None else np.inf))
         infos: list[dict | None] = [None] * n
         for i in terminated.nonzero()[0].tolist():
             infos[i] = {"is_success": bool(success[i])}
@@ -271,14 +275,14 @@ class FluidsVectorEnv(VectorEnv):
         if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
             for i in index:
                 infos[i] = {**self.envs[i]._info(events[i]), **(infos[i] or {})}
-        self._observe(stepping, index, worlds, faults.lights)
-        self._autoreset(stepping, terminated.tolist(), truncated.tolist(), infos)
+        self._observe(stepping, index, worlds, worlds.lights)
+        self._autoreset(stepping, terminated, truncated, infos)
         if batched_infos:
             labels = None
             if self._batched_act:  # the labels of the worlds whose supervisor just proposed
                 labels = (self._labels, going)
                 label_batch(self.envs, going, supervisors, self._labels)
-            info = step_infos(self.envs, worlds, faults, faults.lights, infos, events, labels)
+            info = step_infos(self.envs, worlds, faults, worlds.lights, infos, events, labels)
         else:
             info = batch_infos(infos, n)
         return self._observations(), rewards, terminated, truncated, info
@@ -288,7 +292,7 @@ class FluidsVectorEnv(VectorEnv):
         the batch, then clipped), with the same autoresets and infos."""
         env, limit = self.envs[0], self.max_episode_steps
         rewards, terminated, truncated, infos = [0.0], [False], [False], [None]
-        stepping = np.array([not self._ended[0]])
+        stepping = ~self._ended
         if stepping[0]:
             obs, rewards[0], terminated[0], _, infos[0] = env._step_valid(
                 self._valid(env, actions[0])
@@ -330,19 +334,21 @@ class FluidsVectorEnv(VectorEnv):
         ``"SameStep"``, on this one (their final observation and info kept in their info);
         record which ended."""
         mode = self.autoreset_mode
-        for i, env in enumerate(self.envs):
+        ended = np.logical_or(terminated, truncated)
+        resetting = ~stepping | (ended if mode is AutoresetMode.SAME_STEP else False)
+        for i in resetting.nonzero()[0].tolist():
+            env = self.envs[i]
             if not stepping[i]:
                 obs, infos[i] = env.reset()
-            elif mode is AutoresetMode.SAME_STEP and (terminated[i] or truncated[i]):
+            else:  # "SameStep": the final observation and info, then the reset's
                 infos[i] = {"final_obs": self._read(i), "final_info": infos[i]}
                 obs, reset_info = env.reset()
                 infos[i].update(reset_info)
-            else:
-                continue
             self._write(i, obs)
             self._elapsed[i] = 0
+        self._stale |= resetting
         if mode is not AutoresetMode.SAME_STEP:
-            self._ended = [a or b for a, b in zip(terminated, truncated, strict=True)]
+            self._ended = ended
 
     def render(self) -> tuple[np.ndarray, ...] | None:
         """One frame per world (``render_mode="rgb_array"``)."""
@@ -358,6 +364,7 @@ class FluidsVectorEnv(VectorEnv):
         """Each world's ``name`` (called with the arguments if it is a method), as
         ``SyncVectorEnv.call`` gives it."""
         values = [getattr(env, name) for env in self.envs]
+        self._stale[:] = True  # a method may have given an env new objects
         return tuple(v(*args, **kwargs) if callable(v) else v for v in values)
 
     def get_attr(self, name: str) -> tuple[Any, ...]:
@@ -369,6 +376,7 @@ class FluidsVectorEnv(VectorEnv):
         values = attribute_values(values, self.num_envs)
         for env, value in zip(self.envs, values, strict=True):
             setattr(env, name, value)
+        self._stale[:] = True
 
     # ------------------------------------------------------------------ supervisor and state
     def supervisor_action(self) -> np.ndarray:
@@ -384,7 +392,7 @@ class FluidsVectorEnv(VectorEnv):
         ``gym.make`` env of the same id (restore it there, or here with :meth:`restore`)."""
         env = self.envs[world_index(index, self.num_envs)]
         counters = {
-            "TimeLimit": {"_elapsed_steps": self._elapsed[index]},
+            "TimeLimit": {"_elapsed_steps": int(self._elapsed[index])},
             "OrderEnforcing": {"_has_reset": self._has_reset},
             "PassiveEnvChecker": {},
         }
@@ -407,6 +415,7 @@ class FluidsVectorEnv(VectorEnv):
         limit = self.max_episode_steps
         self._elapsed[index] = elapsed
         self._ended[index] = bool(env._ended) or (limit is not None and elapsed >= limit)
+        self._stale[index] = True
         self._has_reset = True
 
     # ------------------------------------------------------------------ helpers
@@ -415,13 +424,15 @@ class FluidsVectorEnv(VectorEnv):
         every one the envs now hold bound to it (a reset, a restore or a ``call`` gives an env
         new ones, bound here before they step)."""
         worlds, faults, supervisors = self._worlds, self._faults, self._supervisors
-        for i, env in enumerate(self.envs):
+        for i in self._stale.nonzero()[0].tolist():
+            env = self.envs[i]
             if worlds.worlds[i] is not env.world:
                 worlds.bind(i, env.world)
             if faults.trackers[i] is not env.faults:
                 faults.bind(i, env.faults)
             if supervisors.supervisors[i] is not env.supervisor:
                 supervisors.bind(i, env.supervisor)
+        self._stale[:] = False
         return worlds, faults, supervisors
 
     def _valid(self, env: FluidsEnv, action: np.ndarray):
