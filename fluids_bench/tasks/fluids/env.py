@@ -388,9 +388,35 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         )
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.faults = FaultTracker(self.world)
-        self._route_length = 1.0
-        self._last_s = 0.0
-        self._ended = False
+        # the episode's bookkeeping, read through the properties below: the ego's route
+        # progress at the last step and its route's length (m), and whether the episode ended;
+        # arrays written in place, so that a vector env keeps every world's as its own rows
+        self._progress = np.array([0.0, 1.0])
+        self._done = np.zeros((), dtype=np.bool_)
+
+    @property
+    def _last_s(self) -> float:
+        return float(self._progress[0])
+
+    @_last_s.setter
+    def _last_s(self, s: float) -> None:
+        self._progress[0] = s
+
+    @property
+    def _route_length(self) -> float:
+        return float(self._progress[1])
+
+    @_route_length.setter
+    def _route_length(self, length: float) -> None:
+        self._progress[1] = length
+
+    @property
+    def _ended(self) -> bool:
+        return bool(self._done)
+
+    @_ended.setter
+    def _ended(self, ended: bool) -> None:
+        self._done[()] = ended
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):

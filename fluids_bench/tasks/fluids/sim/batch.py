@@ -79,6 +79,7 @@ class WorldBatch(Rows):
         self.times = self.clocks["_clock"]  # each world's clock (s)
         self.lights = self.lookups["current"]  # each world's light states (B, L)
         self._maybe = np.zeros(len(worlds), dtype=np.bool_)
+        self.hit = np.zeros(len(worlds), dtype=np.bool_)  # worlds with new collisions
 
     @property
     def worlds(self) -> list[World]:
@@ -93,7 +94,8 @@ class WorldBatch(Rows):
     def step(self, stepping: np.ndarray) -> list[list[Collision]]:
         """Advance the worlds where ``stepping`` (bool, (B,)) is set under their rows of
         :attr:`controls` (written by the caller), as :meth:`World.step` would; returns each
-        world's new collisions (empty for the others)."""
+        world's new collisions (empty for the others; :attr:`hit` marks the worlds with
+        some)."""
         worlds, rows = self.worlds, self.rows
         w = worlds[0]  # the arrays every world shares
         self._advance_clocks(stepping, w.dt)
@@ -115,8 +117,10 @@ class WorldBatch(Rows):
         )  # fmt: skip
         # the rest of World.finish_step: the exact check where the broad phase found candidates
         events: list[list[Collision]] = [[] for _ in worlds]
+        self.hit[:] = False
         for i in (self._maybe & stepping).nonzero()[0].tolist():
             events[i] = worlds[i].collide()
+            self.hit[i] = bool(events[i])
         return events
 
     def _advance_clocks(self, stepping: np.ndarray, dt: float) -> None:

@@ -64,8 +64,8 @@ class LightProgram:
         """State code of every light at time ``t`` (s): :attr:`current`, updated in place
         (read it, never write it). Lights change rarely, so the last answer is kept while ``t``
         stays inside the interval it holds for."""
-        lo, hi = self._valid
-        if lo <= t < hi or not len(self):
+        valid = self._valid
+        if valid[0] <= t < valid[1] or not len(self):
             return self.current
         phase_t = np.mod(t + self.offset, self.cycle)
         idx = (phase_t[:, None] >= self.ends).sum(axis=1)

@@ -15,7 +15,7 @@ from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
-from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
+from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
@@ -27,6 +27,8 @@ WHERE = "FluidsVectorEnv"
 OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
 # the vector entry point's, for worker processes (vector/workers.py)
 WORKER_ARGUMENTS = ("num_workers", "context")
+# FluidsEnv's episode bookkeeping arrays (judge.py)
+EPISODE = ("_progress", "_done")
 # the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
 # so that core.snapshot.restore can put it into a gym.make env, and back)
 MAKE_WRAPPERS = ("TimeLimit", "OrderEnforcing", "PassiveEnvChecker")
@@ -107,13 +109,16 @@ class FluidsVectorEnv(VectorEnv):
     worlds with ``reset(options={"reset_mask": mask})``).
 
     **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
-    compiled layout) whose step is split in parts, each run for all worlds before the next:
+    compiled layout) whose state is rows of batched arrays: every array of its world, fault
+    tracker and supervisor, its clock and light lookup, its episode bookkeeping (each object's
+    attribute is a view of its row). Its step is split in parts, each run for all worlds
+    before the next:
 
-    1. each env computes its controls (``FluidsEnv._act``; at the velocity and control
-       levels, array operations for all worlds: :func:`~.act.act_batch`);
-    2. one compiled call moves every world
-       (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`: the worlds' arrays are rows
-       of batched arrays);
+    1. the controls of every world (at the velocity and control levels, array operations for
+       all worlds: :func:`~.act.act_batch`; at the others, ``FluidsEnv._act`` world by world);
+    2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
+       where a light changed, and one compiled call moves every world
+       (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`);
     3. one records every world's step for fault labels
        (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
     4. the steps are judged for all worlds at once (termination, the rewards' terms:
@@ -125,11 +130,13 @@ class FluidsVectorEnv(VectorEnv):
     6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
     7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
        world by world);
-    8. the infos are read from the batched rows for all worlds at once
-       (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; the labels come from
-       each env; with ``"SameStep"`` autoresets, world by world).
+    8. the infos and labels are read from the batched rows for all worlds at once
+       (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; with ``"SameStep"``
+       autoresets, world by world).
 
-    The parts are the scalar env's own, so equality holds by construction. A batch of one
+    Only rare events run world by world: collisions (the exact check and fault labels), a
+    light changing, a route changing, recovery planning and resets. The parts are the scalar
+    env's own, so equality holds by construction. A batch of one
     world steps with the scalar env's ``step`` itself (the phases' fixed costs would exceed it). The vector layer
     checks the whole action batch before any world moves, writes observations into
     preallocated batched arrays and builds the batched infos key by key for all worlds at once.
@@ -198,6 +205,8 @@ class FluidsVectorEnv(VectorEnv):
         self._worlds = WorldBatch([env.world for env in self.envs])
         self._faults = FaultBatch([env.faults for env in self.envs])
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
+        # the envs' episode bookkeeping (their arrays stay theirs through resets and restores)
+        self._episodes = Rows(self.envs, EPISODE)
         # velocity and control actions: every world's controls in array operations (act.py)
         self._batched_act = self.envs[0].action_level in BATCHED_LEVELS
         self._bound_arrays = (
@@ -257,24 +266,24 @@ class FluidsVectorEnv(VectorEnv):
         events = worlds.step(stepping)
         before = self._violations(faults)
         faults.update(stepping, worlds)
-        broken = (self._violations(faults) - before).tolist()  # rules broken in this step
-        judged = judge_worlds(self.envs, index, worlds, events, broken)
+        broken = self._violations(faults) - before  # rules broken in this step
+        judged = judge_worlds(self.envs, stepping, worlds, self._episodes, events, broken)
         going = stepping & ~judged.terminated  # stepped, and the episode goes on
         supervisors.plan(going, worlds, worlds.lights)
         supervisors.propose(going, worlds)
-        reward, success = report_worlds(self.envs, judged, worlds, faults)
+        reward, success = report_worlds(self.envs, judged, worlds, faults, self._episodes)
         rewards = np.where(stepping, reward, 0.0)
         terminated = stepping & judged.terminated
         self._elapsed += stepping
         # TimeLimit: truncated once the episode has taken max_episode_steps steps
         truncated = stepping & (self._elapsed >= (limit if limit is not None else np.inf))
-        infos: list[dict | None] = [None] * n
+        infos: dict[int, dict] = {}  # the worlds' own keys
         for i in terminated.nonzero()[0].tolist():
             infos[i] = {"is_success": bool(success[i])}
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
             for i in index:
-                infos[i] = {**self.envs[i]._info(events[i]), **(infos[i] or {})}
+                infos[i] = {**self.envs[i]._info(events[i]), **infos.get(i, {})}
         self._observe(stepping, index, worlds, worlds.lights)
         self._autoreset(stepping, terminated, truncated, infos)
         if batched_infos:
@@ -291,7 +300,8 @@ class FluidsVectorEnv(VectorEnv):
         """:meth:`step` of a batch of one: the scalar env's own step (its action checked with
         the batch, then clipped), with the same autoresets and infos."""
         env, limit = self.envs[0], self.max_episode_steps
-        rewards, terminated, truncated, infos = [0.0], [False], [False], [None]
+        rewards, terminated, truncated = [0.0], [False], [False]
+        infos: dict[int, dict] = {}
         stepping = ~self._ended
         if stepping[0]:
             obs, rewards[0], terminated[0], _, infos[0] = env._step_valid(
@@ -341,7 +351,7 @@ class FluidsVectorEnv(VectorEnv):
             if not stepping[i]:
                 obs, infos[i] = env.reset()
             else:  # "SameStep": the final observation and info, then the reset's
-                infos[i] = {"final_obs": self._read(i), "final_info": infos[i]}
+                infos[i] = {"final_obs": self._read(i), "final_info": infos.get(i)}
                 obs, reset_info = env.reset()
                 infos[i].update(reset_info)
             self._write(i, obs)

@@ -40,12 +40,13 @@ def _all_true(n: int) -> np.ndarray:
     return np.ones(n, dtype=np.bool_)  # copied for each key (np.ones costs more than a copy)
 
 
-def batch_infos(infos: list[dict[str, Any] | None], n: int) -> dict[str, Any]:
-    """The vector info of ``infos`` (one dict per world, ``None`` for a world without one)."""
+def batch_infos(infos: list[dict[str, Any] | None] | dict[int, dict], n: int) -> dict[str, Any]:
+    """The vector info of ``infos``: one dict per world (``None`` for a world without one), or
+    ``{world: dict}`` for the worlds with one."""
     # one pass: each key's (world, value) pairs, keys in first appearance world by world (the
     # order _add_info inserts them)
     by_key: dict[str, list[tuple[int, Any]]] = {}
-    for i, info in enumerate(infos):
+    for i, info in sorted(infos.items()) if isinstance(infos, dict) else enumerate(infos):
         if info:
             for key, value in info.items():
                 by_key.setdefault(key, []).append((i, value))
@@ -84,11 +85,11 @@ def _colour_table(kinds: tuple[str, ...]) -> np.ndarray:
 
 
 def step_infos(
-    envs, worlds, faults, lights, own: list[dict | None], events: list, labels=None
+    envs, worlds, faults, lights, own: dict[int, dict], events: list, labels=None
 ) -> dict:
-    """:func:`batch_infos` of ``FluidsEnv._info`` of every env, merged with ``own`` (each
-    world's other keys, e.g. ``is_success``, or a whole info for a world that was reset:
-    its values replace the batched ones).
+    """:func:`batch_infos` of ``FluidsEnv._info`` of every env, merged with ``own`` (the other
+    keys of the worlds that have some, e.g. ``is_success``, or a whole info for a world that
+    was reset: its values replace the batched ones).
 
     ``worlds`` and ``faults`` are the envs' bound
     :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` and ``FaultBatch``, ``lights``
@@ -109,9 +110,10 @@ def step_infos(
         for i in (~known).nonzero()[0].tolist():
             values[i] = envs[i].supervisor_action()
         column(SUPERVISOR_ACTION_KEY, values)
-    collisions = np.empty(n, dtype=object)
-    for i, env in enumerate(envs):
-        collisions[i] = env.faults.annotate(events[i]) if events[i] else []
+    # each world's own list (empty, or its new collisions with their fault labels)
+    collisions = np.fromiter(events, dtype=object, count=n)
+    for i in worlds.hit.nonzero()[0].tolist():
+        collisions[i] = envs[i].faults.annotate(events[i])
     column("collisions", collisions)
     column("ego_arrived", worlds["reached"][:, 0].copy())
     names = np.empty(len(w.layout.routes.names), dtype=object)
@@ -126,8 +128,8 @@ def step_infos(
     column("ego_failed_to_yield", faults["failed_to_yield"][:, 0].copy())
     for key, value in batch_infos(own, n).items():  # keys only some worlds have
         out.setdefault(key, value)
-    for i, info in enumerate(own):  # a whole info of its own (a reset world): its values
-        if info and SUPERVISOR_ACTION_KEY in info:
+    for i, info in own.items():  # a whole info of its own (a reset world): its values
+        if SUPERVISOR_ACTION_KEY in info:
             _overwrite(out, info, i)
     return out
 

@@ -3,8 +3,9 @@
 :func:`judge_worlds` is ``FluidsEnv._judge_recorded`` and :func:`report_worlds` the reward and
 ``is_success`` of ``FluidsEnv._report`` for all stepping worlds at once, read from the batch's
 rows with the same float operations in the same order (so each world's reward has the bits the
-scalar env gives it). Each env keeps its own episode bookkeeping (``_last_s``, ``_ended``,
-``_route_length``: what its snapshots hold); the batch reads and writes it once per step.
+scalar env gives it). Each env's episode bookkeeping (``_last_s``, ``_ended``,
+``_route_length``: what its snapshots hold) is read and written in its rows of the vector
+env's ``_progress`` and ``_done`` arrays.
 """
 
 from __future__ import annotations
@@ -18,7 +19,7 @@ from fluids_bench.tasks.fluids.scenario import (
     SUCCESS_BONUS,
     VIOLATION_PENALTY,
 )
-from fluids_bench.tasks.fluids.sim.batch import FaultBatch, WorldBatch
+from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 
 
 @dataclass
@@ -32,20 +33,22 @@ class Judged:
     broken: np.ndarray  # int (B,) rules the ego broke in the step
 
 
-def judge_worlds(envs, index: list[int], worlds: WorldBatch, events: list, broken) -> Judged:
-    """``FluidsEnv._judge_recorded`` of the worlds in ``index`` (those that stepped, with
-    ``events`` their new collisions and ``broken`` the rules their egos broke)."""
-    env, rows, n = envs[0], worlds.rows, len(envs)
-    ego_hit, any_hit = np.zeros(n, np.bool_), np.zeros(n, np.bool_)
-    for i in index:
-        if events[i]:
-            any_hit[i] = True
-            ego_hit[i] = any(e.a == 0 or e.b == 0 for e in events[i])
+def judge_worlds(
+    envs, stepping: np.ndarray, worlds: WorldBatch, episodes: Rows, events: list, broken
+) -> Judged:
+    """``FluidsEnv._judge_recorded`` of the worlds where ``stepping``, with ``events`` their
+    new collisions and ``broken`` the rules their egos broke; ``episodes``: the envs'
+    ``_progress`` and ``_done`` rows."""
+    env, rows = envs[0], worlds.rows
+    any_hit, ego_hit = worlds.hit.copy(), np.zeros(len(envs), np.bool_)
+    for i in any_hit.nonzero()[0].tolist():
+        ego_hit[i] = any(e.a == 0 or e.b == 0 for e in events[i])
     reached = rows["reached"][:, 0]
     offset = rows["offset"][:, 0]
     # scenario.progress: past the path's end once arrived
     s_now = np.where(reached, rows["path_len"][:, 0] + offset, rows["s"][:, 0] + offset)
-    gained = s_now - np.array([e._last_s for e in envs])
+    last_s = episodes["_progress"][:, 0]
+    gained = s_now - last_s
     if env.done_when == "ego":
         terminated = reached | ego_hit
     else:  # every car must arrive; any collision ends the episode
@@ -53,14 +56,13 @@ def judge_worlds(envs, index: list[int], worlds: WorldBatch, events: list, broke
     broken = np.asarray(broken, dtype=np.int64)
     if env.end_on_violation:  # is_success can no longer hold
         terminated |= broken > 0
-    s_list, ended = s_now.tolist(), terminated.tolist()
-    for i in index:
-        envs[i]._last_s, envs[i]._ended = s_list[i], ended[i]
+    last_s[stepping] = s_now[stepping]
+    episodes["_done"][stepping] = terminated[stepping]
     return Judged(terminated, ego_hit, any_hit, gained, broken)
 
 
 def report_worlds(
-    envs, judged: Judged, worlds: WorldBatch, faults: FaultBatch
+    envs, judged: Judged, worlds: WorldBatch, faults: FaultBatch, episodes: Rows
 ) -> tuple[np.ndarray, np.ndarray]:
     """Each world's reward (B,) and ``is_success`` (B,; meaningful where it terminated), as
     ``FluidsEnv._report`` gives them (:func:`~fluids_bench.tasks.fluids.scenario.step_reward`
@@ -77,7 +79,7 @@ def report_worlds(
         success &= ~faults["ran_red"][:, 0]
     if env.yield_to_pedestrians:
         success &= ~faults["failed_to_yield"][:, 0]
-    route_length = np.array([e._route_length for e in envs])
+    route_length = episodes["_progress"][:, 1]
     if env.reward_version == 0:
         penalty = np.where(judged.ego_hit, COLLISION_PENALTY, 0.0)
         return judged.gained / route_length - penalty, success
