@@ -29,10 +29,21 @@ ROOT = HERE.parents[1]
 RATE_SUFFIXES = ("per_s", "per_cpu_s")
 
 
+# the keys that name an entry of a list of measurements (e.g. bench_vector's "batch" rows)
+ROW_NAMES = ("env", "num_envs", "agents")
+
+
 def rates(result, prefix: str = "") -> dict[str, float]:
-    """Every throughput figure in a benchmark's JSON, keyed by its path."""
+    """Every throughput figure in a benchmark's JSON, keyed by its path (an entry of a list
+    by its index, or by its ``env``, ``num_envs`` and ``agents`` where it has them)."""
     out: dict[str, float] = {}
-    if isinstance(result, dict):
+    if isinstance(result, list):
+        for i, item in enumerate(result):
+            name = i
+            if isinstance(item, dict) and any(k in item for k in ROW_NAMES):
+                name = ",".join(f"{k}={item[k]}" for k in ROW_NAMES if k in item)
+            out.update(rates(item, f"{prefix}[{name}]"))
+    elif isinstance(result, dict):
         for key, value in result.items():
             path = f"{prefix}/{key}" if prefix else str(key)
             if isinstance(value, int | float) and str(key).endswith(RATE_SUFFIXES):

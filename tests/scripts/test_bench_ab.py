@@ -1,0 +1,34 @@
+"""scripts/benchmarks/bench_ab.py: the throughput figures it compares are found in nested dicts
+and in lists of measurements (named by their env, batch size and agents)."""
+
+from __future__ import annotations
+
+import importlib.util
+from pathlib import Path
+
+SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "benchmarks" / "bench_ab.py"
+
+
+def _module():
+    spec = importlib.util.spec_from_file_location("bench_ab", SCRIPT)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def test_rates_reach_into_dicts_and_lists_and_skip_other_numbers():
+    result = {
+        "steps": 100,
+        "S2": {"steps_per_s": 5.0, "seconds": 2.0},
+        "batch": [
+            {"env": "scalar", "num_envs": 1, "steps_per_cpu_s": 10.0},
+            {"env": "vector", "num_envs": 64, "steps_per_cpu_s": 30.0, "vs_scalar": 3.0},
+        ],
+        "plain": [{"steps_per_s": 7.0}],
+    }
+    assert _module().rates(result) == {
+        "S2/steps_per_s": 5.0,
+        "batch[env=scalar,num_envs=1]/steps_per_cpu_s": 10.0,
+        "batch[env=vector,num_envs=64]/steps_per_cpu_s": 30.0,
+        "plain[0]/steps_per_s": 7.0,
+    }
