@@ -111,9 +111,7 @@ class DrivingSupervisor:
         :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch` does this for
         many worlds in one call)."""
         memory = self._memory
-        self.proposed[:], (memory[0], memory[1], memory[2]) = self.pid.controls(
-            world, self.targets
-        )
+        self.proposed[:], (memory[0], memory[1], memory[2]) = self.pid.controls(world, self.targets)
 
     def execute(
         self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None
