@@ -259,7 +259,7 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     )
     # (a list comprehension is its own frame before Python 3.12)
     in_infos = (("vector/infos.py", "step_infos"), ("vector/infos.py", "<listcomp>"))
-    # labels: read from the rows at the velocity and control levels, else asked world by world
+    # labels: read from the rows (asked of each env only where its episode just ended)
     labels = _cum(stats, ENV, "supervisor_action", in_infos, required=False) + _cum(
         stats, "vector/act.py", "label_batch", IN_STEP, required=False
     )

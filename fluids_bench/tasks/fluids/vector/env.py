@@ -17,7 +17,7 @@ from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
-from fluids_bench.tasks.fluids.vector.act import BATCHED_LEVELS, act_batch, label_batch
+from fluids_bench.tasks.fluids.vector.act import act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
@@ -114,8 +114,8 @@ class FluidsVectorEnv(VectorEnv):
     attribute is a view of its row). Its step is split in parts, each run for all worlds
     before the next:
 
-    1. the controls of every world (at the velocity and control levels, array operations for
-       all worlds: :func:`~.act.act_batch`; at the others, ``FluidsEnv._act`` world by world);
+    1. the controls of every world, at every action level (array operations and, at the
+       trajectory level, one compiled call: :func:`~.act.act_batch`);
     2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
        where a light changed, and one compiled call moves every world
        (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`);
@@ -207,13 +207,15 @@ class FluidsVectorEnv(VectorEnv):
         self._supervisors = SupervisorBatch([env.supervisor for env in self.envs])
         # the envs' episode bookkeeping (their arrays stay theirs through resets and restores)
         self._episodes = Rows(self.envs, EPISODE)
-        # velocity and control actions: every world's controls in array operations (act.py)
-        self._batched_act = self.envs[0].action_level in BATCHED_LEVELS
         self._bound_arrays = (
             tuple(np.asarray(b, dtype=np.float64) for b in self._bounds) if self._bounds else None
         )
         self._act_scratch: dict[str, np.ndarray] = {}
-        self._labels = np.zeros((self.num_envs, *self.envs[0].action_space.shape), np.float32)
+        behavior = self.envs[0].action_level == "behavior"  # Discrete: integer labels
+        self._labels = np.zeros(
+            (self.num_envs, *self.envs[0].action_space.shape),
+            np.int64 if behavior else np.float32,
+        )
         self.single_observation_space = self.envs[0].observation_space
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
@@ -262,7 +264,7 @@ class FluidsVectorEnv(VectorEnv):
         worlds, faults, supervisors = self._bound_batches()
         stepping = ~self._ended  # the others autoreset this step
         index = stepping.nonzero()[0].tolist()
-        self._act_all(actions, stepping, index, worlds, supervisors)
+        self._act_all(actions, stepping, worlds, supervisors)
         events = worlds.step(stepping)
         before = self._violations(faults)
         faults.update(stepping, worlds)
@@ -286,11 +288,12 @@ class FluidsVectorEnv(VectorEnv):
                 infos[i] = {**self.envs[i]._info(events[i]), **infos.get(i, {})}
         self._observe(stepping, index, worlds, worlds.lights)
         self._autoreset(stepping, terminated, truncated, infos)
-        if batched_infos:
-            labels = None
-            if self._batched_act:  # the labels of the worlds whose supervisor just proposed
-                labels = (self._labels, going)
-                label_batch(self.envs, going, supervisors, self._labels)
+        if batched_infos:  # the labels of the worlds whose supervisor just proposed
+            label_batch(
+                self.envs, going, worlds, supervisors, self._labels,
+                self._act_scratch.get("movements"),
+            )  # fmt: skip
+            labels = (self._labels, going)
             info = step_infos(self.envs, worlds, faults, worlds.lights, infos, events, labels)
         else:
             info = batch_infos(infos, n)
@@ -326,18 +329,13 @@ class FluidsVectorEnv(VectorEnv):
             env.yield_to_pedestrians
         ) * faults["failed_to_yield"][:, 0].astype(np.int64)
 
-    def _act_all(self, actions, stepping, index, worlds, supervisors) -> None:
-        """Every stepping world's controls into ``worlds.controls``: at once at the velocity
-        and control levels, else world by world (the batch is checked: each world clips)."""
-        if self._batched_act:
-            act_batch(
-                self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
-                self._act_scratch,
-            )  # fmt: skip
-            return
-        for i in index:
-            env = self.envs[i]
-            worlds.controls[i] = env._act(self._valid(env, actions[i]))
+    def _act_all(self, actions, stepping, worlds, supervisors) -> None:
+        """Every stepping world's controls into ``worlds.controls``, in array operations for
+        all worlds at every level (:func:`~.act.act_batch`; the batch is checked)."""
+        act_batch(
+            self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
+            self._act_scratch,
+        )  # fmt: skip
 
     def _autoreset(self, stepping, terminated, truncated, infos) -> None:
         """Reset the worlds that ended on the previous step (next-step autoreset) or, with
