@@ -1,9 +1,9 @@
 """The supervisors of B worlds planning and proposing their controls together.
 
-Each supervisor's targets, last proposal and PID memory are rows of batched arrays (as the worlds' in
-:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so :meth:`SupervisorBatch.propose`
-is :meth:`DrivingSupervisor.propose` for many worlds at once: :func:`kernels.pid_follow` on each
-row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
+Each supervisor's targets, last proposal and PID memory are rows of batched arrays (as the
+worlds' in :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so
+:meth:`SupervisorBatch.propose` is :meth:`DrivingSupervisor.propose` for many worlds at once:
+:func:`kernels.pid_follow_into` on each row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
 in every world in one call and runs the velocity planner of every world due to plan in two
 (:func:`plan_kernels.plan_head_worlds`, :func:`plan_kernels.plan_tail_worlds`); only recovery
 (rare: a car off its route) runs world by world.
@@ -22,7 +22,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
     lookahead_points,
     mark_off_route,
     pid_controls,
-    pid_follow,
+    pid_follow_into,
 )
 from fluids_bench.tasks.fluids.supervisor.plan_kernels import plan_head_worlds, plan_tail_worlds
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
@@ -52,17 +52,15 @@ def pid_follow_worlds(
     going, path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, targets,
     steer_prev, steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`pid_follow` on row ``b`` of every per-world array where ``going[b]``; writes the
+    """:func:`pid_follow_into` on row ``b`` of every per-world array where ``going[b]``: the
     controls into ``out[b]`` and the loops' next memory into ``memory[b]`` (3, N)."""
     for b in range(len(going)):
         if going[b]:
-            controls, err, integ, v_int = pid_follow(
+            pid_follow_into(
                 path_z[b], s[b], path_len[b], min_ahead, ahead_time, spacing, state[b], is_car,
                 targets[b], steer_prev[b], steer_int[b], speed_int[b], dt, gains, limits, gain,
-                low, high,
+                low, high, out[b], memory[b],
             )  # fmt: skip
-            out[b] = controls
-            memory[b, 0], memory[b, 1], memory[b, 2] = err, integ, v_int
 
 
 @njit(cache=True, nogil=True)

@@ -102,6 +102,18 @@ class PIDController:
             )  # fmt: skip
         return out, (err, integ, v_int)
 
+    def controls_into(
+        self, world: World, target_speed: np.ndarray, out: np.ndarray, memory: np.ndarray
+    ) -> None:
+        """:meth:`controls` toward the look-ahead points, written into ``out`` (N, 2) and
+        ``memory`` (3, N)."""
+        kernels.pid_follow_into(
+            world.path_z, world.s, world.path_len, self.min_ahead, self.ahead_time, PATH_SPACING,
+            world.state, self.is_car, target_speed, self.steer_prev, self.steer_int,
+            self.speed_int, world.dt, self._gains, self._limits, self.gain, self.low, self.high,
+            out, memory,
+        )  # fmt: skip
+
     def commit(self, memory: tuple) -> None:
         """Advance the loops' memory (last error, integrators) after controls were executed;
         in place, so that a batch's rows stay bound to them."""

@@ -239,31 +239,19 @@ def mark_off_route(
 
 
 @njit(cache=True, nogil=True)
-def pid_controls(
-    state,
-    aim,
-    is_car,
-    target_speed,
-    steer_prev,
-    steer_int,
-    speed_int,
-    dt,
-    gains,
-    limits,
-    gain,
-    low,
-    high,
-):  # pragma: no cover (compiled)
-    """Controls (N, 2) of the two PID loops and their new memory (error, integrators).
+def pid_controls_into(
+    state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
+    low, high, out, err, integ, v_int,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Controls (N, 2) of the two PID loops into ``out``, and their new memory into ``err``,
+    ``integ`` and ``v_int`` (N,: error, steering and speed integrators).
 
     gains: steering kp, ki, kd/dt, speed kp, ki; limits: max steer (rad), max decel, max accel
     (m/s²); gain, low, high (N,): acceleration to actuator units, and the actuator's range.
     """
     steer_kp, steer_ki, steer_kd_dt, speed_kp, speed_ki = gains
     max_steer, max_decel, max_accel = limits
-    n = len(state)
-    out, err, integ, v_int = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n)
-    for i in range(n):
+    for i in range(len(state)):
         desired = np.arctan2(aim[i, 1] - state[i, 1], aim[i, 0] - state[i, 0])
         e = (desired - state[i, 2] + np.pi) % (2 * np.pi) - np.pi
         err[i], integ[i] = e, steer_int[i] + e * dt
@@ -278,6 +266,20 @@ def pid_controls(
         out[i, 0] = min(max(steer, -max_steer), max_steer) if is_car[i] else desired
         accel = min(max(accel, -max_decel), max_accel)
         out[i, 1] = min(max(accel * gain[i], low[i]), high[i])
+
+
+@njit(cache=True, nogil=True)
+def pid_controls(
+    state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
+    low, high,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`pid_controls_into` new arrays: the controls and the loops' new memory."""
+    n = len(state)
+    out, err, integ, v_int = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n)
+    pid_controls_into(
+        state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits,
+        gain, low, high, out, err, integ, v_int,
+    )  # fmt: skip
     return out, err, integ, v_int
 
 
@@ -291,6 +293,20 @@ def pid_follow(
     return pid_controls(
         state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits,
         gain, low, high,
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def pid_follow_into(
+    path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
+    steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """:func:`pid_follow` into ``out`` (N, 2) and ``memory`` (3, N: the rows of its memory),
+    which saves the caller new arrays."""
+    aim = lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing)
+    pid_controls_into(
+        state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits,
+        gain, low, high, out, memory[0], memory[1], memory[2],
     )  # fmt: skip
 
 

@@ -110,8 +110,7 @@ class DrivingSupervisor:
         """The rest of :meth:`prepare`: every agent's controls toward :attr:`targets` (a
         :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch` does this for
         many worlds in one call)."""
-        memory = self._memory
-        self.proposed[:], (memory[0], memory[1], memory[2]) = self.pid.controls(world, self.targets)
+        self.pid.controls_into(world, self.targets, self.proposed, self._memory)
 
     def execute(
         self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None
