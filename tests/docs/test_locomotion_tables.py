@@ -2,17 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 from pathlib import Path
+
+from script_module import load_script
 
 TABLES = Path(__file__).parents[2] / "docs" / "_gen" / "tables"
 
 
 def _load(name: str):
-    spec = importlib.util.spec_from_file_location(name, TABLES / f"{name}.py")
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script(TABLES / f"{name}.py")
 
 
 TARGETS = [  # the quality script's: no falls at 0.05, falls allowed (and shown) at 0.1

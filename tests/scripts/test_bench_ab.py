@@ -3,17 +3,11 @@ and in lists of measurements (named by their env, batch size and agents)."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "benchmarks" / "bench_ab.py"
+from script_module import load_script
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("bench_ab", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("benchmarks/bench_ab.py")
 
 
 def test_rates_reach_into_dicts_and_lists_and_skip_other_numbers():

@@ -4,20 +4,14 @@ PPO model)."""
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
+from script_module import load_script
 from train_extra import require_sb3
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "baselines" / "fluids_discount.py"
 
 
 def _module():
-    spec = importlib.util.spec_from_file_location("fluids_discount", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("baselines/fluids_discount.py")
 
 
 def test_supervisor_returns_do_not_depend_on_the_failure_weight_and_discounting_shrinks_them():

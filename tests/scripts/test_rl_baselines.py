@@ -3,23 +3,17 @@ from SB3's defaults, and the shared evaluation of the fixed policies (tiny runs 
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import pytest
+from script_module import load_script
 from tqdm import tqdm
 from train_extra import require_sb3
-
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "baselines" / "rl_baselines.py"
 
 
 @pytest.fixture(scope="module")
 def rl():
-    spec = importlib.util.spec_from_file_location("rl_baselines", SCRIPT)
-    module = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(module)
-    return module
+    return load_script("baselines/rl_baselines.py")
 
 
 def _train(rl, work, steps, algo_kwargs=None):

@@ -5,18 +5,13 @@ three levels."""
 
 from __future__ import annotations
 
-import importlib.util
-from pathlib import Path
-
 import pytest
+from script_module import load_script
 
 from fluids_bench.sweep.grid import KwargGrid
 from fluids_bench.sweep.run import probe_env
 
-SCRIPT = Path(__file__).resolve().parents[2] / "scripts" / "reproductions" / "sensitivity_study.py"
-_spec = importlib.util.spec_from_file_location("sensitivity_study", SCRIPT)
-study = importlib.util.module_from_spec(_spec)
-_spec.loader.exec_module(study)
+study = load_script("reproductions/sensitivity_study.py")
 
 # factors whose nominal value no level equals, in studies whose rows are kept as they are
 OFF_GRID_NOMINAL = {

@@ -2,19 +2,15 @@
 
 from __future__ import annotations
 
-import importlib.util
 import json
-from pathlib import Path
 
 import numpy as np
 import pytest
+from script_module import load_script
 
 from fluids_bench.tasks.locomotion.policy import MLPPolicy
 
-SCRIPT = Path(__file__).parents[3] / "scripts" / "training" / "train_locomotion_expert.py"
-spec = importlib.util.spec_from_file_location("train_locomotion_expert", SCRIPT)
-train = importlib.util.module_from_spec(spec)
-spec.loader.exec_module(train)
+train = load_script("training/train_locomotion_expert.py")
 
 TINY = [
     "--env",
