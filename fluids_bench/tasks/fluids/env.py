@@ -28,6 +28,7 @@ from fluids_bench.tasks.fluids.scenario import (
     step_reward,
     step_reward_v1,
 )
+from fluids_bench.tasks.fluids.sim.entry import Entry
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
@@ -394,29 +395,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self._progress = np.array([0.0, 1.0])
         self._done = np.zeros((), dtype=np.bool_)
 
-    @property
-    def _last_s(self) -> float:
-        return float(self._progress[0])
-
-    @_last_s.setter
-    def _last_s(self, s: float) -> None:
-        self._progress[0] = s
-
-    @property
-    def _route_length(self) -> float:
-        return float(self._progress[1])
-
-    @_route_length.setter
-    def _route_length(self, length: float) -> None:
-        self._progress[1] = length
-
-    @property
-    def _ended(self) -> bool:
-        return bool(self._done)
-
-    @_ended.setter
-    def _ended(self, ended: bool) -> None:
-        self._done[()] = ended
+    _last_s = Entry("_progress", 0, float)  # the ego's route progress at the last step (m)
+    _route_length = Entry("_progress", 1, float)  # its route's length (m)
+    _ended = Entry("_done", (), bool)  # the episode ended
 
     # ------------------------------------------------------------------ gym API
     def reset(self, *, seed: int | None = None, options: dict[str, Any] | None = None):

@@ -20,6 +20,7 @@ from fluids_bench.tasks.fluids.sim.collision import (
     footprint_corners,
 )
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
+from fluids_bench.tasks.fluids.sim.entry import Entry
 from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, PEDESTRIAN, Layout, compile_layout
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.sim.lights import LightProgram
@@ -292,19 +293,8 @@ class World:
         )  # fmt: skip
         return self.finish_step(maybe_collided)
 
-    @property
-    def time(self) -> float:
-        """Simulated seconds since the world was made (rounded to the nanosecond)."""
-        return float(self._clock)
-
-    @time.setter
-    def time(self, seconds: float) -> None:
-        self._clock[()] = seconds
-
-    @property
-    def steps(self) -> int:
-        """Steps taken since the world was made."""
-        return int(self._step_count)
+    time = Entry("_clock", (), float)  # simulated seconds since the world was made (to the ns)
+    steps = Entry("_step_count", (), int)  # steps taken since the world was made
 
     def begin_step(self) -> None:
         """The clock's part of :meth:`step`, before the agents move (:func:`clock_ticks`)."""
