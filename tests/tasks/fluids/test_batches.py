@@ -5,6 +5,7 @@ proposals and PID memory; rows that are masked out stay untouched)."""
 from __future__ import annotations
 
 import copy
+import pickle
 
 import numpy as np
 import pytest
@@ -130,3 +131,39 @@ def test_batched_velocity_plan_equals_each_planner_and_zeroes_a_world_without_ag
     assert sups[0].targets.tobytes() == sups[0].planner.plan(worlds[0]).tobytes()
     assert sups[0].targets.any() and np.all(sups[1].targets == 0.0)
     assert np.all(sups[2].targets == 7.0)
+
+
+def _as_pickled_before_rows(world, sup, tracker):
+    """The objects' attributes as fluids-bench pickled them before their scalars became 0-d
+    arrays (the clock, the light lookup, the fault record count, the proposal's memory)."""
+    d = world.__dict__
+    d["time"], d["steps"] = float(d.pop("_clock")), int(d.pop("_step_count"))
+    lights = world.lights.__dict__
+    lights["_last"] = lights.pop("current")  # the same array as world.light_state
+    lights["_last"].setflags(write=False)
+    lights["_valid"] = tuple(lights["_valid"].tolist())
+    tracker.__dict__["_recorded"] = int(tracker.__dict__["_recorded"])
+    sup.__dict__["_memory"] = tuple(np.array(row) for row in sup.__dict__["_memory"])
+
+
+def test_objects_pickled_in_the_earlier_layout_load_and_continue_bit_for_bit():
+    """Stored states (teleop datasets) written before this layout still restore."""
+    world = make_world(SCENE, 5)
+    sup, tracker = DrivingSupervisor(world, NO_RECOVERY), FaultTracker(world)
+    for _ in range(12):
+        sup.step(world)
+        tracker.update()
+    reference = pickle.loads(pickle.dumps((world, sup, tracker)))
+    _as_pickled_before_rows(world, sup, tracker)
+    loaded = pickle.loads(pickle.dumps((world, sup, tracker)))
+    w0, s0, t0 = reference
+    w1, s1, t1 = loaded
+    assert w1.light_state is w1.lights.current
+    for _ in range(60):
+        for w, s, t in (reference, loaded):
+            s.step(w)
+            t.update()
+        _same(w0, w1)
+        assert s0.proposed.tobytes() == s1.proposed.tobytes()
+        assert int(t0._recorded) == int(t1._recorded)
+        assert t0.ran_red.tobytes() == t1.ran_red.tobytes()

@@ -157,6 +157,11 @@ class FaultTracker:
             self._light_of[:] = np.where(w.route >= 0, w.layout.routes.light[r], -1)
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
 
+    def __setstate__(self, state: dict) -> None:
+        if isinstance(state["_recorded"], int):  # pickled before the count was a 0-d array
+            state["_recorded"] = np.array(state["_recorded"], dtype=np.int64)
+        self.__dict__.update(state)
+
     def _record(self) -> None:
         w = self.world
         self._follow_routes()

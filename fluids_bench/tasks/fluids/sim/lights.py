@@ -57,6 +57,12 @@ class LightProgram:
         self.current = np.zeros(len(self.names), dtype=np.int8)
         self._valid = np.array([np.inf, -np.inf])
 
+    def __setstate__(self, state: dict) -> None:
+        if "_last" in state:  # pickled before the last lookup was kept in place
+            state["current"] = np.array(state.pop("_last"), dtype=np.int8)
+            state["_valid"] = np.array(state["_valid"], dtype=np.float64)
+        self.__dict__.update(state)
+
     def __len__(self) -> int:
         return len(self.names)
 

@@ -293,6 +293,13 @@ class World:
         )  # fmt: skip
         return self.finish_step(maybe_collided)
 
+    def __setstate__(self, state: dict) -> None:
+        if "time" in state:  # pickled before the clock became 0-d arrays (stored states)
+            state["_clock"] = np.array(float(state.pop("time")))
+            state["_step_count"] = np.array(int(state.pop("steps")), dtype=np.int64)
+            state["light_state"] = state["lights"].current
+        self.__dict__.update(state)
+
     time = Entry("_clock", (), float)  # simulated seconds since the world was made (to the ns)
     steps = Entry("_step_count", (), int)  # steps taken since the world was made
 

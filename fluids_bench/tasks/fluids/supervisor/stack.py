@@ -74,6 +74,13 @@ class DrivingSupervisor:
         state["_recovery"] = None  # OMPL objects do not pickle; rebuilt on first need
         return state
 
+    def __setstate__(self, state: dict) -> None:
+        memory = state["_memory"]
+        if isinstance(memory, tuple):  # pickled before the proposal's memory was one array
+            n = len(state["targets"])
+            state["_memory"] = np.array(memory, dtype=np.float64) if memory else np.zeros((3, n))
+        self.__dict__.update(state)
+
     def recovery_planner(self, world: World) -> RecoveryPlanner:
         if self._recovery is None:  # OMPL set-up only when first needed
             self._recovery = RecoveryPlanner(world)
