@@ -25,8 +25,6 @@ from fluids_bench.tasks.fluids.supervisor.batch import (
     SupervisorBatch,
 )
 
-BATCHED_LEVELS = ("behavior", "trajectory", "velocity", "control")
-
 
 @dataclass(frozen=True)
 class Movements:
@@ -67,9 +65,9 @@ def act_batch(
     scratch: dict,
 ) -> None:
     """Write every stepping world's controls into ``worlds.controls`` and advance its PID
-    memory, as ``FluidsEnv._act`` of its clipped action would; ``envs`` act at one of
-    :data:`BATCHED_LEVELS`; ``bounds``: the action space's low and high (flat, float64; None
-    at the behaviour level); ``scratch``: what this function keeps between calls."""
+    memory, as ``FluidsEnv._act`` of its clipped action would, at any action level;
+    ``bounds``: the action space's low and high (flat, float64; None at the behaviour level);
+    ``scratch``: what this function keeps between calls."""
     first = envs[0]
     level, world = first.action_level, first.world
     if level == "behavior":
