@@ -8,3 +8,9 @@ import os
 # terminates the EGL display that MuJoCo's off-screen renderers share in the same process: the
 # next MuJoCo frame failed with EGL_NOT_INITIALIZED. SDL's dummy driver touches no display.
 os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
+
+# pytest-xdist's workers are the parallelism: a BLAS pool in each would oversubscribe the cores.
+if os.environ.get("PYTEST_XDIST_WORKER"):
+    from fluids_bench.core.pool import one_blas_thread
+
+    one_blas_thread()

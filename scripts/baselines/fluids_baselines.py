@@ -40,6 +40,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import announce
 
 ENVS = {
@@ -205,7 +206,7 @@ def main() -> None:
 
     # the slowest trainers first, so that the cheap jobs fill in around them
     todo = sorted((j for j in jobs if key(j) not in done), key=lambda j: j[1] not in SLOW)
-    with ProcessPoolExecutor(args.workers) as pool:
+    with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
         futures = {pool.submit(job, j): j for j in todo}
         for fut in tqdm(as_completed(futures), total=len(futures), unit="job"):
             j, row = futures[fut], fut.result()

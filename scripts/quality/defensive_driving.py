@@ -38,6 +38,7 @@ from tqdm import tqdm
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import announce
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")
@@ -165,7 +166,7 @@ def main() -> None:
     log = f"{args.out}.jsonl" if args.out else None
     done = {_row_key(row): row for row in read_rows(log)}
     todo = [j for j in jobs if _key(j) not in done]
-    with ProcessPoolExecutor(args.workers) as pool:
+    with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
         futures = [pool.submit(scene_row, j) for j in todo]
         for fut in tqdm(as_completed(futures), total=len(futures), unit="scene"):
             row = fut.result()

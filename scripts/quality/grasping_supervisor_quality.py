@@ -29,6 +29,7 @@ from tqdm import tqdm
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 ENV_ID = "GraspingInClutter-v0"
@@ -114,7 +115,10 @@ def main() -> None:
     levels = (0.0, args.noise)
     jobs = [(noise, seed) for noise in levels for seed in range(args.episodes)]
     todo = [job for job in jobs if job not in done]
-    with ProcessPoolExecutor(args.workers) as pool, open(log, "a") as f:
+    with (
+        ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool,
+        open(log, "a") as f,
+    ):
         futures = [pool.submit(episode, job) for job in todo]
         for future in tqdm(as_completed(futures), total=len(futures), unit="episode"):
             row = future.result()

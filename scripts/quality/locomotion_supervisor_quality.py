@@ -27,6 +27,7 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid": 9575.0}
@@ -230,7 +231,10 @@ def main(argv: list[str] | None = None) -> int:
                 }
                 if key(probe) not in done:
                     jobs.append((env_id, kind, noise, seed, args.steps, args.mpc))
-    with ProcessPoolExecutor(args.workers) as pool, open(args.out, "a") as f:
+    with (
+        ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool,
+        open(args.out, "a") as f,
+    ):
         futures = [pool.submit(episode, *job) for job in jobs]
         for fut in tqdm(as_completed(futures), total=len(futures), desc="episodes"):
             r = fut.result()

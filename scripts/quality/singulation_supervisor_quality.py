@@ -34,6 +34,7 @@ from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 ENV_ID = "Singulation-v0"
@@ -103,7 +104,7 @@ def main() -> None:
             write_json_atomic(part(*job), episodes(*job))
             bar.update(1)
     else:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
             futures = {pool.submit(episodes, *job): job for job in todo}
             for future in as_completed(futures):
                 write_json_atomic(part(*futures[future]), future.result())

@@ -27,6 +27,7 @@ from tqdm import tqdm
 
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
@@ -113,7 +114,7 @@ def _run_layout(args: argparse.Namespace, layout: str) -> dict:
     log = f"{out}.jsonl" if out else None
     done = {(r["layout"], r["cars"], r["pedestrians"], r["episodes"]): r for r in read_rows(log)}
     todo = [j for j in jobs if j[:4] not in done]
-    with ProcessPoolExecutor(args.workers) as pool:
+    with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
         futures = [pool.submit(_scene_result, job) for job in todo]
         for future in tqdm(as_completed(futures), total=len(futures), desc=layout, unit="scene"):
             row = future.result()

@@ -30,6 +30,7 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
@@ -118,7 +119,10 @@ def main() -> None:
         for n in args.noise
         if not any(r["depth"] == d and r["noise"] == n for r in done)
     ]
-    with ProcessPoolExecutor(args.workers) as pool, open(args.out, "a") as sink:
+    with (
+        ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool,
+        open(args.out, "a") as sink,
+    ):
         futures = [pool.submit(run_row, d, n, args.tracks) for d, n in todo]
         for future in tqdm(as_completed(futures), total=len(futures), desc="rows"):
             row = future.result()

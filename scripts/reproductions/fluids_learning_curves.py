@@ -36,6 +36,7 @@ from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 
 ENV_ID = "FLUIDS-Sensitivity-v0"
 ALGOS: dict[str, dict[str, Any]] = {
@@ -188,7 +189,7 @@ def main() -> None:
     if args.workers == 1:
         payloads = [run_one(n, s, folder, **common) for n, s in tqdm(jobs, desc="runs")]
     else:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
             futures = [pool.submit(run_one, n, s, folder, **common) for n, s in jobs]
             payloads = [f.result() for f in tqdm(futures, desc="runs")]
     seconds = time.perf_counter() - start

@@ -29,6 +29,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec, fit_policy
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import announce
 
 ENV_ID = "GraspingInClutter-v0"
@@ -113,7 +114,10 @@ def main() -> None:
         for layout in range(args.layouts)
     ]
     todo = [job for job in jobs if job not in done]
-    with ProcessPoolExecutor(args.workers) as pool, open(log, "a") as f:
+    with (
+        ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool,
+        open(log, "a") as f,
+    ):
         futures = [pool.submit(cell, job) for job in todo]
         for future in tqdm(as_completed(futures), total=len(futures), unit="cell"):
             row = future.result()

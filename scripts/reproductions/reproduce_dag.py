@@ -31,6 +31,7 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.dag.model import R
 from fluids_bench.tasks.dag.supervisor import expected_return
@@ -94,7 +95,7 @@ def wilson(successes: int, n: int, z: float = 1.96) -> tuple[float, float]:
 def run_batches(jobs: list[tuple[Any, ...]], function: Any, workers: int, desc: str) -> list[Any]:
     if workers == 1:
         return [function(*job) for job in tqdm(jobs, desc=desc)]
-    with ProcessPoolExecutor(workers) as pool:
+    with ProcessPoolExecutor(workers, initializer=one_blas_thread) as pool:
         futures = [pool.submit(function, *job) for job in jobs]
         return [f.result() for f in tqdm(futures, desc=desc)]
 

@@ -49,6 +49,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")
@@ -321,7 +322,7 @@ def main(argv: list[str] | None = None) -> int:
     print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
     machine_at_start = machine()
     try:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
             futures = {pool.submit(run_one, *job): path for path, job in jobs}
             for fut in tqdm(as_completed(futures), total=len(futures), desc="runs"):
                 result = fut.result()

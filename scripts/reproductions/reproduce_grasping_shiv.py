@@ -43,6 +43,7 @@ from fluids_bench.algos import bc, dagger, shiv
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 REPO = Path(__file__).resolve().parents[2]
@@ -301,7 +302,7 @@ def main() -> None:
         for algo, r in tqdm(todo, desc="runs"):
             keep(run_one(algo, r, *settings[:3], sigmas, args.samples_per_demo, standardize))
     else:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
             futures = [
                 pool.submit(
                     run_one, algo, r, *settings[:3], sigmas, args.samples_per_demo, standardize

@@ -38,6 +38,7 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 REPO = Path(__file__).resolve().parents[2]
@@ -171,7 +172,7 @@ def main() -> None:
     if args.workers == 1:
         worlds = [run_world_cached(*job) for job in tqdm(jobs, desc="worlds")]
     else:
-        with ProcessPoolExecutor(args.workers) as pool:
+        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
             futures = [pool.submit(run_world_cached, *job) for job in jobs]
             worlds = [f.result() for f in tqdm(futures, desc="worlds")]
     summary = summarise(worlds)

@@ -45,6 +45,7 @@ from fluids_bench.algos.harness import Harness
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import RunResult, write_json_atomic
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.singulation.label_noise import (
     SOURCE_CORRELATIONS,
@@ -312,7 +313,7 @@ def main() -> None:
             for job in todo:
                 save(job, run_arm(*job, args.eval_episodes, args.policy))
         else:
-            with ProcessPoolExecutor(args.workers) as pool:
+            with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
                 pending = {
                     pool.submit(run_arm, *job, args.eval_episodes, args.policy): job for job in todo
                 }

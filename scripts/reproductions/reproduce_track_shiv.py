@@ -57,7 +57,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from fluids_bench.algos import dagger, shiv
@@ -74,6 +73,7 @@ from fluids_bench.algos.query import (
 )
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.pool import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.track.bandwidth import median_state_distance, source_sigma
 
@@ -376,15 +376,6 @@ def plot_fig65(summary: dict, path: Path) -> None:
     save_png_atomic(figure, path, legend_loc=None)
 
 
-def _one_thread() -> None:
-    """One BLAS thread per worker: the workers are the parallelism."""
-    global _LIMITS
-    _LIMITS = threadpool_limits(1)
-
-
-_LIMITS = None
-
-
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument(
@@ -441,7 +432,7 @@ def main() -> None:
     print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
     machine_at_start = machine()
     start = time.perf_counter()
-    with ProcessPoolExecutor(args.workers, initializer=_one_thread) as pool:
+    with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
         futures = {pool.submit(todo[k][0], *todo[k][1]): k for k in pending}
         for future in tqdm(as_completed(futures), total=len(futures), desc="units"):
             key = futures[future]
