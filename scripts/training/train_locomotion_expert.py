@@ -26,6 +26,9 @@ also carries on that run's iteration count and cost.
 executed action is ``clip(policy(obs) + N(0, S^2 I), low, high)`` (the noise drawn from the
 episode's seed), in training and in a second set of evaluation episodes; the best policy is then
 the one with the highest mean over the clean and the noisy evaluation episodes.
+``--paired-seeds`` runs a direction's two episodes from one seed (the same initial state and, with
+``--action-noise``, the same noise): common random numbers, so their difference measures the
+direction rather than which episode drew the unlucky noise.
 Writes ``<out>`` (the best evaluated policy, .npz) and ``<out>.json`` (recipe, history, sha256).
 
 Example: ``nice -n 10 python scripts/training/train_locomotion_expert.py --env Hopper --iterations 400
@@ -166,6 +169,12 @@ def main(argv: list[str] | None = None) -> int:
         "second set of evaluation episodes (default 0: none)",
     )
     p.add_argument(
+        "--paired-seeds",
+        action="store_true",
+        help="a direction's +/- episodes share one seed (initial state and action noise), "
+        "so noise that fells one episode fells both (default: a seed each)",
+    )
+    p.add_argument(
         "--ship",
         type=Path,
         default=None,
@@ -220,6 +229,7 @@ def main(argv: list[str] | None = None) -> int:
         "eval_seeds": f"10_000_000 + range({args.eval_episodes})",
         **hp,
         "action_noise": args.action_noise,
+        "paired_seeds": args.paired_seeds,
         "command": "python scripts/training/train_locomotion_expert.py " + " ".join(sys.argv[1:]),
     }
 
@@ -304,6 +314,8 @@ def main(argv: list[str] | None = None) -> int:
             deltas = np.zeros((N, n_params))
             deltas[:, free] = rng.standard_normal((N, n_free))
             seeds = rng.integers(0, 2**31 - 1, size=(N, 2))
+            if args.paired_seeds:  # drawn as without, so the generator's stream is the same
+                seeds[:, 1] = seeds[:, 0]
             jobs = []
             for k in range(N):
                 for sign, col in ((1.0, 0), (-1.0, 1)):

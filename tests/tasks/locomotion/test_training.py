@@ -155,3 +155,19 @@ def test_bad_noise_settings_are_refused(tmp_path, capsys, extra, message):
     with pytest.raises(SystemExit):
         train.main([*TINY, "--out", str(tmp_path / "w.npz"), *extra])
     assert message in capsys.readouterr().err
+
+
+def test_paired_seeds_give_a_directions_two_episodes_one_seed(tmp_path):
+    # with zero parameter noise a direction's two policies are the same: paired, their episodes
+    # are the same too, so no reward difference moves the parameters; unpaired, luck does
+    # (no hidden layer: the parameters start at zero)
+    argv = [*TINY, "--hidden", "--noise", "0", "--action-noise", "0.1", "--iterations", "1"]
+    thetas = {}
+    for paired in (False, True):
+        out = tmp_path / str(paired) / "w.npz"
+        out.parent.mkdir()
+        train.main([*argv, "--out", str(out), *(["--paired-seeds"] if paired else [])])
+        thetas[paired] = np.load(out.with_name("w.npz.ckpt.npz"))["theta"]
+        recipe = json.loads(out.with_name("w.npz.json").read_text())["recipe"]
+        assert recipe["paired_seeds"] is paired
+    assert np.all(thetas[True] == 0.0) and np.any(thetas[False] != 0.0)
