@@ -12,6 +12,10 @@ from ``weights/manifest.json``).
 Example: ``nice -n 10 python scripts/quality/locomotion_supervisor_quality.py --env Hopper-IL-v0
 Walker2d-IL-v0 HalfCheetah-IL-v0 Humanoid-IL-v0 --episodes 10 --noise-std 0 0.02 0.05 0.1 0.3``
 (a policy-supervised 1,000-step episode costs about 0.3 CPU-s; an MPC one minutes).
+
+A candidate policy (a training run's ``--out`` file) is measured in place of the shipped one
+with ``--weights Humanoid=/path/humanoid.npz``; its records carry its sha256, so they never
+mix with the shipped policy's in ``--out``.
 """
 
 from __future__ import annotations
@@ -25,6 +29,7 @@ from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
+from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
 from fluids_bench.core.pool import one_blas_thread
@@ -113,12 +118,36 @@ def shipped() -> dict:
     return out
 
 
+def parse_weights(items: list[str]) -> dict[str, tuple[str, str]]:
+    """``TASK=PATH`` items -> {task: (path, sha256)}; the error names the bad item."""
+    from fluids_bench.tasks.locomotion.policy import sha256_of
+
+    out = {}
+    for item in items:
+        task, sep, path = item.partition("=")
+        if not sep or task not in SOURCE or not Path(path).is_file():
+            raise ValueError(
+                f"--weights {item!r}: allowed: TASK=PATH with TASK one of {sorted(SOURCE)} "
+                "and PATH an existing policy file (a training run's --out)"
+            )
+        out[task] = (str(Path(path).resolve()), sha256_of(path))
+    return out
+
+
 def episode(
-    env_id: str, kind: str, noise_std: float, seed: int, steps: int, mpc: dict | None
+    env_id: str,
+    kind: str,
+    noise_std: float,
+    seed: int,
+    steps: int,
+    mpc: dict | None,
+    weights: tuple[str, str] | None = None,
 ) -> dict:
     import fluids_bench  # noqa: F401  (registers the ids in the worker)
 
     kwargs = {"supervisor": kind} if mpc is None else {"supervisor": kind, "mpc": mpc}
+    if weights is not None:
+        kwargs |= {"weights": weights[0], "weights_sha256": weights[1]}
     env = gym.make(env_id, max_episode_steps=steps, **kwargs)
     rng = np.random.default_rng([seed, 0xA5])
     _, info = env.reset(seed=seed)
@@ -146,6 +175,7 @@ def episode(
         "noise_std": noise_std,
         "seed": seed,
         "mpc": mpc,
+        "weights_sha256": None if weights is None else weights[1],
         "return": total,
         "steps": n,
         "fell": bool(terminated),
@@ -155,8 +185,21 @@ def episode(
     }
 
 
+def run_all(jobs: list[tuple], workers: int):
+    """Episode records as they finish: in this process for one worker, else in a pool (one
+    BLAS thread either way, so results do not depend on the core count)."""
+    if workers == 1:
+        with threadpool_limits(1):
+            yield from (episode(*job) for job in jobs)
+        return
+    with ProcessPoolExecutor(workers, initializer=one_blas_thread) as pool:
+        futures = [pool.submit(episode, *job) for job in jobs]
+        yield from (fut.result() for fut in as_completed(futures))
+
+
 def key(r: dict) -> tuple:
-    return (r["env_id"], r["kind"], r["noise_std"], r["seed"], json.dumps(r["mpc"], sort_keys=True))
+    mpc = json.dumps(r["mpc"], sort_keys=True)
+    return (r["env_id"], r["kind"], r["noise_std"], r["seed"], mpc, r.get("weights_sha256"))
 
 
 def table(records: list[dict]) -> str:
@@ -192,6 +235,13 @@ def main(argv: list[str] | None = None) -> int:
     p.add_argument("--noise-std", type=float, nargs="+", default=[0.0])
     p.add_argument("--mpc", type=json.loads, default=None, help="planner overrides, JSON")
     p.add_argument("--workers", type=int, default=1)
+    p.add_argument(
+        "--weights",
+        nargs="+",
+        default=[],
+        metavar="TASK=PATH",
+        help="measure this policy file instead of the shipped one, e.g. Humanoid=run/humanoid.npz",
+    )
     p.add_argument("--out", type=Path, default=Path("out/locomotion_quality.jsonl"))
     p.add_argument(
         "--results", type=Path, default=RESULTS, help="the results file the docs read (JSON)"
@@ -199,6 +249,15 @@ def main(argv: list[str] | None = None) -> int:
     args = p.parse_args(argv)
     if args.episodes < 1 or args.workers < 1 or args.steps < 1 or min(args.noise_std) < 0:
         p.error("--episodes, --workers and --steps >= 1, --noise-std >= 0")
+    try:
+        weights = parse_weights(args.weights)
+    except ValueError as err:
+        p.error(str(err))
+    if weights and args.results.resolve() == RESULTS:
+        p.error(
+            "--weights measures a candidate: name its own --results file (the default is "
+            "the docs' table of the shipped policies)"
+        )
     import fluids_bench  # noqa: F401
     from fluids_bench.algos.results import write_json_atomic
     from fluids_bench.tasks.locomotion.env import DEFAULT_SUPERVISOR
@@ -220,6 +279,7 @@ def main(argv: list[str] | None = None) -> int:
     jobs = []
     for env_id in args.env:
         kind = args.kind or DEFAULT_SUPERVISOR[env_id.split("-")[0]]
+        mine_w = weights.get(env_id.split("-")[0])
         for noise in args.noise_std:
             for seed in range(args.first_seed, args.first_seed + args.episodes):
                 probe = {
@@ -228,16 +288,12 @@ def main(argv: list[str] | None = None) -> int:
                     "noise_std": noise,
                     "seed": seed,
                     "mpc": args.mpc,
+                    "weights_sha256": None if mine_w is None else mine_w[1],
                 }
                 if key(probe) not in done:
-                    jobs.append((env_id, kind, noise, seed, args.steps, args.mpc))
-    with (
-        ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool,
-        open(args.out, "a") as f,
-    ):
-        futures = [pool.submit(episode, *job) for job in jobs]
-        for fut in tqdm(as_completed(futures), total=len(futures), desc="episodes"):
-            r = fut.result()
+                    jobs.append((env_id, kind, noise, seed, args.steps, args.mpc, mine_w))
+    with open(args.out, "a") as f:
+        for r in tqdm(run_all(jobs, args.workers), total=len(jobs), desc="episodes"):
             f.write(json.dumps(r) + "\n")
             f.flush()
             os.fsync(f.fileno())
@@ -251,6 +307,7 @@ def main(argv: list[str] | None = None) -> int:
         and r["noise_std"] in args.noise_std
         and r["seed"] in seeds
         and r["mpc"] == args.mpc
+        and r.get("weights_sha256") == (weights.get(r["env_id"].split("-")[0]) or (None, None))[1]
     ]
     print(table(mine))
     report = {
@@ -267,6 +324,7 @@ def main(argv: list[str] | None = None) -> int:
         "rows": summarise(mine),
         "noise_targets": NOISE_TARGETS,
         "shipped": shipped(),
+        "weights": {t: {"path": w[0], "sha256": w[1]} for t, w in weights.items()},
     }
     args.results.parent.mkdir(parents=True, exist_ok=True)
     write_json_atomic(args.results, report)
