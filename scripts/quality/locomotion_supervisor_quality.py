@@ -276,10 +276,14 @@ def main(argv: list[str] | None = None) -> int:
             if line.strip():
                 r = json.loads(line)
                 done[key(r)] = r
+
+    def candidate(env_id: str) -> tuple[str, str] | None:
+        return weights.get(env_id.split("-")[0])
+
     jobs = []
     for env_id in args.env:
         kind = args.kind or DEFAULT_SUPERVISOR[env_id.split("-")[0]]
-        mine_w = weights.get(env_id.split("-")[0])
+        mine_w = candidate(env_id)
         for noise in args.noise_std:
             for seed in range(args.first_seed, args.first_seed + args.episodes):
                 probe = {
@@ -307,7 +311,7 @@ def main(argv: list[str] | None = None) -> int:
         and r["noise_std"] in args.noise_std
         and r["seed"] in seeds
         and r["mpc"] == args.mpc
-        and r.get("weights_sha256") == (weights.get(r["env_id"].split("-")[0]) or (None, None))[1]
+        and r.get("weights_sha256") == (candidate(r["env_id"]) or (None, None))[1]
     ]
     print(table(mine))
     report = {
