@@ -103,7 +103,7 @@ def shipped() -> dict:
     """The shipped policies' training records, from the package's weights manifest."""
     path = ROOT / "fluids_bench" / "tasks" / "locomotion" / "weights" / "manifest.json"
     keep = ("n_directions", "top", "step_size", "noise", "shift", "hidden", "seed", "obs_dims")
-    keep += ("action_noise",)
+    keep += ("action_noise", "paired_seeds")
     out = {}
     for name, entry in json.loads(path.read_text()).items():
         out[name] = {

@@ -145,6 +145,8 @@ def training(data: dict) -> str:
             text += ", linear + tanh" if not r.get("hidden") else f", hidden {r['hidden']}"
             if r.get("action_noise"):
                 text += f", trained under action noise σ = {r['action_noise']:g}"
+            if r.get("paired_seeds"):
+                text += " (`--paired-seeds`)"
             return text
 
         stages = s["stages"]
