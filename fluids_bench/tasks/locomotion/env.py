@@ -200,7 +200,11 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
             action_noise=action_noise,
         )
         with _mujoco_warnings_to_python():  # models are compiled here (the planner's too)
-            self._sim = _GYM_ENVS[self.task](render_mode=render_mode, width=width, height=height)
+            # the model's own com-tracking camera: Gymnasium's default one stays put sideways,
+            # so a walker that drifts leaves the picture
+            self._sim = _GYM_ENVS[self.task](
+                render_mode=render_mode, width=width, height=height, camera_name="track"
+            )
             # before the supervisor is built: a planner copies the model the env runs
             perturb_model(self._sim.model, **physics)
             self._supervisor = make_supervisor(
