@@ -15,11 +15,20 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.tasks.locomotion.supervisors import load_policy, manifest
 
 
-def supervised_return(env: gym.Env, seed: int, steps: int) -> tuple[float, bool]:
+def supervised_return(
+    env: gym.Env, seed: int, steps: int, noise_std: float = 0.0
+) -> tuple[float, bool]:
+    """Return and fall of one episode that executes the label, plus N(0, noise_std^2 I) clipped
+    to the action space when noise_std > 0 (how noise-injection methods collect)."""
+    rng = np.random.default_rng([seed, 0xA5])
     _, info = env.reset(seed=seed)
     total = 0.0
     for _ in range(steps):
-        _, reward, terminated, truncated, info = env.step(info["supervisor_action"])
+        action = info["supervisor_action"]
+        if noise_std:
+            action = action + noise_std * rng.standard_normal(action.shape)
+            action = np.clip(action, env.action_space.low, env.action_space.high)
+        _, reward, terminated, truncated, info = env.step(action)
         total += reward
         if terminated or truncated:
             return total, terminated
@@ -71,8 +80,8 @@ def test_halfcheetah_policy_runs_upright_above_the_floor():
 
 def test_humanoid_policy_walks_above_the_floor():
     """Shipped Humanoid policy: seeds 0-2, 1,000 steps, mean >= 5,000 (the issue's floor; the
-    README's 10 episodes, seeds 0-9, include falls). Its first labels are its own forward pass
-    on Gymnasium's 348-entry observation."""
+    quality table's 10 episodes: 7,125 ± 19, no falls). Its first labels are its own forward
+    pass on Gymnasium's 348-entry observation."""
     env = gym.make("Humanoid-IL-v0")
     assert env.unwrapped.metadata["supervisor"]["kind"] == "policy"
     results = [supervised_return(env, seed, 1000) for seed in range(3)]
@@ -87,3 +96,16 @@ def test_halfcheetah_mpc_runs_forward():
     total, _ = supervised_return(env, 0, 100)
     assert total > 50.0
     assert abs(env.unwrapped._sim.data.qpos[2]) < 1.0  # not flipped onto its back
+
+
+@pytest.mark.parametrize("task", ["Hopper", "Walker2d", "HalfCheetah", "Humanoid"])
+def test_shipped_teacher_tolerates_the_noise_dart_injects(task):
+    """The noise target at sigma = 0.05 on a sample of 3 seeds (the quality table has 10, the
+    issue's check 60 unseen): executed-action noise keeps >= 90 % of the clean return on the
+    same seeds, and no episode falls. A teacher trained without noise fails this (the Humanoid
+    before its noise stages fell in every episode at this sigma)."""
+    env = gym.make(f"{task}-IL-v0", supervisor="policy")
+    clean = [supervised_return(env, seed, 1000)[0] for seed in range(3)]
+    noisy = [supervised_return(env, seed, 1000, noise_std=0.05) for seed in range(3)]
+    assert not any(fell for _, fell in noisy)
+    assert np.mean([r for r, _ in noisy]) >= 0.9 * np.mean(clean)
