@@ -164,3 +164,20 @@ def process_pool(
         _terminate(pool)
         raise
     pool.shutdown(wait=True)
+
+
+def as_finished(
+    fn: Callable[..., Any], jobs: Sequence[tuple[Any, ...]], workers: int
+) -> Iterator[tuple[int, Any]]:
+    """``(i, fn(*jobs[i]))`` as each job finishes, with one BLAS thread either way (so results
+    do not depend on the core count): in this process for one worker (``fn`` need not be
+    importable by a worker, e.g. a script loaded by path), else in a plain process pool."""
+    if workers == 1:
+        with threadpool_limits(1):
+            yield from ((i, fn(*job)) for i, job in enumerate(jobs))
+        return
+    from concurrent.futures import as_completed
+
+    with ProcessPoolExecutor(workers, initializer=one_blas_thread) as pool:
+        futures = {pool.submit(fn, *job): i for i, job in enumerate(jobs)}
+        yield from ((futures[fut], fut.result()) for fut in as_completed(futures))

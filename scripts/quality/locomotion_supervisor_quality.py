@@ -24,15 +24,13 @@ import argparse
 import json
 import os
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 
 import gymnasium as gym
 import numpy as np
-from threadpoolctl import threadpool_limits
 from tqdm import tqdm
 
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.pool import as_finished
 from fluids_bench.core.provenance import command_line, machine
 
 SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid": 9575.0}
@@ -185,18 +183,6 @@ def episode(
     }
 
 
-def run_all(jobs: list[tuple], workers: int):
-    """Episode records as they finish: in this process for one worker, else in a pool (one
-    BLAS thread either way, so results do not depend on the core count)."""
-    if workers == 1:
-        with threadpool_limits(1):
-            yield from (episode(*job) for job in jobs)
-        return
-    with ProcessPoolExecutor(workers, initializer=one_blas_thread) as pool:
-        futures = [pool.submit(episode, *job) for job in jobs]
-        yield from (fut.result() for fut in as_completed(futures))
-
-
 def key(r: dict) -> tuple:
     mpc = json.dumps(r["mpc"], sort_keys=True)
     return (r["env_id"], r["kind"], r["noise_std"], r["seed"], mpc, r.get("weights_sha256"))
@@ -297,7 +283,9 @@ def main(argv: list[str] | None = None) -> int:
                 if key(probe) not in done:
                     jobs.append((env_id, kind, noise, seed, args.steps, args.mpc, mine_w))
     with open(args.out, "a") as f:
-        for r in tqdm(run_all(jobs, args.workers), total=len(jobs), desc="episodes"):
+        for _, r in tqdm(
+            as_finished(episode, jobs, args.workers), total=len(jobs), desc="episodes"
+        ):
             f.write(json.dumps(r) + "\n")
             f.flush()
             os.fsync(f.fileno())

@@ -21,7 +21,8 @@ demonstrations, then update every 15 iterations; evaluated at 50, 100, 150, 200)
 --update-every 15``.
 
 One JSON per (env, learner, method, seed) run in ``--out/runs/``, written atomically when the
-run finishes, so a killed sweep resumes by skipping finished runs; ``--workers`` runs them in
+run finishes, so a killed sweep resumes by skipping finished runs (refused, naming the file, if
+one was made with another supervisor, schedule or env kwargs); ``--workers`` runs them in
 parallel processes; a progress bar counts runs. Then ``summary.json`` (mean eval return per
 iteration, collection return, training seconds) and ``<env>.png`` are written.
 
@@ -42,14 +43,13 @@ from __future__ import annotations
 import argparse
 import json
 import time
-from concurrent.futures import ProcessPoolExecutor, as_completed
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 from tqdm import tqdm
 
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.pool import as_finished
 from fluids_bench.core.provenance import command_line, machine
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")
@@ -157,6 +157,18 @@ def _supervisor_record(env_id: str, env_kwargs: dict) -> dict:
     record = env.unwrapped.metadata["supervisor"]
     env.close()
     return {k: record[k] for k in ("kind", "weights_sha256") if k in record}
+
+
+def _stale(run: dict, settings: dict, env_kwargs: dict, supervisor: dict) -> str | None:
+    """What differs between a finished run and this command (None: it can be reused). A run
+    made with other weights, e.g. before a new teacher was shipped, must not be mixed in."""
+    if run.get("supervisor") != supervisor:
+        return f"supervisor ({run.get('supervisor')} here: {supervisor})"
+    if run.get("settings") != settings:
+        return f"schedule ({run.get('settings')} here: {settings})"
+    if run.get("env_kwargs", {}) != env_kwargs:
+        return f"--env-kwargs ({run.get('env_kwargs')} here: {env_kwargs})"
+    return None
 
 
 def summarise(runs: list[dict]) -> dict[str, Any]:
@@ -307,12 +319,20 @@ def main(argv: list[str] | None = None) -> int:
     (args.out / "runs").mkdir(parents=True, exist_ok=True)
     jobs, runs = [], []
     for env_id in args.env:
+        supervisor = _supervisor_record(env_id, args.env_kwargs)
         for learner in args.learners:
             for method in args.methods:
                 for seed in range(args.seeds):
                     path = args.out / "runs" / f"{env_id}_{learner}_{method}_{seed}.json"
                     if path.exists():
-                        runs.append(json.loads(path.read_text()))
+                        run = json.loads(path.read_text())
+                        stale = _stale(run, settings, args.env_kwargs, supervisor)
+                        if stale:
+                            p.error(
+                                f"{path} was made with another {stale}; resume with the "
+                                "command that made it, or pass a new --out"
+                            )
+                        runs.append(run)
                     elif not args.summarise_only:
                         jobs.append(
                             (path, (env_id, args.env_kwargs, learner, method, seed, settings))
@@ -329,14 +349,13 @@ def main(argv: list[str] | None = None) -> int:
     print(f"expected run time: ~{max(1, round(expected / 60))} min on {args.workers} free core(s)")
     machine_at_start = machine()
     try:
-        with ProcessPoolExecutor(args.workers, initializer=one_blas_thread) as pool:
-            futures = {pool.submit(run_one, *job): path for path, job in jobs}
-            for fut in tqdm(as_completed(futures), total=len(futures), desc="runs"):
-                result = fut.result()
-                result["settings"] = settings
-                result["env_kwargs"] = args.env_kwargs
-                write_json_atomic(futures[fut], result)
-                runs.append(result)
+        done = as_finished(run_one, [job for _, job in jobs], args.workers)
+        for i, result in tqdm(done, total=len(jobs), desc="runs"):
+            path = jobs[i][0]
+            result["settings"] = settings
+            result["env_kwargs"] = args.env_kwargs
+            write_json_atomic(path, result)
+            runs.append(result)
     except KeyboardInterrupt:
         print("interrupted: finished runs are saved; run the same command to resume")
         return 130

@@ -5,6 +5,7 @@ OpenMP), in the library's pools and in the scripts' plain ``ProcessPoolExecutor`
 from __future__ import annotations
 
 import json
+import operator
 import os
 import subprocess
 import sys
@@ -12,7 +13,7 @@ import textwrap
 
 import pytest
 
-from fluids_bench.core.pool import BLAS_THREAD_VARIABLES
+from fluids_bench.core.pool import BLAS_THREAD_VARIABLES, as_finished
 
 PROBE = textwrap.dedent(
     """
@@ -51,3 +52,9 @@ def test_pool_workers_run_one_blas_thread(tmp_path):
         apis = {api for api, _ in found[pool]}
         assert {"openblas", "openmp"} <= apis, found
         assert all(n == 1 for _, n in found[pool]), (pool, found)
+
+
+@pytest.mark.parametrize("workers", [1, 2])
+def test_as_finished_returns_every_job_with_its_index(workers):
+    jobs = [(i, 10) for i in range(5)]
+    assert sorted(as_finished(operator.pow, jobs, workers)) == [(i, i**10) for i in range(5)]
