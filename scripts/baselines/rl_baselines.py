@@ -302,6 +302,27 @@ def run_curves(args, command: str) -> None:
     # after training, cached under --work: processes that split the seeds evaluate them once
     for name, act in (("random", _random), ("supervisor", _supervisor)):
         result[name] = _cached_eval(env_work, name, args.env, kwargs, act, args.final_episodes)
+    _write_curves(args, result, algos)
+
+
+def refresh_references(args, command: str) -> None:
+    """Re-evaluate the random and supervisor rows of a finished ``--out`` (e.g. after a new
+    teacher is shipped) on its own final episodes, keeping its runs; redraw ``--image``."""
+    path = Path(args.out)
+    if not path.is_file():
+        raise SystemExit(f"--references-only: --out {str(path)!r} is not a results file")
+    result = json.loads(path.read_text())
+    episodes = result["settings"]["final_episodes"]
+    for name, act in (("random", _random), ("supervisor", _supervisor)):
+        result[name] = evaluate(result["env_id"], result["env_kwargs"], act, episodes)
+    result["references_from"] = command
+    algos = sorted({r["algo"] for r in result["runs"]})
+    args.seeds = result["seeds"]
+    _write_curves(args, result, algos)
+
+
+def _write_curves(args, result: dict, algos: list[str]) -> None:
+    """The per-algorithm summary over seeds, written with the runs to --out (and --image)."""
     summary = {}
     metric = result["random"]["metric"]
     for algo in algos:
@@ -322,8 +343,14 @@ def run_curves(args, command: str) -> None:
 
 
 def _cached_eval(work: Path, name: str, env_id: str, kwargs: dict, act, episodes: int) -> dict:
-    """A fixed policy's evaluation, computed once per episode count and read back after."""
-    path = work / f"{name}_{episodes}_episodes.json"
+    """A fixed policy's evaluation, computed once per episode count (and teacher: a shipped
+    weight file's hash) and read back after."""
+    env = gym.make(env_id, **kwargs)
+    record = env.unwrapped.metadata.get("supervisor")
+    teacher = record.get("weights_sha256") if isinstance(record, dict) else None
+    env.close()
+    tag = f"_{teacher[:12]}" if name == "supervisor" and teacher else ""
+    path = work / f"{name}_{episodes}_episodes{tag}.json"
     if path.is_file():
         return json.loads(path.read_text())
     out = evaluate(env_id, kwargs, act, episodes)
@@ -591,8 +618,14 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--collect-only", action="store_true",
                         help="train nothing: write the finished runs and the curves so far of "
                         'unfinished ones ("final": null) from --work')  # fmt: skip
+    parser.add_argument("--references-only", action="store_true",
+                        help="train nothing: re-evaluate the random and supervisor rows of the "
+                        "finished --out (after a new teacher is shipped) and redraw --image")  # fmt: skip
     args = parser.parse_args(argv)
-    command = "python " + " ".join(shlex.quote(a) for a in sys.argv)
+    given = sys.argv[1:] if argv is None else argv
+    command = "python " + " ".join(shlex.quote(a) for a in [sys.argv[0], *given])
+    if args.references_only:
+        return refresh_references(args, command)
     (run_ablation if args.ablation else run_curves)(args, command)
 
 

@@ -64,3 +64,28 @@ def test_a_finished_shorter_run_is_refused_not_reused(rl, tmp_path):
 def test_algo_kwargs_must_map_an_algorithm_to_keyword_arguments(rl, tmp_path, text):
     with pytest.raises(ValueError, match="--algo-kwargs must"):
         _main(rl, tmp_path, 200, "--algo-kwargs", text)
+
+
+def test_references_only_re_evaluates_the_fixed_policies_and_keeps_the_runs(rl, tmp_path):
+    require_sb3()
+    first = _main(rl, tmp_path, 200)
+    stale = {**first, "supervisor": {**first["supervisor"], "mean_return": -99.0}}
+    (tmp_path / "out.json").write_text(json.dumps(stale))
+    rl.main(["--references-only", "--out", str(tmp_path / "out.json")])
+    refreshed = json.loads((tmp_path / "out.json").read_text())
+    assert refreshed["supervisor"] == first["supervisor"]
+    assert refreshed["runs"] == first["runs"] and refreshed["summary"] == first["summary"]
+    assert "--references-only" in refreshed["references_from"]
+
+
+def test_a_supervisor_row_is_cached_per_teacher_weights(rl, tmp_path):
+    """A new shipped teacher is evaluated afresh, not read back from its predecessor's file."""
+    from fluids_bench.tasks.locomotion.supervisors import manifest
+
+    def act(obs, env):
+        return env.unwrapped.supervisor_action()
+
+    kwargs = {"max_episode_steps": 5}
+    rl._cached_eval(tmp_path, "supervisor", "Hopper-IL-v0", kwargs, act, 1)
+    (cached,) = tmp_path.glob("supervisor_1_episodes_*.json")
+    assert cached.name.endswith(manifest()["Hopper"]["sha256"][:12] + ".json")
