@@ -345,11 +345,11 @@ def _write_curves(args, result: dict, algos: list[str]) -> None:
 def _cached_eval(work: Path, name: str, env_id: str, kwargs: dict, act, episodes: int) -> dict:
     """A fixed policy's evaluation, computed once per episode count (and teacher: a shipped
     weight file's hash) and read back after."""
-    env = gym.make(env_id, **kwargs)
-    record = env.unwrapped.metadata.get("supervisor")
-    teacher = record.get("weights_sha256") if isinstance(record, dict) else None
-    env.close()
-    tag = f"_{teacher[:12]}" if name == "supervisor" and teacher else ""
+    tag = ""
+    if name == "supervisor":
+        record = gym.make(env_id, **kwargs).unwrapped.metadata.get("supervisor")
+        teacher = record.get("weights_sha256") if isinstance(record, dict) else None
+        tag = f"_{teacher[:12]}" if teacher else ""
     path = work / f"{name}_{episodes}_episodes{tag}.json"
     if path.is_file():
         return json.loads(path.read_text())
