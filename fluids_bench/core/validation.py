@@ -26,6 +26,18 @@ def is_real(value: Any) -> bool:
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
+def finite_float(value: Any) -> float | None:
+    """``value`` as a finite Python float, or None when it is not a real number (a bool is
+    not), not finite, or an integer beyond a float's range (``10**400``)."""
+    if not is_real(value):
+        return None
+    try:
+        v = float(value)
+    except OverflowError:
+        return None
+    return v if math.isfinite(v) else None
+
+
 def fail(where: str, name: str, value: Any, allowed: str) -> None:
     """Raise the suite's standard config error."""
     raise ValueError(f"{where}: field '{name}' is {value!r}; allowed: {allowed}")
@@ -57,10 +69,8 @@ def check_float(
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
     allowed = f"a finite number in {left}{lo}, {hi}{right}"
-    if not is_real(value):
-        fail(where, name, value, allowed)
-    v = float(value)
-    if not math.isfinite(v):
+    v = finite_float(value)
+    if v is None:
         fail(where, name, value, allowed)
     if v < lo or v > hi or (lo_open and v == lo) or (hi_open and v == hi):
         fail(where, name, value, allowed)

@@ -29,6 +29,7 @@ from fluids_bench.core.validation import (
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
+    MAX_CARS,
     build_scenario,
     check_failure_penalty,
     is_success,
@@ -311,6 +312,8 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
                 f"{self.metadata['render_modes']} or None"
             )
         max_cycles = check_int(WHERE, "max_cycles", max_cycles, 1, 10**9)
+        # None means "the single-agent env's ego" to build_scenario, never a user's value here
+        controlled_cars = check_int(WHERE, "controlled_cars", controlled_cars, 1, MAX_CARS)
         self.defensive = check_bool(WHERE, "defensive", defensive)
         self.yield_to_pedestrians = check_bool(WHERE, "yield_to_pedestrians", yield_to_pedestrians)
         self.black_death = check_bool(WHERE, "black_death", black_death)
@@ -350,7 +353,6 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             defensive=self.defensive,
             yield_to_pedestrians=self.yield_to_pedestrians,
         )
-        controlled_cars = int(controlled_cars)
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor
         self.action_level = action_level

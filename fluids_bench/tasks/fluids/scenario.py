@@ -25,7 +25,6 @@ Info fields, one meaning each (both env cards point here):
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 from typing import Any
 
@@ -37,7 +36,7 @@ from fluids_bench.core.validation import (
     check_float,
     check_int,
     fail,
-    is_real,
+    finite_float,
 )
 from fluids_bench.tasks.fluids.observations import ObservationConfig
 from fluids_bench.tasks.fluids.sim.config import (
@@ -133,9 +132,10 @@ def build_scenario(
     pedestrian_speed = check_float(where, "pedestrian_speed", pedestrian_speed, 0.1, 5.0)
     light_cycle_scale = check_float(where, "light_cycle_scale", light_cycle_scale, 0.25, 4.0)
     lo, hi = CAR_MASS_RANGE
-    if not (is_real(car_mass) and math.isfinite(car_mass) and lo <= car_mass <= hi):
+    mass = finite_float(car_mass)
+    if mass is None or not lo <= mass <= hi:
         fail(where, "car_mass", car_mass, CAR_MASS_ALLOWED)
-    car_mass = float(car_mass)
+    car_mass = mass
     planner_period = check_int(where, "planner_period", planner_period, 1, 50)
     waypoints = check_int(where, "waypoints", waypoints, 1, 50)
     waypoint_spacing = check_float(where, "waypoint_spacing", waypoint_spacing, 0.5, 20.0)
