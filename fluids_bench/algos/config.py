@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 from collections.abc import Mapping
 from dataclasses import asdict, dataclass, field
@@ -73,7 +74,7 @@ class RunConfig:
         check_int(where, "eval_episodes", self.eval_episodes, 1)
         check_int(where, "eval_every", self.eval_every, 1)
         if self.eval_at is not None:
-            check_iterations(where, "eval_at", self.eval_at, first=0)
+            check_iterations(where, "eval_at", self.eval_at, first=0, last=self.iterations)
         if self.max_steps is not None:
             check_int(where, "max_steps", self.max_steps, 1)
         check_float(where, "return_floor", self.return_floor)
@@ -108,13 +109,16 @@ class RunConfig:
 
 
 def check_iterations(
-    where: str, name: str, values: tuple[int, ...], first: int = 1
+    where: str, name: str, values: tuple[int, ...], first: int = 1, last: int | None = None
 ) -> tuple[int, ...]:
-    """A schedule of iteration numbers: a tuple of distinct ints >= ``first``, increasing."""
+    """A schedule of iteration numbers: a tuple of distinct ints in ``[first, last]``
+    (``last=None``: no upper bound), increasing."""
+    top = math.inf if last is None else last
     if not isinstance(values, tuple) or any(
-        isinstance(v, bool) or not isinstance(v, int) or v < first for v in values
+        isinstance(v, bool) or not isinstance(v, int) or not first <= v <= top for v in values
     ):
-        fail(where, name, values, f"a tuple of iteration numbers >= {first}")
+        within = f">= {first}" if last is None else f"in [{first}, {last}] (the iterations run)"
+        fail(where, name, values, f"a tuple of iteration numbers {within}")
     if list(values) != sorted(set(values)):
         fail(where, name, values, "distinct iteration numbers in increasing order")
     return values

@@ -114,6 +114,14 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
+    from fluids_bench.commands.options import (
+        check_finite_option,
+        check_gym_id,
+        check_int_option,
+        check_supervised,
+        options_named,
+        unique_keys,
+    )
     from fluids_bench.data.claims import claim_dataset
     from fluids_bench.data.collect import ActorSpec
     from fluids_bench.data.minari_export import check_data_format, check_new_dataset, datasets_root
@@ -121,23 +129,40 @@ def _run(args: argparse.Namespace) -> int:
     # everything that can refuse does so before collecting, not after
     check_new_dataset(args.dataset, args.overwrite)
     check_data_format(args.data_format)
+    check_int_option("--episodes", args.episodes, 1)
+    check_int_option("--workers", args.workers, 1)
+    if args.max_steps is not None:
+        check_int_option("--max-steps", args.max_steps, 1)
+    check_finite_option("--ref-min-score", args.ref_min_score)
+    check_finite_option("--ref-max-score", args.ref_max_score)
     if (args.ref_min_score is None) != (args.ref_max_score is None):
         raise ValueError(
             f"--ref-min-score is {args.ref_min_score} and --ref-max-score is "
             f"{args.ref_max_score}; allowed: both given, or neither"
         )
-    env_kwargs = dict(args.env_kwarg)
+    if args.ref_min_score is not None and not args.ref_min_score < args.ref_max_score:
+        raise ValueError(
+            f"--ref-min-score is {args.ref_min_score} and --ref-max-score is "
+            f"{args.ref_max_score}; allowed: a minimum below the maximum (Minari normalises "
+            "returns by their difference)"
+        )
+    env_kwargs = unique_keys("--env-kwarg", args.env_kwarg)
+    check_gym_id("--env", args.env)
     probe = gym.make(args.env, **env_kwargs)
-    discrete = isinstance(probe.action_space, gym.spaces.Discrete)
-    if args.ref_min_score is None:
-        args.ref_min_score, args.ref_max_score = reference_scores(probe)
-    probe.close()
-    if args.noise is None:
-        actor = ActorSpec()
-    elif discrete:
-        actor = ActorSpec("noise", epsilon=args.noise)
-    else:
-        actor = ActorSpec("noise", noise_std=args.noise)
+    try:
+        check_supervised("--env", args.env, probe)
+        discrete = isinstance(probe.action_space, gym.spaces.Discrete)
+        if args.ref_min_score is None:
+            args.ref_min_score, args.ref_max_score = reference_scores(probe)
+    finally:
+        probe.close()
+    with options_named({"epsilon": "--noise", "noise_std": "--noise"}):
+        if args.noise is None:
+            actor = ActorSpec()
+        elif discrete:
+            actor = ActorSpec("noise", epsilon=args.noise)
+        else:
+            actor = ActorSpec("noise", noise_std=args.noise)
     # one writer per id: a concurrent collect into the same id is refused here, up front
     with claim_dataset(datasets_root(), args.dataset):
         check_new_dataset(args.dataset, args.overwrite)  # a run that finished meanwhile

@@ -144,8 +144,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 def build_config(args: argparse.Namespace) -> tuple[str, Any]:
     """The algorithm's name and validated config from parsed arguments."""
-    from fluids_bench.algos.policies import PolicySpec
     from fluids_bench.algos.registry import ALGORITHMS, get_algorithm
+    from fluids_bench.commands.options import check_gym_id, options_named, unique_keys
 
     algorithm = get_algorithm(args.algo)
     fields = {f.name for f in dataclasses.fields(algorithm.config_class)}
@@ -164,11 +164,46 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
                 f"option {option} does not apply to --algo {args.algo}; it applies to: {takers}"
             )
         settings[dest] = tuple(value) if dest in LIST_FIELDS else value
-    config = algorithm.config_class(
+    check_gym_id("--env", args.env)
+    env_kwargs = unique_keys("--env-kwarg", args.env_kwarg)
+    policy_params = unique_keys("--policy-param", args.policy_param)
+    with options_named(CONFIG_OPTIONS):
+        config = _config(algorithm, settings, args, env_kwargs, policy_params)
+    return args.algo, config
+
+
+# a config field -> the option that sets it, for errors that name what the user typed
+CONFIG_OPTIONS = {
+    **{dest: option for option, (dest, _, _) in ALGO_OPTIONS.items()},
+    "env_id": "--env",
+    "address": "--ray-address",
+    **{
+        name: "--" + name.replace("_", "-")
+        for name in (
+            "iterations",
+            "demos_per_iteration",
+            "samples_per_demo",
+            "eval_episodes",
+            "eval_every",
+            "eval_at",
+            "max_steps",
+            "return_floor",
+            "seed",
+            "workers",
+            "backend",
+        )
+    },
+}
+
+
+def _config(algorithm, settings, args, env_kwargs, policy_params) -> Any:
+    from fluids_bench.algos.policies import PolicySpec
+
+    return algorithm.config_class(
         **settings,
         env_id=args.env,
-        env_kwargs=dict(args.env_kwarg),
-        policy=PolicySpec(args.policy, dict(args.policy_param)),
+        env_kwargs=env_kwargs,
+        policy=PolicySpec(args.policy, policy_params),
         iterations=args.iterations,
         demos_per_iteration=args.demos_per_iteration,
         samples_per_demo=args.samples_per_demo,
@@ -182,7 +217,6 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
         backend=args.backend,
         address=args.ray_address,
     )
-    return args.algo, config
 
 
 def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
