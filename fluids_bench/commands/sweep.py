@@ -155,38 +155,55 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.set_defaults(func=run)
 
 
+# fields the library's checks name -> the options that set them
+SWEEP_OPTIONS = {
+    "env": "--env",
+    "env_kwarg": "--env-kwarg",
+    "train_values": "--train-values",
+}
+
+
 def run(args: argparse.Namespace) -> int:
-    from fluids_bench.core.validation import check_int
+    from fluids_bench.commands.options import (
+        check_int_option,
+        options_named,
+        unique_keys,
+    )
     from fluids_bench.sweep.grid import make_grid
     from fluids_bench.sweep.run import MAX_EPISODE_STEPS, check_env_id, probe_env
 
-    check_int("sweep", "episodes", args.episodes, 1)
-    check_int("sweep", "seed", args.seed, 0, 2**32 - 1)
-    workers = args.workers or os.cpu_count() or 1
-    check_int("sweep", "workers", workers, 1)
-    check_int("sweep", "check_episodes", args.check_episodes, 0)
-    check_int("sweep", "iterations", args.iterations, 1)
+    check_int_option("--episodes", args.episodes, 1)
+    check_int_option("--seed", args.seed, 0, 2**32 - 1)
+    workers = (os.cpu_count() or 1) if args.workers is None else args.workers
+    check_int_option("--workers", workers, 1)
+    check_int_option("--check-episodes", args.check_episodes, 0)
+    check_int_option("--iterations", args.iterations, 1)
+    check_int_option("--demos", args.demos, 1)
+    if args.max_episode_steps is not None:
+        check_int_option("--max-episode-steps", args.max_episode_steps, 1)
+    # a NAME given twice would keep its last values silently
+    args.values = list(unique_keys("--values", args.values).items())
+    args.train_values = list(unique_keys("--train-values", args.train_values).items())
+    fixed = unique_keys("--env-kwarg", args.env_kwarg)
+    unique_keys("--train-kwarg", args.train_kwarg)
+    _check_policy_option(args.policy)
     import fluids_bench  # noqa: F401  (registers the ids)
 
-    grid = make_grid(args.env, args.values)
-    env_id = check_env_id(args.env, grid)
+    with options_named(SWEEP_OPTIONS):
+        grid = make_grid(args.env, args.values)
+        env_id = check_env_id(args.env, grid)
     if grid.legacy:
         max_steps = args.max_episode_steps or MAX_EPISODE_STEPS
         if args.env_kwarg:
             raise ValueError(
-                "sweep: field 'env_kwarg' is given with the FLUIDS-Sensitivity grid; allowed: "
-                "only with --values over env keyword arguments"
+                "--env-kwarg is given with the FLUIDS-Sensitivity grid; allowed: only with "
+                "--values over env keyword arguments"
             )
     else:
         max_steps = args.max_episode_steps
-    if max_steps is not None:
-        check_int("sweep", "max_episode_steps", max_steps, 1)
-    fixed = dict(args.env_kwarg)
     both = sorted(set(fixed) & set(grid.names))
     if both:
-        raise ValueError(
-            f"sweep: field 'env_kwarg' is {both}, which the grid varies; allowed: other kwargs"
-        )
+        raise ValueError(f"--env-kwarg gives {both}, which --values varies; allowed: other kwargs")
     from fluids_bench.algos.registry import get_algorithm
 
     get_algorithm(args.algo)  # an unknown algorithm fails now
@@ -208,6 +225,29 @@ def run(args: argparse.Namespace) -> int:
 
 
 MATRIX = "matrix.json"
+
+
+def _check_policy_option(policy: str | None) -> None:
+    """`--policy` must be 'supervisor' or a file holding a pickled policy: refused now, in one
+    line, not as a traceback after training starts."""
+    from fluids_bench.sweep.run import SUPERVISOR_POLICY, load_policy
+
+    if policy is None or policy == SUPERVISOR_POLICY:
+        return
+    allowed = f"allowed: {SUPERVISOR_POLICY!r} or a pickled policy with act(observation)"
+    path = Path(policy)
+    if not path.is_file():
+        what = "a folder" if path.is_dir() else "no such file"
+        raise ValueError(f"--policy is {policy!r}, {what}; {allowed}")
+    try:
+        load_policy(path)
+    except ValueError as exc:  # unpickled something without act()
+        raise ValueError(f"--policy is {policy!r}: {exc}; {allowed}") from None
+    except Exception as exc:  # whatever unpickling garbage raises (UnpicklingError, EOFError...)
+        raise ValueError(
+            f"--policy is {policy!r}, not a readable pickle ({type(exc).__name__}: {exc}); "
+            f"{allowed}"
+        ) from None
 
 
 def _run_matrix(args, grid, env_id, fixed, max_steps, workers) -> int:

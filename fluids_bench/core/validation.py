@@ -15,6 +15,10 @@ from typing import Any
 
 import numpy as np
 
+# the largest reward magnitude a reward keyword argument may set: returns of 1,000-step episodes
+# and value iteration's sums stay far from a float's overflow (1e308 made them inf)
+REWARD_LIMIT = 1e6
+
 
 def is_int(value: Any) -> bool:
     """An integer, Python or numpy (``np.int64(3)``), but not a bool (``True``, ``np.True_``)."""

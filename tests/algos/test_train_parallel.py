@@ -146,8 +146,8 @@ def test_backends_agree_with_data_collect() -> None:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--workers", "0"], "fluids-bench train: error: DAggerConfig: field 'workers' is 0"),
-        (["--ray-address", "auto"], "field 'address' is 'auto'; allowed: None unless backend"),
+        (["--workers", "0"], "fluids-bench train: error: --workers is 0; allowed: an integer"),
+        (["--ray-address", "auto"], "--ray-address is 'auto'; allowed: None unless backend"),
     ],
 )
 def test_bad_cli_values_are_refused_before_any_work(

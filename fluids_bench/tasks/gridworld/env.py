@@ -12,6 +12,7 @@ from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    REWARD_LIMIT,
     as_seed,
     check_choice,
     check_float,
@@ -134,8 +135,12 @@ class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
         self.size = check_int(WHERE, "size", size, 2, 100)
         self.penalty_fraction = check_float(WHERE, "penalty_fraction", penalty_fraction, 0.0, 0.5)
         self.slip_probability = check_float(WHERE, "slip_probability", slip_probability, 0.0, 1.0)
-        self.goal_reward = check_float(WHERE, "goal_reward", goal_reward, 0.0, lo_open=True)
-        self.penalty_reward = check_float(WHERE, "penalty_reward", penalty_reward, hi=0.0)
+        self.goal_reward = check_float(
+            WHERE, "goal_reward", goal_reward, 0.0, REWARD_LIMIT, lo_open=True
+        )
+        self.penalty_reward = check_float(
+            WHERE, "penalty_reward", penalty_reward, -REWARD_LIMIT, 0.0
+        )
         self.discount = check_float(
             WHERE, "discount", discount, 0.0, 1.0, lo_open=True, hi_open=True
         )

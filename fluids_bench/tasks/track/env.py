@@ -14,6 +14,7 @@ from fluids_bench.core.actions import check_action
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
+    REWARD_LIMIT,
     as_seed,
     check_choice,
     check_float,
@@ -202,8 +203,10 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
             reset_ahead=check_float(WHERE, "reset_ahead", reset_ahead, 0.0, 500.0),
             **shape,
         )
-        self.crash_penalty = check_float(WHERE, "crash_penalty", crash_penalty, 0.0)
-        self.progress_reward = check_float(WHERE, "progress_reward", progress_reward, 0.0)
+        self.crash_penalty = check_float(WHERE, "crash_penalty", crash_penalty, 0.0, REWARD_LIMIT)
+        self.progress_reward = check_float(
+            WHERE, "progress_reward", progress_reward, 0.0, REWARD_LIMIT
+        )
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
 
         self.action_space = spaces.Discrete(3)
