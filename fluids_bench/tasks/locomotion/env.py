@@ -256,10 +256,16 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
 
     def step(self, action):
         action = check_action(self._where, self.action_space, action)
+        space = self.action_space
         if self.action_noise > 0.0:  # actuation noise, from this env's np_random
             noise = self.np_random.normal(0.0, self.action_noise, action.shape)
-            space = self.action_space
             action = np.clip(action + noise, space.low, space.high).astype(space.dtype)
+        else:
+            # MuJoCo clamps controls to the actuators' ranges (the space's bounds), but
+            # Gymnasium's v5 envs charge the control cost of the action as given: 1e155 gave a
+            # reward of -inf. Clipped here, an action is charged as it is applied; inside the
+            # space nothing changes, bit for bit.
+            action = np.clip(action, space.low, space.high)
         obs, reward, terminated, truncated, info = self._sim.step(action)
         info[SUPERVISOR_ACTION_KEY] = self._label(obs)
         return self._observe(obs), float(reward), terminated, truncated, info
@@ -377,7 +383,10 @@ def _card(name: str, summary: str) -> str:
     ## Action Space, Observation Space, Rewards, Starting State, Episode End
 
     Exactly those of Gymnasium's `{name}-v5` with its default arguments (see its docs);
-    `max_episode_steps` is 1000 as there.
+    `max_episode_steps` is 1000 as there. One difference: an action outside the action space
+    is clipped to it before it is applied, so its control cost is that of the control MuJoCo
+    applies (Gymnasium's env charges the unclipped action: `1e155` gave a reward of `-inf`).
+    NaN and infinite actions are refused.
 """
         + _CARD_COMMON
     )

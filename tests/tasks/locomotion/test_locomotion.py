@@ -87,6 +87,24 @@ def test_check_env_and_supervisor_contract(env_id):
 
 
 @pytest.mark.parametrize("env_id", IDS)
+def test_an_action_outside_the_space_is_applied_clipped_with_a_finite_reward(env_id):
+    """Gymnasium's v5 env charged 1e155 its squared control cost: a reward of -inf. Clipped
+    before it is applied, a huge action steps exactly as the space's bound does."""
+    for huge in (1e155, -1e300, 1e6):
+        a, b = make(env_id), make(env_id)
+        a.reset(seed=5)
+        b.reset(seed=5)
+        bound = a.action_space.high if huge > 0 else a.action_space.low
+        ra = a.step(np.full(a.action_space.shape, huge))
+        rb = b.step(bound.copy())
+        assert np.isfinite(ra[1]) and ra[1] == rb[1]
+        assert np.array_equal(ra[0], rb[0])
+    for bad in (np.inf, np.nan):  # not finite: refused, never clipped
+        with pytest.raises(ValueError, match="not finite"):
+            a.step(np.full(a.action_space.shape, bad))
+
+
+@pytest.mark.parametrize("env_id", IDS)
 def test_reset_matches_gymnasium_and_seeded_rollouts_repeat(env_id):
     bare = gym.make(env_id.replace("-IL-v0", "-v5"))
     a, b = make(env_id), make(env_id)
