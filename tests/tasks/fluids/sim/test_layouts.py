@@ -465,6 +465,40 @@ MALFORMED = {
     "tiny width": (_set("lanes", 2, "width", 1e-300), "allowed: a number of metres in [0.5, 50]"),
     "huge width": (_set("crosswalks", 0, "width", 1e9), "allowed: a number of metres in [0.5, 50]"),
     "huge speed limit": (_set("lanes", 0, "speed_limit", 1e300), "allowed: a number in (0, 50]"),
+    # issue #44: refused at load, naming the field (a raw GEOSException or silently accepted)
+    "huge curb radius": (
+        _set("curb_radius", 1e300),
+        "layout 'four_way': field 'curb_radius' is 1e+300; allowed: a number of metres in (0, ",
+    ),
+    "curb radius beyond the layout": (
+        _set("curb_radius", 500),
+        "field 'curb_radius' is 500; allowed: a number of metres in (0, ",
+    ),
+    "a 1e-300 s light phase": (
+        _set("lights", 0, "phases", [["green", 1e-300], ["red", 10]]),
+        "lights[0] ('tl_east'): field 'phases duration' is 1e-300; allowed: a number of seconds",
+    ),
+    "a 1e300 s light phase": (
+        _set("lights", 0, "phases", [["green", 1e300]]),
+        "lights[0] ('tl_east'): field 'phases duration' is 1e+300",
+    ),
+    "a 1e300 s light offset": (
+        _set("lights", 0, "offset", 1e300),
+        "lights[0] ('tl_east'): field 'offset' is 1e+300; allowed: a number of seconds in",
+    ),
+    "a light far outside the bounds": (
+        _set("lights", 0, "position", [1e300, 1e300]),
+        "lights[0] ('tl_east'): field 'position' is (1e+300, 1e+300); allowed: points within",
+    ),
+    "self-intersecting area": (
+        _set("areas", 1, [[0, 0], [10, 10], [10, 0], [0, 10]]),
+        "layout 'four_way': field 'areas[1]' is ((0.0, 0.0), (10.0, 10.0), (10.0, 0.0), (0.0, "
+        "10.0)); allowed: a simple polygon (this one: Self-intersection",
+    ),
+    "self-intersecting island": (
+        _set("islands", [[[0, 0], [10, 10], [10, 0], [0, 10]]]),
+        "field 'islands[0]'",
+    ),
     "duplicate route": (
         lambda d: d["routes"].append(dict(d["routes"][0])),
         "field 'routes' is ['east_in_0->north_out_0']; allowed: each movement (entry->exit) once",
@@ -517,11 +551,27 @@ def test_bad_json_names_file_and_position(tmp_path, text, where):
     assert str(path) in str(info.value) and where in str(info.value)
 
 
-def test_self_intersecting_area_is_rejected_with_value_error():
+def test_self_intersecting_area_is_rejected_at_load_not_at_compile():
     d = layout_to_dict(four_way())
     d["areas"][1] = [[0, 0], [10, 10], [10, 0], [0, 10]]  # a bow-tie
-    with pytest.raises(ValueError, match="areas"):
-        compile_layout(layout_from_dict(d))
+    with pytest.raises(ValueError, match=r"field 'areas\[1\]'.*a simple polygon"):
+        layout_from_dict(d)
+
+
+def test_an_island_over_the_junction_is_refused_naming_it_and_a_route():
+    d = layout_to_dict(four_way())
+    d["islands"] = [[[-15, -15], [15, -15], [15, 15], [-15, 15]]]  # the whole junction
+    spec = layout_from_dict(d)
+    with pytest.raises(ValueError, match=r"field 'islands\[0\]' covers route 'east_in_0->"):
+        compile_layout(spec)
+    assert compile_layout(roundabout()).spec.islands  # a roundabout's centre is an island
+
+
+def test_the_largest_curb_radius_allowed_compiles():
+    d = layout_to_dict(four_way())
+    side = min(d["bounds"][2] - d["bounds"][0], d["bounds"][3] - d["bounds"][1])
+    d["curb_radius"] = side / 4
+    check_car_paths_drivable(compile_layout(layout_from_dict(d)))
 
 
 def test_top_level_must_be_an_object():

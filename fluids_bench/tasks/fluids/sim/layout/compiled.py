@@ -232,7 +232,26 @@ def compile_layout(spec: LayoutSpec) -> Layout:
     for g in (drivable, sidewalks, terrain):
         shapely.prepare(g)
     table = _route_table(spec, crosswalks, {})
+    _check_islands(spec, table)
     return Layout(spec, drivable, sidewalks, crosswalks, terrain, table, spec.entry_lanes)
+
+
+def _check_islands(spec: LayoutSpec, table: RouteTable) -> None:
+    """An island is cut out of the road: no car route (its lanes and the junction curve
+    between them) may run across one, or cars would be sent through a kerb (an island over
+    the whole junction was accepted)."""
+    for i, pts in enumerate(spec.islands):
+        island = Polygon(pts)
+        for r in table.car_routes:
+            path = table.path[r]
+            inside = shapely.contains_xy(island, path[:, 0], path[:, 1])
+            if inside.any():
+                x, y = path[np.flatnonzero(inside)[0]]
+                raise ValueError(
+                    f"layout '{spec.name}': field 'islands[{i}]' covers route "
+                    f"'{table.names[r]}' at ({x:.1f}, {y:.1f}); allowed: islands no car route "
+                    "runs across"
+                )
 
 
 def with_route_middles(layout: Layout, middles: dict[int, np.ndarray]) -> Layout:

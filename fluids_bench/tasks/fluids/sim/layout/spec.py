@@ -29,6 +29,13 @@ LANE_OVERLAP = 0.05  # m²: lane corridors sharing more area than this overlap (
 MIN_LENGTH = 0.5  # m
 WIDTH_RANGE = (0.5, 50.0)  # m
 MAX_SPEED_LIMIT = 50.0  # m/s (180 km/h)
+# A light holds each state between 0.1 s (a simulation step) and an hour; its offset lies within
+# one loop (it repeats every loop; 1e300 s leaves no precision for the time of day).
+PHASE_RANGE = (0.1, 3600.0)  # s
+# A kerb radius rounds the corners between roads: above 50 m, or a quarter of the layout's
+# smaller side, it fills the space between the roads (500 m on a 93 m layout; 1e300 made GEOS
+# fail).
+MAX_CURB_RADIUS = 50.0  # m
 TRAFFIC_STATES = ("green", "yellow", "red")
 CROSSWALK_STATES = ("white", "red")
 
@@ -85,6 +92,24 @@ def _check_positive(where: str, name: str, value) -> float:
     ):
         _fail(where, name, value, "a finite number > 0")
     return float(value)
+
+
+def _check_polygons(where: str, group: str, polygons) -> None:
+    """Every polygon of ``group`` (``areas``, ``islands``) must be valid: a self-intersecting
+    one is refused when the layout is loaded, not when it is compiled."""
+    if not polygons:
+        return
+    import shapely
+
+    shapes = [shapely.Polygon(pts) for pts in polygons]
+    for i, (pts, valid) in enumerate(zip(polygons, shapely.is_valid(shapes), strict=True)):
+        if not valid:
+            _fail(
+                where,
+                f"{group}[{i}]",
+                pts,
+                f"a simple polygon (this one: {shapely.is_valid_reason(shapes[i])})",
+            )
 
 
 @dataclass(frozen=True)
@@ -168,15 +193,30 @@ class Light:
             self, "position", _check_points(where, "position", [self.position], 1)[0]
         )
         phases = []
+        lo, hi = PHASE_RANGE
         for state, seconds in self.phases:
             if state not in allowed:
                 _fail(where, "phases", state, f"states {allowed}")
-            phases.append((str(state), _check_positive(where, "phases duration", seconds)))
+            seconds = _check_positive(where, "phases duration", seconds)
+            if not lo <= seconds <= hi:
+                _fail(where, "phases duration", seconds, f"a number of seconds in [{lo}, {hi:g}]")
+            phases.append((str(state), seconds))
         if not phases:
             _fail(where, "phases", self.phases, "at least one (state, seconds) pair")
         object.__setattr__(self, "phases", tuple(phases))
-        if not isinstance(self.offset, int | float) or not math.isfinite(self.offset):
-            _fail(where, "offset", self.offset, "a finite number of seconds")
+        cycle = sum(seconds for _, seconds in phases)
+        if (
+            isinstance(self.offset, bool)
+            or not isinstance(self.offset, int | float)
+            or not math.isfinite(self.offset)
+            or not -cycle <= self.offset <= cycle
+        ):
+            _fail(
+                where,
+                "offset",
+                self.offset,
+                f"a number of seconds in [-{cycle:g}, {cycle:g}] (one loop of the phases)",
+            )
         object.__setattr__(self, "offset", float(self.offset))
 
 
@@ -286,7 +326,19 @@ class LayoutSpec:
         object.__setattr__(
             self, "islands", tuple(_check_points(where, "islands", a, 3) for a in self.islands)
         )
-        _check_positive(where, "curb_radius", self.curb_radius)
+        for group in ("areas", "islands"):
+            _check_polygons(where, group, getattr(self, group))
+        curb = _check_positive(where, "curb_radius", self.curb_radius)
+        limit = min(MAX_CURB_RADIUS, (b[2] - b[0]) / 4, (b[3] - b[1]) / 4)
+        if curb > limit:
+            _fail(
+                where,
+                "curb_radius",
+                self.curb_radius,
+                f"a number of metres in (0, {limit:g}] (at most {MAX_CURB_RADIUS:g} m and a "
+                "quarter of the layout's smaller side: a larger radius fills the space between "
+                "the roads)",
+            )
         self._check_inside_bounds()
         self._check_lane_geometry()
         if not isinstance(self.sidewalk_width, int | float) or not 0 <= self.sidewalk_width < 50:
@@ -304,6 +356,7 @@ class LayoutSpec:
         ]
         groups += [(f"walk '{e.name}'", "waypoints", e.waypoints) for e in self.walks]
         groups += [(f"route '{r.name}'", "via", r.via) for r in self.routes]
+        groups += [(f"light '{e.name}'", "position", (e.position,)) for e in self.lights]
         groups += [(f"layout '{self.name}'", f"areas[{i}]", a) for i, a in enumerate(self.areas)]
         groups += [
             (f"layout '{self.name}'", f"islands[{i}]", a) for i, a in enumerate(self.islands)
