@@ -22,6 +22,7 @@ from __future__ import annotations
 import hashlib
 import io
 import math
+import re
 import zipfile
 from pathlib import Path
 
@@ -164,14 +165,22 @@ class MLPPolicy:
         if not isinstance(z, np.lib.npyio.NpzFile):
             raise ValueError("MLPPolicy: a single .npy array; allowed: an .npz of named arrays")
         with z:
-            n = sum(1 for k in z.files if k.startswith("W"))
+            n = sum(1 for k in z.files if re.fullmatch(r"W\d+", k))
             needed = ["obs_mean", "obs_std", "action_low", "action_high"]
             needed += [f"{p}{i}" for i in range(n) for p in "Wb"]
             missing = [k for k in needed if k not in z.files]
+            allowed = "obs_mean, obs_std, W0, b0, W1, b1, ..., action_low, action_high"
             if missing or n == 0:
                 raise ValueError(
                     f"MLPPolicy: missing arrays {missing or ['W0', 'b0']} (has {sorted(z.files)}); "
-                    "allowed: obs_mean, obs_std, W0, b0, W1, b1, ..., action_low, action_high"
+                    f"allowed: {allowed}"
+                )
+            # an array the policy would not use (a layer misnamed, a file of another format)
+            unknown = sorted(set(z.files) - set(needed))
+            if unknown:
+                raise ValueError(
+                    f"MLPPolicy: unknown arrays {unknown} (has {sorted(z.files)}); allowed: "
+                    f"exactly {allowed}"
                 )
             try:
                 arrays = {k: z[k] for k in needed}

@@ -387,6 +387,10 @@ def _damaged_weights(tmp_path, damage: str) -> str:
         arrays["action_low"] = arrays["action_low"] * 2.0
     elif damage == "missing":
         del arrays["b1"]
+    elif damage == "extra":  # was silently ignored
+        arrays["W_extra"] = arrays["W0"]
+    elif damage == "extra layer bias":
+        arrays["b7"] = arrays["b0"]
     elif damage == "low>high":
         arrays["action_low"], arrays["action_high"] = arrays["action_high"], arrays["action_low"]
     bad = tmp_path / f"{damage}.npz"
@@ -402,6 +406,8 @@ def _damaged_weights(tmp_path, damage: str) -> str:
         ("bounds", "action bounds .*allowed: inside Hopper's action space"),
         ("low>high", "action_low is not below action_high"),
         ("missing", r"missing arrays \['b1'\]"),  # was KeyError
+        ("extra", r"unknown arrays \['W_extra'\]"),  # was silently ignored
+        ("extra layer bias", r"unknown arrays \['b7'\]"),
         ("truncated", "not a readable .npz"),  # was BadZipFile
     ],
 )
