@@ -1,7 +1,13 @@
 import numpy as np
 import pytest
 
-from fluids_bench.core.validation import check_bool, check_float, check_int, reject_unknown_kwargs
+from fluids_bench.core.validation import (
+    check_bool,
+    check_float,
+    check_int,
+    finite_float,
+    reject_unknown_kwargs,
+)
 
 
 class E:
@@ -32,3 +38,14 @@ def test_numpy_scalars_count_as_python_numbers_and_bools_as_neither():
             check_float("w", "x", bad, 0.0, 1.0)
     with pytest.raises(ValueError, match="field 'b' is 1; allowed: true or false"):
         check_bool("w", "b", 1)
+
+
+def test_ints_beyond_a_floats_range_are_refused_not_overflowed():
+    # float(10**400) raises OverflowError: it was the error users saw (issue #44)
+    for bad in (10**400, -(10**400), np.inf, np.nan):
+        with pytest.raises(ValueError, match=r"field 'dt' is .*; allowed: a finite number"):
+            check_float("w", "dt", bad, 0.01, 0.5)
+    assert finite_float(10**400) is None and finite_float(True) is None
+    assert finite_float(np.float32(0.5)) == 0.5 and finite_float(10**300) == 1e300
+    with pytest.raises(ValueError, match="field 'n' is 1000"):
+        check_int("w", "n", 10**400, 0, 5)

@@ -633,9 +633,9 @@ def _mutated(draw):
     return d
 
 
-@settings(max_examples=60, deadline=None)
-@given(d=_mutated())
-def test_mutated_layout_loads_valid_or_raises_value_error(d):
+def _load_and_compile(d) -> None:
+    """A mutated layout loads and compiles, or one of the two raises a ValueError: never a raw
+    error (a curb_radius of 1e300 was a GEOSException at compile)."""
     try:
         spec = layout_from_dict(d)
     except ValueError as err:
@@ -643,6 +643,24 @@ def test_mutated_layout_loads_valid_or_raises_value_error(d):
         return
     hash(spec)  # specs are hashable (compile_layout caches on them)
     assert_round_trips(spec)
+    try:
+        compile_layout(spec)
+    except ValueError as err:  # only an island across a car route is refused at compile
+        assert "field 'islands[" in str(err), str(err)
+
+
+@settings(max_examples=60, deadline=None)
+@given(d=_mutated())
+def test_mutated_layout_loads_valid_or_raises_value_error(d):
+    _load_and_compile(d)
+
+
+@pytest.mark.slow
+@settings(max_examples=600, deadline=None)
+@given(d=_mutated())
+def test_mutated_layout_loads_valid_or_raises_value_error_full(d):
+    """The full run of the test above (tests/test_fuzz.py says how to run it)."""
+    _load_and_compile(d)
 
 
 _TEXT = json.dumps(json.loads(_BASE_TEXTS[0]), indent=1)
