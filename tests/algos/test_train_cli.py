@@ -51,12 +51,12 @@ def test_train_writes_json_and_png(tmp_path: Path, capsys: pytest.CaptureFixture
     ("args", "message"),
     [
         (["--env", "GridWorld-v0", "--algo", "dagr"], "unknown algorithm 'dagr'; allowed: ['bc'"),
-        (["--env", "Grid-v9", "--algo", "bc"], "unknown env id 'Grid-v9'; allowed"),
+        (["--env", "Grid-v9", "--algo", "bc"], "--env is 'Grid-v9', not a registered id"),
         (
             ["--env", "DAG-v0", "--algo", "bc", "--beta", "0.5"],
             "applies to: ['dagger', 'dagger_b']",
         ),
-        (["--env", "DAG-v0", "--algo", "shiv", "--selector", "x"], "field 'selector' is 'x'"),
+        (["--env", "DAG-v0", "--algo", "shiv", "--selector", "x"], "--selector is 'x'"),
         (["--env", "DAG-v0", "--algo", "bc", "--policy", "forest"], "field 'name' is 'forest'"),
     ],
 )

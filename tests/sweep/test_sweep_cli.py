@@ -109,17 +109,14 @@ def test_errors_are_reported_with_exit_code_2(tmp_path, policy_path, capsys):
     assert main(["sweep", *out, *TINY, "--policy", str(not_a_policy)]) == 2
     assert "act(observation)" in capsys.readouterr().err
     # a folder holding another sweep is not mixed into
+    # TINY_ARGS with one value of cars, pedestrians and lidar_dropout (a NAME given twice is
+    # refused)
     args = [
         *out,
-        *TINY_ARGS,
-        "--values",
-        "cars=2",
-        "--values",
-        "pedestrians=0",
-        "--values",
-        "lidar_dropout=0",
-        "--policy",
-        str(policy_path),
+        *("--values", "cars=2", "--values", "pedestrians=0", "--values", "lidar_noise=0.5"),
+        *("--values", "lidar_dropout=0", "--values", "lights=on", "--values", "car_mass=750,3000"),
+        *("--episodes", "1", "--max-episode-steps", "40", "--no-progress"),
+        *("--policy", str(policy_path)),
     ]
     assert main(["sweep", *args]) == 0
     assert main(["sweep", *args, "--seed", "1"]) == 2
