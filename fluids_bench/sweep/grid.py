@@ -386,8 +386,11 @@ def make_grid(env_id: str, overrides: Sequence[tuple[str, Sequence[Any]]]) -> Gr
     parameters with ``overrides`` replacing some (as before), unless a name outside the six is
     given: then, as for every other id, ``overrides`` are the whole grid (in the order given),
     and no overrides mean the id's default grid (:data:`SENSITIVITY`). A name given twice
-    keeps its last values."""
-    names = [name for name, _ in overrides]  # a NAME given twice: the last values count
+    is refused (it kept its last values silently)."""
+    names = [name for name, _ in overrides]
+    twice = sorted({name for name in names if names.count(name) > 1})
+    if twice:
+        raise ValueError(f"--values gives {twice} more than once; allowed: each name once")
     if env_id in LEGACY_IDS and all(name in PARAMETERS for name in names):
         return Grid.with_overrides(dict(overrides))
     if not overrides:
