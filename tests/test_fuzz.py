@@ -199,7 +199,14 @@ ISSUE_CASES = [
     ),
     (["sweep", "--policy", "/etc/hostname"], "--policy is '/etc/hostname', not a readable"),
     (["sweep", "--values", "cars=2", "--values", "cars=3"], "--values gives 'cars' twice"),
-    (["sweep", "--workers", "0"], "--workers is 0; allowed: an integer in [1, inf]"),
+    (["sweep", "--workers", "0"], "--workers is 0; allowed: an integer in [1, "),
+    # a process per episode: bounded by the cores (4 each), or by 10,000 on a Ray cluster
+    (["collect", "--env", "DAG-v0", "--workers", "100000"], "--workers is 100000; allowed: an"),
+    (["sweep", "--workers", "100000"], "--workers is 100000; allowed: an integer in [1, "),
+    (
+        ["train", "--env", "DAG-v0", "--algo", "bc", "--workers", "100000"],
+        "--workers is 100000; allowed: an integer in [1, ",
+    ),
     (
         ["train", "--env", "GridWorld-v0", "--algo", "bc", "--iterations", "10", "--eval-at", "99"],
         "--eval-at is (99,); allowed: a tuple of iteration numbers in [0, 10]",

@@ -119,6 +119,7 @@ def _run(args: argparse.Namespace) -> int:
         check_gym_id,
         check_int_option,
         check_supervised,
+        check_workers_option,
         options_named,
         unique_keys,
     )
@@ -130,7 +131,7 @@ def _run(args: argparse.Namespace) -> int:
     check_new_dataset(args.dataset, args.overwrite)
     check_data_format(args.data_format)
     check_int_option("--episodes", args.episodes, 1)
-    check_int_option("--workers", args.workers, 1)
+    check_workers_option(args.workers, args.backend, args.ray_address)
     if args.max_steps is not None:
         check_int_option("--max-steps", args.max_steps, 1)
     check_finite_option("--ref-min-score", args.ref_min_score)

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import os
 import re
 from collections.abc import Iterator, Mapping, Sequence
 from contextlib import contextmanager
@@ -43,6 +44,22 @@ def check_int_option(option: str, value: Any, lo: int, hi: int | None = None) ->
 
 def _refuse(option: str, value: Any, lo: int, hi: int | None) -> None:
     raise ValueError(f"{option} is {value}; allowed: an integer in [{lo}, {hi or 'inf'}]")
+
+
+CLUSTER_WORKERS = 10_000  # Ray tasks in flight on a cluster (--ray-address)
+
+
+def check_workers_option(workers: Any, backend: str, address: str | None) -> int:
+    """`--workers`: at least 1; on this machine (process pool, or a local Ray) at most 4 per
+    CPU core, since more only compete for the cores (and `collect --workers 100000` started a
+    process per episode); on a Ray cluster at most :data:`CLUSTER_WORKERS`."""
+    if backend == "ray" and address is not None:
+        return check_int_option("--workers", workers, 1, CLUSTER_WORKERS)
+    cores = os.cpu_count() or 1
+    try:
+        return check_int_option("--workers", workers, 1, 4 * cores)
+    except ValueError as exc:
+        raise ValueError(f"{exc} (4 per CPU core; {cores} here)") from None
 
 
 def check_finite_option(option: str, value: float | None) -> float | None:

@@ -166,6 +166,7 @@ SWEEP_OPTIONS = {
 def run(args: argparse.Namespace) -> int:
     from fluids_bench.commands.options import (
         check_int_option,
+        check_workers_option,
         options_named,
         unique_keys,
     )
@@ -175,7 +176,7 @@ def run(args: argparse.Namespace) -> int:
     check_int_option("--episodes", args.episodes, 1)
     check_int_option("--seed", args.seed, 0, 2**32 - 1)
     workers = (os.cpu_count() or 1) if args.workers is None else args.workers
-    check_int_option("--workers", workers, 1)
+    check_workers_option(workers, args.backend, args.ray_address)
     check_int_option("--check-episodes", args.check_episodes, 0)
     check_int_option("--iterations", args.iterations, 1)
     check_int_option("--demos", args.demos, 1)

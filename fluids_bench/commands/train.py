@@ -145,7 +145,12 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 def build_config(args: argparse.Namespace) -> tuple[str, Any]:
     """The algorithm's name and validated config from parsed arguments."""
     from fluids_bench.algos.registry import ALGORITHMS, get_algorithm
-    from fluids_bench.commands.options import check_gym_id, options_named, unique_keys
+    from fluids_bench.commands.options import (
+        check_gym_id,
+        check_workers_option,
+        options_named,
+        unique_keys,
+    )
 
     algorithm = get_algorithm(args.algo)
     fields = {f.name for f in dataclasses.fields(algorithm.config_class)}
@@ -165,6 +170,7 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
             )
         settings[dest] = tuple(value) if dest in LIST_FIELDS else value
     check_gym_id("--env", args.env)
+    check_workers_option(args.workers, args.backend, args.ray_address)
     env_kwargs = unique_keys("--env-kwarg", args.env_kwarg)
     policy_params = unique_keys("--policy-param", args.policy_param)
     with options_named(CONFIG_OPTIONS):
