@@ -197,6 +197,10 @@ ISSUE_CASES = [
         ["collect", "--env", "DAG-v0", "--env-kwarg", "mu=0.1", "--env-kwarg", "mu=0.2"],
         "--env-kwarg gives 'mu' twice",
     ),
+    (  # episode i is seeded --seed + i: the last seed would not fit 32 bits
+        ["collect", "--env", "DAG-v0", "--seed", "4294967295", "--episodes", "2"],
+        "--episodes is 2; allowed: an integer in [1, 1]",
+    ),
     (["sweep", "--policy", "/etc/hostname"], "--policy is '/etc/hostname', not a readable"),
     (["sweep", "--values", "cars=2", "--values", "cars=3"], "--values gives 'cars' twice"),
     (["sweep", "--workers", "0"], "--workers is 0; allowed: an integer in [1, "),
@@ -231,8 +235,9 @@ def _run_cli(args, tmp_path, monkeypatch, capsys) -> tuple[int, list[str]]:
 def test_the_issues_cli_cases_end_in_one_line_naming_the_option(
     args, message, tmp_path, monkeypatch, capsys
 ):
-    if args[0] == "collect" and "--episodes" not in args:
-        args = [*args, "--episodes", "1", "--dataset", "fuzz/x-v0"]
+    if args[0] == "collect":
+        args = [*args, "--dataset", "fuzz/x-v0"]
+        args += [] if "--episodes" in args else ["--episodes", "1"]
     code, err = _run_cli(args, tmp_path, monkeypatch, capsys)
     assert code == 2, err
     assert len(err) == 1 and message in err[0], err

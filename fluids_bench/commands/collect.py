@@ -130,7 +130,8 @@ def _run(args: argparse.Namespace) -> int:
     # everything that can refuse does so before collecting, not after
     check_new_dataset(args.dataset, args.overwrite)
     check_data_format(args.data_format)
-    check_int_option("--episodes", args.episodes, 1)
+    # episode i is seeded --seed + i, and a seed has 32 bits
+    check_int_option("--episodes", args.episodes, 1, max(1, 2**32 - args.seed))
     check_workers_option(args.workers, args.backend, args.ray_address)
     if args.max_steps is not None:
         check_int_option("--max-steps", args.max_steps, 1)
