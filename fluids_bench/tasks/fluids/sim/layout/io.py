@@ -8,8 +8,11 @@ is a ``ValueError`` naming the element and the field at fault, for example
 ``lanes[2] ('north_in_0'): field 'width' is -1; allowed: a finite number > 0``.
 
 Limits (see :mod:`fluids_bench.tasks.fluids.sim.layout.spec`): ``bounds`` within ±1 km of the
-origin, every point within ``bounds`` grown by 1 km; lanes must not cross themselves or overlap
-each other, and no route may exit by a lane some route enters by.
+origin, every point (lights included) within ``bounds`` grown by 1 km; lanes must not cross
+themselves or overlap each other, and no route may exit by a lane some route enters by; areas and
+islands are simple polygons; ``curb_radius`` is at most 50 m and a quarter of the smaller side of
+``bounds``; a light holds each state 0.1 s to 1 h, and its offset lies within one loop. An island
+across a car route is refused when the layout is compiled.
 
 ``save_layout(spec, path)`` then ``load_layout(path)`` gives back an equal spec.
 """

@@ -8,8 +8,10 @@ seconds. Errors name the element and field at fault.
 Limits: ``bounds`` lie within ±:data:`COORD_LIMIT` (1 km) of the origin and every point within
 ``bounds`` grown by :data:`POINT_SLACK` (1 km), so compiled paths (sampled every 0.5 m) stay
 small. Geometrically impossible layouts are refused: a lane whose centreline crosses itself,
-two lanes whose corridors (centreline ± width/2) overlap instead of meeting at their edges, and
-a route whose exit lane is some route's entry lane.
+two lanes whose corridors (centreline ± width/2) overlap instead of meeting at their edges, a
+route whose exit lane is some route's entry lane, a self-intersecting area or island, a kerb
+radius that fills the space between the roads (:data:`MAX_CURB_RADIUS`), and light timings no
+clock can keep (:data:`PHASE_RANGE`, an offset beyond one loop).
 """
 
 from __future__ import annotations
