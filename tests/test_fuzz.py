@@ -201,6 +201,10 @@ ISSUE_CASES = [
         ["collect", "--env", "DAG-v0", "--seed", "4294967295", "--episodes", "2"],
         "--episodes is 2; allowed: an integer in [1, 1]",
     ),
+    (
+        ["sweep", "--env", "CartPole-v1", "--values", "sutton_barto_reward=true"],
+        "--env is 'CartPole-v1', an env with no supervisor",
+    ),
     (["sweep", "--policy", "/etc/hostname"], "--policy is '/etc/hostname', not a readable"),
     (["sweep", "--values", "cars=2", "--values", "cars=3"], "--values gives 'cars' twice"),
     (["sweep", "--workers", "0"], "--workers is 0; allowed: an integer in [1, "),

@@ -193,6 +193,8 @@ def run(args: argparse.Namespace) -> int:
     with options_named(SWEEP_OPTIONS):
         grid = make_grid(args.env, args.values)
         env_id = check_env_id(args.env, grid)
+    if args.policy is None or args.policy == "supervisor":  # trained from it, or it is swept
+        _check_supervised(env_id, fixed)
     if grid.legacy:
         max_steps = args.max_episode_steps or MAX_EPISODE_STEPS
         if args.env_kwarg:
@@ -226,6 +228,20 @@ def run(args: argparse.Namespace) -> int:
 
 
 MATRIX = "matrix.json"
+
+
+def _check_supervised(env_id: str, fixed: dict) -> None:
+    """The env must have a supervisor when the sweep trains from it or sweeps it: refused now,
+    not as a traceback in a worker."""
+    import gymnasium as gym
+
+    from fluids_bench.commands.options import check_supervised
+
+    env = gym.make(env_id, **fixed)
+    try:
+        check_supervised("--env", env_id, env)
+    finally:
+        env.close()
 
 
 def _check_policy_option(policy: str | None) -> None:
