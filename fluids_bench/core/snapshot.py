@@ -210,7 +210,7 @@ class SnapshotMixin:
         return {name: getattr(self, name, ABSENT) for name in names}
 
     def _restore_state(self, state: dict[str, Any]) -> None:
-        """Put `state` (what :meth:`_snapshot_state` returned, decoded) into this env."""
+        """Put `state` (what `_snapshot_state` returned, decoded) into this env."""
         for name, value in state.items():
             if value is ABSENT:
                 self.__dict__.pop(name, None)
@@ -238,7 +238,7 @@ class SnapshotMixin:
 
     # -- the API ---------------------------------------------------------------------------
     def snapshot(self) -> EnvSnapshot:
-        """The env's current state in the safe state format; :meth:`restore` it on an env of
+        """The env's current state in the safe state format; `restore` it on an env of
         the same id and kwargs to continue from here bit-identically."""
         static = {id(obj): name for name, obj in self._snapshot_static().items()}
         encoder = Encoder(static)

@@ -23,9 +23,9 @@ was executed). A relabelled dataset keeps the source's columns and adds ``origin
 not, the action is the original) and ``label_time`` (seconds the person took).
 
 The env states live next to Minari's ``data`` folder, in ``fluids_bench_states/``: one file per
-episode, ``episode_N.npz``, in the safe state format (:mod:`fluids_bench.core.state_format`: a
+episode, ``episode_N.npz``, in the safe state format (`fluids_bench.core.state_format`: a
 JSON header listing the stored steps, and one entry per step holding that step's
-:func:`fluids_bench.core.snapshot.snapshot`, the wrapped env's state including its time limit
+`fluids_bench.core.snapshot.snapshot`, the wrapped env's state including its time limit
 counter, as bytes; read with ``allow_pickle=False``, never unpickled) for the observations whose
 state was stored (every ``snapshot_every`` steps, and the first). Datasets written by older
 versions stored ``episode_N.pkl.gz`` pickles instead: loading a pickle can run any code its
@@ -78,7 +78,7 @@ def states_to_bytes(states: dict[int, snap.WrappedSnapshot]) -> bytes:
 
 
 def states_from_bytes(data: bytes, what: str) -> dict[int, snap.WrappedSnapshot]:
-    """What :func:`states_to_bytes` wrote, checked (``StateFormatError`` naming ``what``)."""
+    """What `states_to_bytes` wrote, checked (``StateFormatError`` naming ``what``)."""
     meta, arrays = unpack(data, what)
     steps = meta.get("steps")
     if (

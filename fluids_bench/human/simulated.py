@@ -158,7 +158,7 @@ def person(simulated: str | None, command: str = "this command") -> SimulatedHum
     """The labeller a command was asked for: a simulated person (``--simulated-human SPEC``), or
     ``None`` for a real one at a window, which needs pygame (``ValueError`` naming the extra)
     and a real display (``ValueError`` unless ``FLUIDS_BENCH_HEADLESS=1``, see
-    :func:`fluids_bench.human.window.require_display`)."""
+    `fluids_bench.human.window.require_display`)."""
     if simulated is not None:
         return SimulatedHuman.parse(simulated)
     from fluids_bench.human.window import require_display, require_pygame

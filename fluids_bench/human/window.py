@@ -9,7 +9,7 @@ frames are scaled up by a whole factor) above a status bar, and turns pygame eve
 
 A window needs a real display: without one (on Linux, neither ``DISPLAY`` nor
 ``WAYLAND_DISPLAY`` set, or SDL picking its ``offscreen`` or ``dummy`` video driver) no person
-can see it, so ``teleop`` and ``relabel`` refuse to start (:func:`require_display`) rather
+can see it, so ``teleop`` and ``relabel`` refuse to start (`require_display`) rather
 than record a demonstration nobody gave. Tests that inject events under SDL's dummy driver or
 Xvfb opt in with the environment variable ``FLUIDS_BENCH_HEADLESS=1``.
 """
