@@ -457,7 +457,14 @@ def pack(meta: dict[str, Any], arrays: list[np.ndarray] = (), compress: bool = F
     entries = {META: np.frombuffer(text.encode(), dtype=np.uint8)}
     entries.update({f"a{i}": a for i, a in enumerate(arrays)})
     buffer = io.BytesIO()
-    (np.savez_compressed if compress else np.savez)(buffer, **entries)
+    method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
+    with zipfile.ZipFile(buffer, "w", compression=method) as archive:
+        for name, array in entries.items():
+            # a fixed timestamp: the same state gives the same bytes
+            info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
+            info.compress_type = method
+            with archive.open(info, "w", force_zip64=True) as entry:
+                np.lib.format.write_array(entry, np.asanyarray(array), allow_pickle=False)
     return buffer.getvalue()
 
 
