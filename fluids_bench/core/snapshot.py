@@ -155,7 +155,6 @@ class EnvSnapshot:
             object.__setattr__(self, key, meta[key])
         object.__setattr__(self, "kwargs", kwargs)
         object.__setattr__(self, "_fields", meta["fields"])
-        object.__setattr__(self, "_arrays", arrays)
 
     @classmethod
     def from_bytes(cls, data: bytes) -> EnvSnapshot:
@@ -168,7 +167,7 @@ class EnvSnapshot:
         self = object.__new__(cls)
         values = {key: meta[key] for key in ("env_class", "env_id", "format_version")}
         values.update(package_version=meta["package_version"], kwargs_hash=meta["kwargs_hash"])
-        values.update(data=data, kwargs=kwargs, _fields=meta["fields"], _arrays=arrays)
+        values.update(data=data, kwargs=kwargs, _fields=meta["fields"])
         for key, value in values.items():
             object.__setattr__(self, key, value)
         return self
@@ -305,7 +304,10 @@ class SnapshotMixin:
                 "restore into an env built like it"
             )
         names, schema = self._snapshot_schema()
-        decoder = Decoder(snapshot._arrays, self._snapshot_static(), schema)
+        # the arrays are read afresh from the bytes at every restore: envs restored from one
+        # snapshot never share an array, nor with the env the snapshot was taken from
+        _, arrays = unpack(snapshot.data, "snapshot")
+        decoder = Decoder(arrays, self._snapshot_static(), schema)
         try:
             state = decoder.decode(snapshot._fields, "state")
             if type(state) is not dict:
@@ -318,7 +320,7 @@ class SnapshotMixin:
                     f"{'; ' if missing and extra else ''}"
                     f"{f'unexpected field(s) {extra}' if extra else ''}"
                 )
-            unused = len(snapshot._arrays) - len(decoder.used)
+            unused = len(arrays) - len(decoder.used)
             if unused:
                 raise StateFormatError(f"state: {unused} stored array(s) belong to no field")
         except StateFormatError as error:
