@@ -1,8 +1,10 @@
 """The safe state format: an object graph as JSON plus numpy arrays, never a pickle.
 
 A state (what an env's snapshot holds, what a dataset stores) is written as an `.npz` archive
-read back with `allow_pickle=False`: one `__meta__` entry (UTF-8 JSON: the header and the
-object tree) and one entry per array (`a0`, `a1`, ...). Nothing in it names a function to call.
+read back with `allow_pickle=False`: a `__meta__` entry (UTF-8 JSON: the header, the object
+tree and a table of the arrays, each a dtype, a shape and a byte offset) and a `data` entry
+(the arrays' bytes, one after the other). Arrays hold numbers or bools only. Nothing in it
+names a function to call.
 
 The tree is plain JSON. `None`, booleans, integers and strings stand for themselves, every other
 value is an object with one tag:
@@ -12,7 +14,7 @@ value is an object with one tag:
 | `float` | `"nan"`, `"inf"` or `"-inf"` (finite floats are JSON numbers) |
 | `list`, `tuple`, `set`, `frozenset` | the items |
 | `dict`, `odict` | `[key, value]` pairs (`odict`: a `collections.OrderedDict`) |
-| `array`, `scalar`, `bytes` | the index of an entry (numpy array, 0-d array, uint8 bytes) |
+| `array`, `scalar`, `bytes` | the index of an array in the table (an array, a 0-d array, uint8 bytes) |
 | `complex` | `[real, imag]` |
 | `generator` | a numpy `Generator`: its bit generator's name, state and seed sequence |
 | `object` | `[class, state]`: an instance of a class of this package |
@@ -449,13 +451,40 @@ class Schema:
 
 # -- the archive ------------------------------------------------------------------------------
 
+DATA = "data"
+ALIGN = 16  # each array starts at a multiple of this many bytes of the data entry
+ARRAY_KINDS = "biufc"  # bool, integers, floats, complex: the only dtypes stored
+
+
+def _dtype(text: Any, what: str) -> np.dtype:
+    try:
+        dtype = np.dtype(text) if isinstance(text, str) else None
+    except TypeError:
+        dtype = None
+    if dtype is None or dtype.kind not in ARRAY_KINDS or dtype.fields is not None:
+        raise StateFormatError(f"{what}: array dtype {text!r} is not allowed (numbers and bools)")
+    return dtype
+
 
 def pack(meta: dict[str, Any], arrays: list[np.ndarray] = (), compress: bool = False) -> bytes:
-    """An `.npz` archive's bytes: `meta` as JSON in `__meta__`, `arrays` as `a0`, `a1`, ...
-    (deflated with `compress`)."""
-    text = json.dumps({"format": MAGIC, **meta}, allow_nan=False, separators=(",", ":"))
-    entries = {META: np.frombuffer(text.encode(), dtype=np.uint8)}
-    entries.update({f"a{i}": a for i, a in enumerate(arrays)})
+    """An `.npz` archive's bytes: `meta` as JSON in `__meta__` (with a table of the arrays:
+    dtype, shape, byte offset) and the arrays' bytes one after the other in `data` (deflated
+    with `compress`)."""
+    table, chunks, offset = [], [], 0
+    for array in arrays:
+        array = np.asarray(array)
+        dtype = _dtype(array.dtype.str, "pack")
+        raw = np.ascontiguousarray(array).tobytes()
+        table.append([dtype.str, list(array.shape), offset])
+        padding = -len(raw) % ALIGN
+        chunks += [raw, b"\0" * padding]
+        offset += len(raw) + padding
+    full = {"format": MAGIC, **meta, "arrays": table}
+    text = json.dumps(full, allow_nan=False, separators=(",", ":"))
+    entries = {
+        META: np.frombuffer(text.encode(), dtype=np.uint8),
+        DATA: np.frombuffer(b"".join(chunks), dtype=np.uint8),
+    }
     buffer = io.BytesIO()
     method = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
     with zipfile.ZipFile(buffer, "w", compression=method) as archive:
@@ -464,12 +493,13 @@ def pack(meta: dict[str, Any], arrays: list[np.ndarray] = (), compress: bool = F
             info = zipfile.ZipInfo(f"{name}.npy", date_time=(1980, 1, 1, 0, 0, 0))
             info.compress_type = method
             with archive.open(info, "w", force_zip64=True) as entry:
-                np.lib.format.write_array(entry, np.asanyarray(array), allow_pickle=False)
+                np.lib.format.write_array(entry, array, allow_pickle=False)
     return buffer.getvalue()
 
 
 def unpack(data: Any, what: str = "state") -> tuple[dict[str, Any], list[np.ndarray]]:
-    """The meta dict and the arrays of [`pack`][fluids_bench.core.state_format.pack]'s bytes.
+    """The meta dict and the arrays of [`pack`][fluids_bench.core.state_format.pack]'s bytes
+    (each array a fresh, writeable copy).
 
     Raises `StateFormatError` naming `what` when `data` is empty, truncated, garbled or not of
     this format (it is read with `allow_pickle=False`: it never runs code)."""
@@ -477,28 +507,46 @@ def unpack(data: Any, what: str = "state") -> tuple[dict[str, Any], list[np.ndar
         raise StateFormatError(f"{what}: expected bytes, got {type(data).__name__}")
     if len(data) == 0:
         raise StateFormatError(f"{what} is empty (0 bytes)")
+    damaged = f"{what} is damaged or not a fluids-bench state"
     try:
         with np.load(io.BytesIO(bytes(data)), allow_pickle=False) as archive:
-            names = list(archive.files)
-            if META not in names:
-                raise StateFormatError(f"{what}: not a fluids-bench state (no {META} entry)")
-            raw = archive[META]
-            arrays = []
-            for i in range(len(names) - 1):
-                if f"a{i}" not in names:
-                    raise StateFormatError(f"{what}: array entry a{i} is missing")
-                arrays.append(archive[f"a{i}"])
+            if sorted(archive.files) != sorted([META, DATA]):
+                raise StateFormatError(
+                    f"{damaged}: entries {sorted(archive.files)}, expected {sorted([META, DATA])}"
+                )
+            raw, blob = archive[META], archive[DATA]
     except StateFormatError:
         raise
     except (ValueError, OSError, EOFError, KeyError, zipfile.BadZipFile, RuntimeError) as error:
         raise StateFormatError(
-            f"{what} is damaged or not a fluids-bench state "
-            f"({type(error).__name__}: {error}); expected an .npz written by fluids-bench"
+            f"{damaged} ({type(error).__name__}: {error}); expected an .npz written by fluids-bench"
         ) from None
+    if raw.dtype != np.uint8 or blob.dtype != np.uint8 or raw.ndim != 1 or blob.ndim != 1:
+        raise StateFormatError(f"{damaged}: its entries are not bytes")
     try:
         meta = json.loads(raw.tobytes().decode())
     except (UnicodeDecodeError, ValueError) as error:
-        raise StateFormatError(f"{what}: its {META} is not valid JSON ({error})") from None
+        raise StateFormatError(f"{damaged}: its {META} is not valid JSON ({error})") from None
     if type(meta) is not dict or meta.get("format") != MAGIC:
-        raise StateFormatError(f"{what}: not a fluids-bench state (format {MAGIC!r} expected)")
+        raise StateFormatError(f"{damaged} (format {MAGIC!r} expected)")
+    table = meta.pop("arrays", None)
+    if type(table) is not list:
+        raise StateFormatError(f"{damaged}: no table of arrays")
+    arrays = []
+    buffer = blob.tobytes()
+    for i, row in enumerate(table):
+        if (
+            type(row) is not list
+            or len(row) != 3
+            or type(row[1]) is not list
+            or not all(type(n) is int and n >= 0 for n in row[1])
+            or type(row[2]) is not int
+        ):
+            raise StateFormatError(f"{damaged}: array {i}'s entry {row!r} is malformed")
+        dtype, shape, offset = _dtype(row[0], what), tuple(row[1]), row[2]
+        count = math.prod(shape)
+        if offset < 0 or offset + count * dtype.itemsize > len(buffer):
+            raise StateFormatError(f"{damaged}: array {i} lies outside the data")
+        array = np.frombuffer(buffer, dtype=dtype, count=count, offset=offset)
+        arrays.append(array.reshape(shape).copy())
     return meta, arrays
