@@ -408,6 +408,7 @@ class Schema:
         pairs = {(a, b) for a in lengths for b in lengths if a < b and lengths[a] == lengths[b]}
         pairs = {(a, b) for a, b in pairs if lengths[a] >= 1}
         self.linked[name] = self.linked.get(name, pairs) & pairs
+        self.__dict__.pop("_group_cache", None)
         arrays = self.arrays.setdefault(name, {})
         for key, value in fields.items():
             kind = _kind(value)
@@ -439,14 +440,36 @@ class Schema:
                     f"{where}.{key}: an array of dtype {value.dtype} and shape {value.shape}; "
                     f"expected dtype {np.dtype(kind[1])} and shape {expected}"
                 )
-        for a, b in self.linked[name]:
-            x, y = fields.get(a), fields.get(b)
-            if isinstance(x, np.ndarray) and isinstance(y, np.ndarray) and x.ndim and y.ndim:
-                if x.shape[0] != y.shape[0]:
-                    raise StateFormatError(
-                        f"{where}: arrays {a!r} (shape {x.shape}) and {b!r} (shape {y.shape}) "
-                        "must have the same length"
-                    )
+        for group in self._groups(name):
+            present = [
+                (k, fields[k])
+                for k in group
+                if isinstance(fields.get(k), np.ndarray) and fields[k].ndim
+            ]
+            if len({v.shape[0] for _, v in present}) > 1:
+                shown = ", ".join(f"{k!r} {v.shape}" for k, v in present)
+                raise StateFormatError(
+                    f"{where}: arrays {shown} must have the same length (first dimension)"
+                )
+
+    def _groups(self, name: str) -> list[list[str]]:
+        """The linked fields of class `name` as groups of equal length (cached)."""
+        cache = self.__dict__.setdefault("_group_cache", {})
+        if name not in cache:
+            parent: dict[str, str] = {}
+
+            def root(k: str) -> str:
+                while parent.setdefault(k, k) != k:
+                    k = parent[k]
+                return k
+
+            for a, b in self.linked[name]:
+                parent[root(a)] = root(b)
+            groups: dict[str, list[str]] = {}
+            for k in parent:
+                groups.setdefault(root(k), []).append(k)
+            cache[name] = [sorted(g) for g in groups.values() if len(g) > 1]
+        return cache[name]
 
 
 # -- the archive ------------------------------------------------------------------------------
