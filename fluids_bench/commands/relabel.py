@@ -93,13 +93,14 @@ def run(args: argparse.Namespace) -> int:
     except (FileNotFoundError, ValueError) as exc:
         raise ValueError(f"cannot load dataset {args.dataset!r}: {exc}") from exc
     spec = spec_of(dataset)
-    episodes = load_episodes(dataset)
+    episodes = load_episodes(dataset, trust_pickle=args.trust_pickle)
     chosen = args.episode if args.episode is not None else range(len(episodes))
     for e in chosen:
         if not 0 <= e < len(episodes):
             raise ValueError(f"--episode {e}; allowed: 0..{len(episodes) - 1}")
     items = [(e, t) for e in chosen for t in range(0, len(episodes[e]), args.every)]
-    human = person(args.simulated_human)  # a simulated one, or pygame for a real one
+    # a simulated one, or pygame and a real display for a real one
+    human = person(args.simulated_human, "fluids-bench relabel")
     session = Relabel(
         spec,
         episodes,

@@ -45,6 +45,12 @@ def add_human_options(parser: argparse.ArgumentParser) -> None:
     parser.add_argument(
         "--show-label", action="store_true", help="overlay the supervisor's label (key l)"
     )
+    parser.add_argument(
+        "--trust-pickle",
+        action="store_true",
+        help="read env states an older fluids-bench stored as pickles (a pickle can run any "
+        "code its maker put in it: only for datasets you trust); they are rewritten safely",
+    )
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -115,7 +121,8 @@ def run(args: argparse.Namespace) -> int:
                 m.get("seed") for m in dataset.storage.get_episode_metadata(dataset.episode_indices)
             ]
             seed = 1 + max((s for s in seeds if s is not None), default=-1)
-    human = person(args.simulated_human)  # a simulated one, or pygame for a real one
+    # a simulated one, or pygame and a real display for a real one
+    human = person(args.simulated_human, "fluids-bench teleop")
     session = Teleop(
         args.env,
         dict(args.env_kwarg),
@@ -152,6 +159,14 @@ def finish(args, session, result, spec) -> int:
             file=sys.stderr,
         )
         return code or 1
+    window = session.window
+    if session.human is None and (window is None or window.events == 0):
+        print(
+            "fluids-bench teleop: the session received no input (no key press, click or "
+            "joystick event), so it is not a person's demonstration; nothing written",
+            file=sys.stderr,
+        )
+        return code or 1
     noise = "" if not session.noise.active else f", noise {args.noise}"
     record = {
         "kind": "teleop",
@@ -172,6 +187,7 @@ def finish(args, session, result, spec) -> int:
         session=record,
         append=args.append,
         overwrite=args.overwrite,
+        trust_pickle=args.trust_pickle,
         algorithm_name=f"fluids-bench teleop: {who}{noise}",
         description=(
             f"Teleoperated episodes of {spec.id} ({who}{noise}). actions are the person's "

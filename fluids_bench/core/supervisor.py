@@ -13,9 +13,10 @@ true state of the simulator, never the observation. A PettingZoo ``ParallelEnv``
 answers per agent: ``env.supervisor_action(agent)`` and ``infos[agent]["supervisor_action"]``.
 
 Labels are reproducible from a snapshot. Every env of the suite also offers
-``env.unwrapped.snapshot()`` (a picklable :class:`~fluids_bench.core.snapshot.EnvSnapshot`)
-and ``env.unwrapped.restore(snapshot)`` (:class:`RestorableEnv`): restored into another env of
-the same id and kwargs (reset with any seed), the env continues bit-identically under the same
+``env.unwrapped.snapshot()`` (an `EnvSnapshot` in the safe state format of
+`fluids_bench.core.snapshot`: arrays and JSON with a versioned header, never a pickle) and
+``env.unwrapped.restore(snapshot)`` (:class:`RestorableEnv`): restored into another env of
+the same id and kwargs (reset with any seed, or never reset), the env continues bit-identically under the same
 actions (observations, rewards, terminated/truncated, infos) and ``supervisor_action()``
 equals the label of the env that drove there. A supervisor's cache must be derivable from the
 state; memory a supervisor really has (FLUIDS' velocity planner holds its targets between
@@ -54,13 +55,15 @@ class RestorableEnv(Protocol):
     """An env whose state can be saved and restored exactly (every env of the suite)."""
 
     def snapshot(self) -> Any:
-        """A picklable copy of the env's state: everything its future steps and labels
-        depend on (the simulator, the supervisor's memory, episode counters, ``np_random``)."""
+        """A copy of the env's state in the safe state format (`to_bytes()` stores it):
+        everything its future steps and labels depend on (the simulator, the supervisor's
+        memory, episode counters, ``np_random``)."""
         ...
 
     def restore(self, snapshot: Any) -> None:
-        """Continue from ``snapshot``, taken from an env of the same id and kwargs; raises
-        ``ValueError`` for a snapshot of another id or kwargs."""
+        """Continue from ``snapshot`` (or its bytes), taken from an env of the same id and
+        kwargs; raises ``ValueError`` for a snapshot of another id, kwargs or version, or a
+        damaged one."""
         ...
 
 

@@ -23,9 +23,14 @@ was executed). A relabelled dataset keeps the source's columns and adds ``origin
 not, the action is the original) and ``label_time`` (seconds the person took).
 
 The env states live next to Minari's ``data`` folder, in ``fluids_bench_states/``: one file per
-episode, a pickled dict ``{t: snapshot}`` (:func:`fluids_bench.core.snapshot.snapshot`, the
-wrapped env's state including its time limit counter) for the observations whose state was
-stored (every ``snapshot_every`` steps, and the first). Any other step's state is rebuilt by
+episode, ``episode_N.npz``, in the safe state format (`fluids_bench.core.state_format`: a
+JSON header listing the stored steps, and one entry per step holding that step's
+`fluids_bench.core.snapshot.snapshot`, the wrapped env's state including its time limit
+counter, as bytes; read with ``allow_pickle=False``, never unpickled) for the observations whose
+state was stored (every ``snapshot_every`` steps, and the first). Datasets written by older
+versions stored ``episode_N.pkl.gz`` pickles instead: loading a pickle can run any code its
+author put in it, so they are read only with ``trust_pickle=True`` (``--trust-pickle``), and
+converted to the safe format on the way in. Any other step's state is rebuilt by
 restoring the nearest stored state before it and re-executing the recorded actions (the envs
 continue bit-identically); a dataset without stored states (e.g. from ``fluids-bench
 collect``) is replayed from its episode seeds. :class:`StateRebuilder` does this and checks
@@ -51,10 +56,58 @@ from gymnasium import spaces
 from minari.data_collector import EpisodeBuffer
 
 from fluids_bench.core import snapshot as snap
+from fluids_bench.core.state_format import StateFormatError, pack, unpack
 from fluids_bench.data.minari_export import check_dataset_id, dataset_path, write_staged
 
 STATES_DIR = "fluids_bench_states"
 SESSIONS_FILE = "sessions.json"  # in STATES_DIR: one record per teleop / relabel session
+STATES_KIND = "episode-states"
+TRUST_PICKLE_WHY = (
+    "loading a pickle can run any code whoever made the file put in it; pass --trust-pickle "
+    "(Python: trust_pickle=True) only for a dataset you made yourself or whose maker you trust "
+    "(it is then converted to the safe format when written again)"
+)
+
+
+def states_to_bytes(states: dict[int, snap.WrappedSnapshot]) -> bytes:
+    """An episode's stored states (observation index -> wrapped snapshot) in the safe state
+    format (a compressed ``.npz``)."""
+    steps = sorted(states)
+    arrays = [np.frombuffer(states[t].to_bytes(), dtype=np.uint8) for t in steps]
+    return pack({"kind": STATES_KIND, "steps": steps}, arrays, compress=True)
+
+
+def states_from_bytes(data: bytes, what: str) -> dict[int, snap.WrappedSnapshot]:
+    """What `states_to_bytes` wrote, checked (``StateFormatError`` naming ``what``)."""
+    meta, arrays = unpack(data, what)
+    steps = meta.get("steps")
+    if (
+        meta.get("kind") != STATES_KIND
+        or set(meta) != {"format", "kind", "steps"}
+        or type(steps) is not list
+        or not all(type(t) is int and t >= 0 for t in steps)
+        or len(set(steps)) != len(steps)
+    ):
+        raise StateFormatError(f"{what}: not an episode's stored states (header {sorted(meta)})")
+    if len(arrays) != len(steps):
+        raise StateFormatError(f"{what}: {len(steps)} steps listed, {len(arrays)} stored")
+    out = {}
+    for t, array in zip(steps, arrays, strict=True):
+        if array.dtype != np.uint8 or array.ndim != 1:
+            raise StateFormatError(f"{what}: step {t}'s entry is not bytes")
+        out[t] = snap.WrappedSnapshot.from_bytes(array.tobytes(), f"{what} step {t}")
+    return out
+
+
+def _legacy_states(path: Path, env: gym.Env) -> dict[int, snap.WrappedSnapshot]:
+    """The pickled states an older fluids-bench wrote (trusted by the caller), converted into
+    the safe format by restoring each into ``env`` the old way and snapshotting it again."""
+    with gzip.open(path, "rb") as f:
+        states = pickle.load(f)
+    if not isinstance(states, dict):
+        raise ValueError(f"{path}: expected a dict of states, got {type(states).__name__}")
+    env.reset(seed=0)  # the old states refer to objects a reset env holds (the layout)
+    return {int(t): snap.from_legacy(env, old) for t, old in states.items()}
 
 
 @dataclass
@@ -147,9 +200,13 @@ def spec_of(dataset: minari.MinariDataset) -> gym.envs.registration.EnvSpec:
     return spec
 
 
-def load_episodes(dataset: minari.MinariDataset) -> list[Episode]:
-    """Every episode of ``dataset`` with its infos and stored states (for append / relabel)."""
+def load_episodes(dataset: minari.MinariDataset, *, trust_pickle: bool = False) -> list[Episode]:
+    """Every episode of ``dataset`` with its infos and stored states (for append / relabel).
+
+    States are read in the safe format (never unpickled). A dataset whose states are pickles
+    (written by an older fluids-bench) raises ``ValueError`` unless ``trust_pickle``."""
     root = Path(dataset.spec.data_path).parent / STATES_DIR
+    legacy_env = None
     metadata = list(dataset.storage.get_episode_metadata(dataset.episode_indices))
     out = []
     for meta, ep in zip(metadata, dataset.iterate_episodes(), strict=True):
@@ -159,10 +216,20 @@ def load_episodes(dataset: minari.MinariDataset) -> list[Episode]:
                 continue
             infos[key] = list(value) if np.ndim(value) == 1 else [np.asarray(v) for v in value]
         states = {}
-        path = root / f"episode_{ep.id}.pkl.gz"
+        path, legacy = root / f"episode_{ep.id}.npz", root / f"episode_{ep.id}.pkl.gz"
         if path.exists():
-            with gzip.open(path, "rb") as f:
-                states = pickle.load(f)
+            states = states_from_bytes(path.read_bytes(), str(path))
+        elif legacy.exists():
+            if not trust_pickle:
+                raise ValueError(
+                    f"dataset {dataset.spec.dataset_id!r} stores its env states as pickles "
+                    f"({legacy}, written by an older fluids-bench) and they are not loaded: "
+                    f"{TRUST_PICKLE_WHY}"
+                )
+            if legacy_env is None:
+                spec = spec_of(dataset)
+                legacy_env = gym.make(spec.id, **spec.kwargs)
+            states = _legacy_states(legacy, legacy_env)
         obs = ep.observations
         rows = (
             [{k: obs[k][t] for k in obs} for t in range(len(ep.actions) + 1)]
@@ -218,6 +285,7 @@ def write_dataset(
     description: str,
     data_format: str = "arrow",
     previous_sessions: list[dict[str, Any]] | None = None,
+    trust_pickle: bool = False,
 ) -> minari.MinariDataset:
     """Write ``episodes`` (after the existing ones when ``append``) atomically as
     ``dataset_id``, with their states and the session record; returns the loaded dataset."""
@@ -236,7 +304,7 @@ def write_dataset(
                 f"{old_spec.kwargs}, this session {spec.id} with {spec.kwargs}; append "
                 "only sessions of the same env"
             )
-        old = load_episodes(previous)
+        old = load_episodes(previous, trust_pickle=trust_pickle)
         old_sessions = sessions(dataset_id) + old_sessions
         # infos columns must agree across episodes: keep the common ones
         keys = set(episodes[0].infos)
@@ -258,8 +326,7 @@ def write_dataset(
         states_dir.mkdir()
         for i, ep in enumerate(everything):
             if ep.states:
-                with gzip.open(states_dir / f"episode_{i}.pkl.gz", "wb", compresslevel=3) as f:
-                    pickle.dump(ep.states, f, protocol=pickle.HIGHEST_PROTOCOL)
+                (states_dir / f"episode_{i}.npz").write_bytes(states_to_bytes(ep.states))
         (states_dir / SESSIONS_FILE).write_text(json.dumps(old_sessions + [session], indent=1))
 
     # an append or an asked-for overwrite replaces the old version; otherwise a dataset that

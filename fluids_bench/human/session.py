@@ -204,7 +204,9 @@ class Teleop:
     def _run_window(self) -> tuple[str, int]:
         from fluids_bench.human.window import Window
 
-        self.window = window = Window(f"fluids-bench teleop {self.env.spec.id}")
+        self.window = window = Window(
+            f"fluids-bench teleop {self.env.spec.id}", "fluids-bench teleop"
+        )
         steps = 0
         next_step = time.perf_counter()
         first_input: float | None = None
@@ -347,7 +349,9 @@ class Relabel:
     def _run_window(self) -> str:
         from fluids_bench.human.window import Window
 
-        self.window = window = Window(f"fluids-bench relabel {self.env.spec.id}")
+        self.window = window = Window(
+            f"fluids-bench relabel {self.env.spec.id}", "fluids-bench relabel"
+        )
         shown: tuple[int, int] | None = None
         shown_at_for: tuple[int, int] | None = None
         shown_at, dirty = 0.0, False

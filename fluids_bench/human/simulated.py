@@ -154,15 +154,18 @@ class NoiseInjector:
             self.covariance = cov if self.alpha is None else scale_to_trace(cov, self.alpha)
 
 
-def person(simulated: str | None) -> SimulatedHuman | None:
+def person(simulated: str | None, command: str = "this command") -> SimulatedHuman | None:
     """The labeller a command was asked for: a simulated person (``--simulated-human SPEC``), or
-    ``None`` for a real one at a window, which needs pygame (``ValueError`` naming the extra)."""
+    ``None`` for a real one at a window, which needs pygame (``ValueError`` naming the extra)
+    and a real display (``ValueError`` unless ``FLUIDS_BENCH_HEADLESS=1``, see
+    `fluids_bench.human.window.require_display`)."""
     if simulated is not None:
         return SimulatedHuman.parse(simulated)
-    from fluids_bench.human.window import require_pygame
+    from fluids_bench.human.window import require_display, require_pygame
 
     try:
         require_pygame()
     except ImportError as exc:
         raise ValueError(str(exc)) from None
+    require_display(command)
     return None

@@ -5,13 +5,19 @@ frames are scaled up by a whole factor) above a status bar, and turns pygame eve
 :class:`~fluids_bench.human.controls.Inputs` plus commands: ``p`` pause, ``s`` slow motion,
 ``r`` restart the episode, ``l`` toggle the supervisor's label overlay, Backspace go back
 (relabel), Esc or ``q`` or closing the window quit. Input can be injected with
-``pygame.event.post`` (the tests do); under SDL's dummy video driver or Xvfb it runs without
-a screen.
+``pygame.event.post`` (the tests do).
+
+A window needs a real display: without one (on Linux, neither ``DISPLAY`` nor
+``WAYLAND_DISPLAY`` set, or SDL picking its ``offscreen`` or ``dummy`` video driver) no person
+can see it, so ``teleop`` and ``relabel`` refuse to start (`require_display`) rather
+than record a demonstration nobody gave. Tests that inject events under SDL's dummy driver or
+Xvfb opt in with the environment variable ``FLUIDS_BENCH_HEADLESS=1``.
 """
 
 from __future__ import annotations
 
 import os
+import sys
 import time
 from dataclasses import replace
 from typing import Any
@@ -33,6 +39,43 @@ def require_pygame():
     except ImportError as exc:
         raise ImportError(HUMAN_MISSING) from exc
     return pygame
+
+
+HEADLESS_ENV = "FLUIDS_BENCH_HEADLESS"  # "1": run the window without a display (tests)
+NO_SCREEN_DRIVERS = ("offscreen", "dummy")
+
+
+def headless_allowed() -> bool:
+    """Whether the headless opt-in (``FLUIDS_BENCH_HEADLESS=1``) is set."""
+    return os.environ.get(HEADLESS_ENV) == "1"
+
+
+def _no_display_reason(driver: str | None = None) -> str | None:
+    """Why there is no display a person could see, or None when there seems to be one."""
+    requested = os.environ.get("SDL_VIDEODRIVER", "").strip().lower()
+    if requested in NO_SCREEN_DRIVERS:
+        return f"SDL_VIDEODRIVER={requested} shows nothing on a screen"
+    if driver is not None and driver.lower() in NO_SCREEN_DRIVERS:
+        return f"SDL picked its {driver!r} video driver, which shows nothing on a screen"
+    if sys.platform.startswith("linux") and not (
+        os.environ.get("DISPLAY") or os.environ.get("WAYLAND_DISPLAY")
+    ):
+        return "neither DISPLAY nor WAYLAND_DISPLAY is set"
+    return None
+
+
+def require_display(command: str, driver: str | None = None) -> None:
+    """Raise ``ValueError`` when no person could see a window (see the module docstring),
+    unless ``FLUIDS_BENCH_HEADLESS=1``; ``driver`` is SDL's video driver once initialised."""
+    if headless_allowed():
+        return
+    reason = _no_display_reason(driver)
+    if reason is not None:
+        raise ValueError(
+            f"{command} needs a person at a real display and there is none ({reason}); run it "
+            "in a desktop session, or use --simulated-human for a simulated person "
+            f"(tests that inject input may set {HEADLESS_ENV}=1)"
+        )
 
 
 COMMAND_KEYS = {
@@ -61,9 +104,15 @@ INPUT_KEYS = {
 class Window:
     """One pygame window; :meth:`poll` reads events, :meth:`show` draws a frame and status."""
 
-    def __init__(self, title: str) -> None:
+    def __init__(self, title: str, command: str = "the window") -> None:
+        require_display(command)
         self.pg = pg = require_pygame()
         pg.display.init()
+        try:
+            require_display(command, pg.display.get_driver())
+        except ValueError:
+            pg.display.quit()
+            raise
         pg.font.init()
         pg.joystick.init()
         self.joysticks = [pg.joystick.Joystick(i) for i in range(pg.joystick.get_count())]
@@ -73,6 +122,7 @@ class Window:
         self.scale = 1
         self.inputs = Inputs()
         self.last_input_time: float | None = None  # wall time of the latest input event
+        self.events = 0  # key, button, click and joystick events so far (a person's presence)
 
     # -- events ----------------------------------------------------------------------------
     def poll(self) -> tuple[list[str], list[tuple[str, Any]]]:
@@ -83,8 +133,16 @@ class Window:
         pressed: list[tuple[str, Any]] = []
         keys, buttons = set(self.inputs.keys), list(self.inputs.buttons)
         mouse, axes = self.inputs.mouse, list(self.inputs.axes)
+        presence = (
+            pg.KEYDOWN,
+            pg.MOUSEBUTTONDOWN,
+            pg.JOYAXISMOTION,
+            pg.JOYBUTTONDOWN,
+            pg.JOYHATMOTION,
+        )
         for event in pg.event.get():
             now = time.perf_counter()
+            self.events += event.type in presence
             if event.type == pg.QUIT:
                 commands.append("quit")
             elif event.type in (pg.KEYDOWN, pg.KEYUP):

@@ -38,6 +38,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     print("expected run time: ~1 min on 2 cores")
     os.environ.setdefault("SDL_VIDEODRIVER", "dummy" if "DISPLAY" not in os.environ else "x11")
+    os.environ["FLUIDS_BENCH_HEADLESS"] = "1"  # a script, not a person, drives the window
     os.environ["MINARI_DATASETS_PATH"] = tempfile.mkdtemp(prefix="bench-relabel-")
 
     import minari

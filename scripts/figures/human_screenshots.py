@@ -29,6 +29,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--out", type=Path, default=Path("docs/images"))
     args = parser.parse_args(argv)
     print("expected run time: ~1 min on 2 cores")
+    os.environ["FLUIDS_BENCH_HEADLESS"] = "1"  # a script, not a person, drives the windows
     os.environ["MINARI_DATASETS_PATH"] = tempfile.mkdtemp(prefix="screenshots-")
     args.out.mkdir(parents=True, exist_ok=True)
 

@@ -20,6 +20,7 @@ from fluids_bench.human.recording import sessions  # noqa: E402
 def datasets_root(tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "datasets"))
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    monkeypatch.setenv("FLUIDS_BENCH_HEADLESS", "1")  # windows without a screen, events posted
 
 
 def per_state(plan):

@@ -25,6 +25,7 @@ FAST = ["--fps", "1000"]  # step as fast as the window loop runs
 def datasets_root(tmp_path, monkeypatch):
     monkeypatch.setenv("MINARI_DATASETS_PATH", str(tmp_path / "datasets"))
     monkeypatch.setenv("SDL_VIDEODRIVER", "dummy")
+    monkeypatch.setenv("FLUIDS_BENCH_HEADLESS", "1")  # windows without a screen, events posted
 
 
 def key(k, down=True):
@@ -218,7 +219,7 @@ def test_closed_window_keeps_finished_episodes_only(monkeypatch, capsys):
 
 def test_ctrl_c_keeps_finished_episodes(monkeypatch, capsys):
     def interrupt(episode, t):
-        return [KeyboardInterrupt()] if (episode, t) == (1, 2) else []
+        return [KeyboardInterrupt()] if (episode, t) == (1, 2) else arrows(episode, t)
 
     argv = ["--env", "GridWorld-v0", "--dataset", "tt/c-v0", "--episodes", "2", "--max-steps", "4"]
     assert run_teleop(monkeypatch, [*argv, *FAST], interrupt) == 130
@@ -276,7 +277,7 @@ def test_a_real_sigint_keeps_finished_episodes(monkeypatch, capsys):
     def sigint(episode, t):
         if (episode, t) == (1, 2):
             os.kill(os.getpid(), signal.SIGINT)  # Ctrl-C in the terminal
-        return []
+        return arrows(episode, t)
 
     # a process started in the background by a shell ignores SIGINT (and Python then installs
     # no handler): give this one Python's, as a terminal's foreground process has

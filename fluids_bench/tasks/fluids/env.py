@@ -152,9 +152,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     40 s; ``FLUIDS-v1``: 600; the sensitivity ids: 600).
 
     ## Snapshots and labels
-    ``env.unwrapped.snapshot()`` returns a picklable :class:`~fluids_bench.core.snapshot.EnvSnapshot`;
-    ``restore(snapshot)`` on another env built with the same kwargs (reset with any seed)
-    continues bit-identically, labels included. The supervisor has memory, as the source's
+    ``env.unwrapped.snapshot()`` returns an `EnvSnapshot` (arrays and JSON, never a pickle);
+    ``restore(snapshot)`` on another env built with the same kwargs (reset with any seed, or
+    never reset) continues bit-identically, labels included. The supervisor has memory, as the source's
     does: the velocity planner runs every ``planner_period`` steps and holds its targets in
     between, and the PID controllers integrate their errors. So the label is a function of
     the world and the planner's phase (the world's step count) and held targets (and, at the

@@ -10,7 +10,6 @@ of which supervisor labels (``metadata["supervisor"]``: kind, recipe, weights sh
 from __future__ import annotations
 
 import contextlib
-import copy
 import dataclasses
 import os
 import warnings
@@ -293,15 +292,17 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
     # of (qpos, qvel): setting a fresh env's physics state and calling mj_forward gives other
     # numbers, and another label. The snapshot holds a copy of the whole MjData (state, warm
     # start, every derived field) and restore copies it into this env's MjData.
+    # The MjData is stored as MuJoCo's own binary serialisation (plain bytes, parsed and
+    # checked by MuJoCo, never unpickled) and must fit this env's model.
     def _snapshot_state(self) -> dict[str, Any]:
         return {
             **super()._snapshot_state(),
-            "data": copy.copy(self._sim.data),
+            "data": self._sim.data.__getstate__(),
             "sim_rng": (self._sim._np_random, self._sim._np_random_seed),
         }
 
     def _restore_state(self, state: dict[str, Any]) -> None:
-        data = state.pop("data")
+        data = _mjdata(state.pop("data"), self._sim.model)
         self._sim._np_random, self._sim._np_random_seed = state.pop("sim_rng")
         super()._restore_state(state)
         mujoco.mj_copyData(self._sim.data, self._sim.model, data)
@@ -432,3 +433,26 @@ class HumanoidILEnv(LocomotionILEnv):
         "shipped defaulted to cold-start MPC, which fell within 100 steps.",
     )
     task = "Humanoid"
+
+
+def _mjdata(raw: Any, model: mujoco.MjModel) -> mujoco.MjData:
+    """The `MjData` in `raw` (MuJoCo's serialisation), refused with a clear error unless it
+    is valid and of a model the size of `model`."""
+    from fluids_bench.core.state_format import StateFormatError
+
+    if not isinstance(raw, bytes):
+        raise StateFormatError(
+            f"state['data']: expected MuJoCo's MjData bytes, got {type(raw).__name__}"
+        )
+    data = mujoco.MjData.__new__(mujoco.MjData)
+    try:
+        data.__setstate__(raw)
+    except Exception as error:  # MuJoCo's parser refuses damaged bytes
+        raise StateFormatError(f"state['data']: not a valid MjData ({error})") from None
+    for size in ("nq", "nv", "nu", "na", "nbody", "njnt", "ngeom", "nsensordata"):
+        if getattr(data.model, size) != getattr(model, size):
+            raise StateFormatError(
+                f"state['data']: an MjData of another model ({size} {getattr(data.model, size)}, "
+                f"this env's {getattr(model, size)})"
+            )
+    return data
