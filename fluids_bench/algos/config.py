@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import os
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from fluids_bench.algos.policies import PolicySpec
+from fluids_bench.algos.learners.protocol import describe_source, is_learner
+from fluids_bench.algos.learners.sklearn import PolicySpec
 from fluids_bench.core.validation import check_choice, check_float, check_int, fail
 
 # where a run's rollouts execute (the same as fluids_bench.data.collect.BACKENDS, which cannot be
@@ -43,7 +44,8 @@ class RunConfig:
 
     env_id: str = "GridWorld-v0"
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
-    policy: PolicySpec = field(default_factory=PolicySpec)
+    # a scikit-learn family, or any learner (fit/predict) or a zero-argument factory of one
+    policy: Any = field(default_factory=PolicySpec)
     iterations: int = 10
     demos_per_iteration: int = 1
     samples_per_demo: int | None = 50
@@ -64,8 +66,15 @@ class RunConfig:
             fail(where, "env_id", self.env_id, "a registered Gymnasium id")
         if not isinstance(self.env_kwargs, Mapping):
             fail(where, "env_kwargs", self.env_kwargs, "a mapping of keyword arguments")
-        if not isinstance(self.policy, PolicySpec):
-            fail(where, "policy", self.policy, "a PolicySpec")
+        if not (
+            isinstance(self.policy, PolicySpec) or is_learner(self.policy) or callable(self.policy)
+        ):
+            fail(
+                where,
+                "policy",
+                self.policy,
+                "a PolicySpec, a learner (fit/predict) or a zero-argument factory of one",
+            )
         check_int(where, "iterations", self.iterations, 1)
         check_int(where, "demos_per_iteration", self.demos_per_iteration, 1)
         if self.samples_per_demo is not None:
@@ -97,7 +106,15 @@ class RunConfig:
         return iteration % self.eval_every == 0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly copy (tuples become lists when serialised)."""
+        """JSON-friendly copy (tuples become lists when serialised); a learner or factory is
+        recorded by name (`{"learner": "module:factory"}`, or its own `describe()`)."""
+        if not isinstance(self.policy, PolicySpec):
+            data = asdict(replace(self, policy=PolicySpec()))
+            data["env_kwargs"] = dict(self.env_kwargs)
+            data["policy"] = {"learner": describe_source(self.policy)}
+            for name in EXECUTION_FIELDS:
+                del data[name]
+            return data
         data = asdict(self)
         for name in EXECUTION_FIELDS:
             del data[name]

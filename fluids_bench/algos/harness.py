@@ -43,7 +43,14 @@ from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
 from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
-from fluids_bench.algos.policies import Policy, check_action_space, fit_policy
+from fluids_bench.algos.learners.protocol import (
+    Learner,
+    LearnerPolicy,
+    Policy,
+    check_action_space,
+    make_learner,
+)
+from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.supervisor import has_supervisor
@@ -135,6 +142,14 @@ class Harness:
         self._timing_offset = {name: 0.0 for name in TIMING_FIELDS}  # saved minus recomputed
         self.action_space = self.env.action_space
         self.discrete = check_action_space(self.action_space)
+        # a user's learner (config.policy is not a PolicySpec): built once per run, told the
+        # env's spaces when it asks for them, and refit in place by every fit
+        self.learner: Learner | None = None
+        if not isinstance(config.policy, PolicySpec):
+            self.learner = make_learner(config.policy, f"{type(config).__name__}.policy")
+            set_spaces = getattr(self.learner, "set_spaces", None)
+            if callable(set_spaces):
+                set_spaces(self.env.observation_space, self.action_space)
         streams = np.random.SeedSequence(config.seed).spawn(5)
         episode_ss, eval_ss, split_ss, model_ss, algo_ss = streams
         self._episode_rng = np.random.default_rng(episode_ss)
@@ -261,9 +276,13 @@ class Harness:
             np.random.default_rng([self._model_word, len(self.train)]).integers(SEED_BOUND)
         )
         start = time.perf_counter()
-        policy = fit_policy(
-            self.config.policy, self.action_space, observations, labels, random_state
-        )
+        if self.learner is not None:
+            self.learner.fit(observations, labels)
+            policy: Policy = LearnerPolicy(self.learner, self.action_space)
+        else:
+            policy = fit_policy(
+                self.config.policy, self.action_space, observations, labels, random_state
+            )
         return policy, time.perf_counter() - start
 
     def fit(self) -> Policy:
