@@ -29,6 +29,9 @@ do); with `workers=1` it never leaves the process.
 from __future__ import annotations
 
 import importlib
+import json
+import os
+import sys
 from collections.abc import Callable
 from typing import Any, Protocol, runtime_checkable
 
@@ -129,6 +132,10 @@ def resolve_factory(spec: str) -> Callable[[], Any]:
             f"--policy {spec!r} is not a learner factory; allowed: a scikit-learn family "
             "name or 'module:factory' (a zero-argument callable returning a learner)"
         )
+    if os.getcwd() not in sys.path and "" not in sys.path:
+        # as `python -m` does: a module next to where the command runs imports (the console
+        # script's own sys.path starts at its bin folder)
+        sys.path.append(os.getcwd())
     try:
         module = importlib.import_module(module_name)
     except ImportError as exc:
@@ -176,3 +183,29 @@ class LearnerPolicy:
     def act(self, observation: np.ndarray) -> Any:
         """The action for one observation."""
         return self.predict(np.asarray(observation)[None])[0]
+
+
+class NamedFactory:
+    """`fluids-bench train --policy module:factory --policy-param k=v`: the factory named by
+    `spec`, called with `params` as keyword arguments; records name it by its text, so a
+    resumed run recognises it. Pickles by name (worker processes import it again)."""
+
+    def __init__(self, spec: str, params: dict[str, Any] | None = None) -> None:
+        self.spec = spec
+        self.params = dict(params or {})
+        self.factory = resolve_factory(spec)
+
+    def __call__(self) -> Learner:
+        try:
+            learner = self.factory(**self.params)
+        except TypeError as exc:
+            raise ValueError(f"--policy {self.spec!r} with {self.params}: {exc}") from exc
+        return check_learner(learner, f"--policy {self.spec!r} (what it returned)")
+
+    def describe(self) -> str:
+        if not self.params:
+            return self.spec
+        return f"{self.spec} {json.dumps(self.params, sort_keys=True)}"
+
+    def __reduce__(self) -> tuple[Any, ...]:
+        return (NamedFactory, (self.spec, self.params))
