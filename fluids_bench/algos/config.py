@@ -31,6 +31,12 @@ class RunConfig:
     ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
     normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
 
+    ``policy`` is a scikit-learn family (a ``PolicySpec``), or any learner with
+    ``fit(observations, labels)`` and ``predict(observations)``, or a zero-argument factory of
+    one (a class, a function), which each run calls once for a fresh learner
+    (:mod:`fluids_bench.algos.learners`). A learner given itself is refit in place: a second
+    run with it continues from its state if it warm-starts.
+
     Execution (the result does not depend on it): the rollouts of an iteration and the
     evaluation episodes run on ``workers`` processes (``backend="process"``; 1: in this
     process) or as Ray tasks, at most ``workers`` at a time (``backend="ray"``: on the Ray

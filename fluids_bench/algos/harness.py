@@ -19,6 +19,11 @@ timer and the evaluation protocol of one run:
   seeds are drawn in order in this process before they start and the results are put back in
   that order, so the records are the same whatever the workers and the backend. The learner is
   fitted here, once per iteration;
+- learners: ``config.policy`` a ``PolicySpec`` is fit afresh with a seeded ``random_state``;
+  a user's learner (:mod:`fluids_bench.algos.learners`) is built once per run and refit in
+  place by every fit, including a fit only an evaluation needs: with a warm-starting learner
+  (the torch ones) later fits continue from it, so there the evaluation schedule is part of
+  what is learned;
 - resuming: with ``config.checkpoint``, every finished rollout, evaluation and record is kept
   on disk and a rerun takes them from there (:mod:`~fluids_bench.algos.checkpoint`).
 """

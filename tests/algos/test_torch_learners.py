@@ -190,3 +190,13 @@ def test_the_package_imports_without_torch_and_the_error_names_the_extra() -> No
     )
     out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert "`torch` extra" in out.stdout and "pip install torch==2.13.0" in out.stdout
+
+
+def test_worker_processes_roll_out_the_same_network() -> None:
+    # the learner travels to the workers pickled (its progress callback stays behind)
+    settings = {"env_id": "GridWorld-v0", "iterations": 2, "eval_episodes": 2}
+    here = run_algorithm("dagger", seed=3, policy=MLPLearner(seed=0, **QUICK), **settings)
+    there = run_algorithm(
+        "dagger", seed=3, workers=2, policy=MLPLearner(seed=0, progress=print, **QUICK), **settings
+    )
+    assert there.to_dict(include_timing=False) == here.to_dict(include_timing=False)
