@@ -200,3 +200,20 @@ def test_worker_processes_roll_out_the_same_network() -> None:
         "dagger", seed=3, workers=2, policy=MLPLearner(seed=0, progress=print, **QUICK), **settings
     )
     assert there.to_dict(include_timing=False) == here.to_dict(include_timing=False)
+
+
+@pytest.mark.parametrize(
+    ("env_id", "env_kwargs"),
+    [
+        ("Singulation-v0", {"obs_type": "pixels"}),
+        ("FLUIDS-Sensitivity-v3", {"obs_type": "birdseye", "birdseye_size": 64}),
+    ],
+)
+def test_dagger_trains_the_cnn_on_the_suites_images(env_id: str, env_kwargs: dict) -> None:
+    learner = CNNLearner(hidden=(16,), epochs=2, threads=1, seed=0)
+    result = run_algorithm(
+        "dagger", env_id=env_id, env_kwargs=env_kwargs, policy=learner, iterations=1,
+        eval_episodes=1, max_steps=15, samples_per_demo=15,
+    )  # fmt: skip
+    assert learner.observation_shape == (64, 64, 3) or learner.observation_shape == (96, 96, 3)
+    assert learner.fits == 2 and result.final.eval_return is not None
