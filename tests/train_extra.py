@@ -23,3 +23,17 @@ def require_sb3():
         if os.environ.get("FLUIDS_BENCH_TRAIN_TESTS") == "1":
             pytest.fail(f"FLUIDS_BENCH_TRAIN_TESTS=1 but stable-baselines3 is missing: {INSTALL}")
         pytest.skip(f"needs the optional `train` extra: {INSTALL}")
+
+
+TORCH_INSTALL = 'pip install torch==2.13.0  (the CPU wheel; or pip install "fluids-bench[torch]")'
+
+
+def require_torch():
+    """The `torch` module; a skip "needs the torch extra" where it is missing, except under
+    FLUIDS_BENCH_TRAIN_TESTS=1 (CI), where a missing torch fails the test."""
+    try:
+        return importlib.import_module("torch")
+    except ImportError:
+        if os.environ.get("FLUIDS_BENCH_TRAIN_TESTS") == "1":
+            pytest.fail(f"FLUIDS_BENCH_TRAIN_TESTS=1 but torch is missing: {TORCH_INSTALL}")
+        pytest.skip(f"needs the torch extra: {TORCH_INSTALL}")

@@ -7,7 +7,9 @@
   :mod:`~fluids_bench.algos.ogd` online-gradient on-policy learning (on-policy);
 - shared pieces: :mod:`~fluids_bench.algos.rollout` (the one rollout function),
   :mod:`~fluids_bench.algos.actors`, :mod:`~fluids_bench.algos.dataset`,
-  :mod:`~fluids_bench.algos.policies`, :mod:`~fluids_bench.algos.harness`,
+  :mod:`~fluids_bench.algos.learners` (the fit/predict learner protocol, the scikit-learn
+  families, also importable as :mod:`~fluids_bench.algos.policies`, and the torch learners),
+  :mod:`~fluids_bench.algos.harness`,
   :mod:`~fluids_bench.algos.evaluation`, :mod:`~fluids_bench.algos.results`;
   :mod:`~fluids_bench.algos.registry` names them all.
 

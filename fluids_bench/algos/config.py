@@ -5,10 +5,11 @@ from __future__ import annotations
 import math
 import os
 from collections.abc import Mapping
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from typing import Any
 
-from fluids_bench.algos.policies import PolicySpec
+from fluids_bench.algos.learners.protocol import describe_source, is_learner
+from fluids_bench.algos.learners.sklearn import PolicySpec
 from fluids_bench.core.validation import check_choice, check_float, check_int, fail
 
 # where a run's rollouts execute (the same as fluids_bench.data.collect.BACKENDS, which cannot be
@@ -31,6 +32,12 @@ class RunConfig:
     ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
     normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
 
+    ``policy`` is a scikit-learn family (a ``PolicySpec``), or any learner with
+    ``fit(observations, labels)`` and ``predict(observations)``, or a zero-argument factory of
+    one (a class, a function), which each run calls once for a fresh learner
+    (:mod:`fluids_bench.algos.learners`). A learner given itself is refit in place: a second
+    run with it continues from its state if it warm-starts.
+
     Execution (the result does not depend on it): the rollouts of an iteration and the
     evaluation episodes run on ``workers`` processes (``backend="process"``; 1: in this
     process) or as Ray tasks, at most ``workers`` at a time (``backend="ray"``: on the Ray
@@ -44,7 +51,8 @@ class RunConfig:
 
     env_id: str = "GridWorld-v0"
     env_kwargs: Mapping[str, Any] = field(default_factory=dict)
-    policy: PolicySpec = field(default_factory=PolicySpec)
+    # a scikit-learn family, or any learner (fit/predict) or a zero-argument factory of one
+    policy: Any = field(default_factory=PolicySpec)
     iterations: int = 10
     demos_per_iteration: int = 1
     samples_per_demo: int | None = 50
@@ -65,8 +73,15 @@ class RunConfig:
             fail(where, "env_id", self.env_id, "a registered Gymnasium id")
         if not isinstance(self.env_kwargs, Mapping):
             fail(where, "env_kwargs", self.env_kwargs, "a mapping of keyword arguments")
-        if not isinstance(self.policy, PolicySpec):
-            fail(where, "policy", self.policy, "a PolicySpec")
+        if not (
+            isinstance(self.policy, PolicySpec) or is_learner(self.policy) or callable(self.policy)
+        ):
+            fail(
+                where,
+                "policy",
+                self.policy,
+                "a PolicySpec, a learner (fit/predict) or a zero-argument factory of one",
+            )
         check_int(where, "iterations", self.iterations, 1)
         check_int(where, "demos_per_iteration", self.demos_per_iteration, 1)
         if self.samples_per_demo is not None:
@@ -98,7 +113,15 @@ class RunConfig:
         return iteration % self.eval_every == 0
 
     def to_dict(self) -> dict[str, Any]:
-        """JSON-friendly copy (tuples become lists when serialised)."""
+        """JSON-friendly copy (tuples become lists when serialised); a learner or factory is
+        recorded by name (`{"learner": "module:factory"}`, or its own `describe()`)."""
+        if not isinstance(self.policy, PolicySpec):
+            data = asdict(replace(self, policy=PolicySpec()))
+            data["env_kwargs"] = dict(self.env_kwargs)
+            data["policy"] = {"learner": describe_source(self.policy)}
+            for name in EXECUTION_FIELDS:
+                del data[name]
+            return data
         data = asdict(self)
         for name in EXECUTION_FIELDS:
             del data[name]

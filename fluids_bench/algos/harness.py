@@ -19,6 +19,11 @@ timer and the evaluation protocol of one run:
   seeds are drawn in order in this process before they start and the results are put back in
   that order, so the records are the same whatever the workers and the backend. The learner is
   fitted here, once per iteration;
+- learners: ``config.policy`` a ``PolicySpec`` is fit afresh with a seeded ``random_state``;
+  a user's learner (:mod:`fluids_bench.algos.learners`) is built once per run and refit in
+  place by every fit, including a fit only an evaluation needs: with a warm-starting learner
+  (the torch ones) later fits continue from it, so there the evaluation schedule is part of
+  what is learned;
 - resuming: with ``config.checkpoint``, every finished rollout, evaluation and record is kept
   on disk and a rerun takes them from there (:mod:`~fluids_bench.algos.checkpoint`).
 """
@@ -43,7 +48,14 @@ from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
 from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
-from fluids_bench.algos.policies import Policy, check_action_space, fit_policy
+from fluids_bench.algos.learners.protocol import (
+    Learner,
+    LearnerPolicy,
+    Policy,
+    check_action_space,
+    make_learner,
+)
+from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
 from fluids_bench.core.supervisor import has_supervisor
@@ -135,6 +147,14 @@ class Harness:
         self._timing_offset = {name: 0.0 for name in TIMING_FIELDS}  # saved minus recomputed
         self.action_space = self.env.action_space
         self.discrete = check_action_space(self.action_space)
+        # a user's learner (config.policy is not a PolicySpec): built once per run, told the
+        # env's spaces when it asks for them, and refit in place by every fit
+        self.learner: Learner | None = None
+        if not isinstance(config.policy, PolicySpec):
+            self.learner = make_learner(config.policy, f"{type(config).__name__}.policy")
+            set_spaces = getattr(self.learner, "set_spaces", None)
+            if callable(set_spaces):
+                set_spaces(self.env.observation_space, self.action_space)
         streams = np.random.SeedSequence(config.seed).spawn(5)
         episode_ss, eval_ss, split_ss, model_ss, algo_ss = streams
         self._episode_rng = np.random.default_rng(episode_ss)
@@ -261,9 +281,13 @@ class Harness:
             np.random.default_rng([self._model_word, len(self.train)]).integers(SEED_BOUND)
         )
         start = time.perf_counter()
-        policy = fit_policy(
-            self.config.policy, self.action_space, observations, labels, random_state
-        )
+        if self.learner is not None:
+            self.learner.fit(observations, labels)
+            policy: Policy = LearnerPolicy(self.learner, self.action_space)
+        else:
+            policy = fit_policy(
+                self.config.policy, self.action_space, observations, labels, random_state
+            )
         return policy, time.perf_counter() - start
 
     def fit(self) -> Policy:

@@ -14,6 +14,13 @@ is linear in standardised features, so the gradient is exact:
 
 ``phi(x) = ((x - m) / s, 1)`` with ``m, s`` from the initial demonstrations, fixed afterwards.
 The learner acts alone (beta = 0) after the initial supervisor demonstrations.
+
+With a user's learner in `config.policy` (not a `PolicySpec`, which OGD ignores: its class is
+the linear one above) the step is the learner's own: `partial_fit(observations, labels)` when it
+has one, else `fit`, on the initial demonstrations and then on each iteration's on-policy pairs
+only. A warm-started learner (the torch ones) then takes its gradient steps on the latest loss
+from the weights it had, which is OGD with the learner's optimiser; a learner that refits from
+scratch becomes "follow the latest loss".
 """
 
 from __future__ import annotations
@@ -27,7 +34,7 @@ from gymnasium import spaces
 from fluids_bench.algos.actors import SUPERVISOR, LearnerActor
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.harness import Harness, ProgressCallback
-from fluids_bench.algos.policies import features
+from fluids_bench.algos.learners.protocol import LearnerPolicy, features
 from fluids_bench.algos.results import RunResult
 from fluids_bench.core.validation import check_float, check_int
 
@@ -117,8 +124,20 @@ def descend(
     return policy
 
 
+def learner_step(harness: Harness, observations: np.ndarray, labels: np.ndarray) -> LearnerPolicy:
+    """One OGD step of the run's own learner on the latest pairs only."""
+    learner = harness.learner
+    assert learner is not None
+    step = getattr(learner, "partial_fit", None)
+    with harness.training():
+        (step if callable(step) else learner.fit)(observations, labels)
+    return LearnerPolicy(learner, harness.action_space)
+
+
 def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResult:
     with Harness("ogd", config, progress) as harness:
+        if harness.learner is not None:
+            return run_learner(harness)
         demos = harness.collect_many(SUPERVISOR, config.initial_demos)
         pairs = [harness.aggregate(demo) for demo in demos]
         observations = np.concatenate([p[0] for p in pairs])
@@ -141,3 +160,25 @@ def run(config: OGDConfig, progress: ProgressCallback | None = None) -> RunResul
             harness.set_policy(policy)
             harness.record(iteration, rollouts)
         return harness.result()
+
+
+def run_learner(harness: Harness) -> RunResult:
+    """OGD's loop with the run's own learner (see the module's docstring)."""
+    config = harness.config
+    assert isinstance(config, OGDConfig)
+    demos = harness.collect_many(SUPERVISOR, config.initial_demos)
+    pairs = [harness.aggregate(demo) for demo in demos]
+    policy = learner_step(
+        harness, np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
+    )
+    harness.set_policy(policy)
+    harness.record(0, demos)
+    for iteration in range(1, config.iterations + 1):
+        rollouts = harness.collect_many(LearnerActor(policy), config.demos_per_iteration)
+        pairs = [harness.aggregate(trajectory) for trajectory in rollouts]
+        policy = learner_step(
+            harness, np.concatenate([p[0] for p in pairs]), np.concatenate([p[1] for p in pairs])
+        )
+        harness.set_policy(policy)
+        harness.record(iteration, rollouts)
+    return harness.result()

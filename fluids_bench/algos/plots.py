@@ -81,10 +81,13 @@ def learning_curve_figure(results: Sequence[RunResult], x: str = "training_label
             label=result.algo,
         )
     if results:
+        policy = results[0].config["policy"]
+        # a scikit-learn family by name, a user's learner by its own name (first word)
+        learner = policy["name"] if "name" in policy else policy["learner"].split()[0]
         bottom.axhline(results[0].supervisor_return, color="black", ls="--", label="supervisor")
         episodes = results[0].config.get("eval_episodes")
         top.set_title(
-            f"{results[0].config['env_id']}, policy {results[0].config['policy']['name']}, "
+            f"{results[0].config['env_id']}, policy {learner}, "
             f"{episodes} evaluation episodes (bars: standard error)"
         )
         rate = results[0].supervisor_metrics.get("success_rate")

@@ -8,7 +8,10 @@ starts again from the beginning).
 
 The rollouts of an iteration and the evaluation episodes run on ``--workers`` processes, or
 as Ray tasks with ``--backend ray``; the learner is fitted in this process. The records are
-the same whatever the workers and the backend. Example::
+the same whatever the workers and the backend. ``--policy module:factory`` trains any learner
+(an object with fit/predict; ``--policy-param`` are the factory's keyword arguments); a learner
+with a ``save`` method (the torch ones) is written to OUT/<run>.learner.npz at the end, which
+``fluids_bench.algos.learners.load_learner`` reads. Example::
 
     fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
         --env-kwarg world_seed=3 --iterations 20 --out out/train --workers 2
@@ -96,7 +99,13 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--algo", required=True, help="bc, dagger, dagger_b, noise, dart, shiv, ogd"
     )
     parser.add_argument("--env-kwarg", action="append", type=_key_value, default=[], metavar="K=V")
-    parser.add_argument("--policy", default="tree", help="learner family (see algos.policies)")
+    parser.add_argument(
+        "--policy",
+        default="tree",
+        help="a scikit-learn family (tree, linear_svm, ...), or module:factory, a zero-argument "
+        "callable returning a learner (fit/predict), e.g. "
+        "fluids_bench.algos.learners:MLPLearner; --policy-param K=V are its keyword arguments",
+    )
     parser.add_argument(
         "--policy-param", action="append", type=_key_value, default=[], metavar="K=V"
     )
@@ -203,13 +212,18 @@ CONFIG_OPTIONS = {
 
 
 def _config(algorithm, settings, args, env_kwargs, policy_params) -> Any:
-    from fluids_bench.algos.policies import PolicySpec
+    from fluids_bench.algos.learners.protocol import NamedFactory
+    from fluids_bench.algos.learners.sklearn import PolicySpec
 
     return algorithm.config_class(
         **settings,
         env_id=args.env,
         env_kwargs=env_kwargs,
-        policy=PolicySpec(args.policy, policy_params),
+        policy=(
+            NamedFactory(args.policy, policy_params)
+            if ":" in args.policy
+            else PolicySpec(args.policy, policy_params)
+        ),
         iterations=args.iterations,
         demos_per_iteration=args.demos_per_iteration,
         samples_per_demo=args.samples_per_demo,
@@ -328,6 +342,11 @@ def main(args: argparse.Namespace) -> int:
             )
         print(f"fluids-bench train: interrupted; {kept}", file=sys.stderr)
         return 130
+    learner = getattr(result.policy, "learner", None)
+    saved_learner = None
+    if callable(getattr(learner, "save", None)):
+        # the final learner, loadable with fluids_bench.algos.learners.load_learner
+        saved_learner = learner.save(args.out / f"{stem}.learner.npz")
     write_json_atomic(json_path, {**result.to_dict(), "complete": True})
     plot_learning_curves([result], png_path, args.x_axis)
     shutil.rmtree(checkpoint, ignore_errors=True)  # the complete JSON is the result now
@@ -345,4 +364,6 @@ def main(args: argparse.Namespace) -> int:
         f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s total"
     )
     print(f"wrote {json_path} and {png_path}")
+    if saved_learner is not None:
+        print(f"wrote the final learner to {saved_learner} (load_learner reads it)")
     return 0

@@ -24,6 +24,8 @@ ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT / "docs" / "_gen"))
 RUN_LANGUAGES = {"python", "bash"}
 NOT_RUN = {"text", "json", "yaml", "toml", "console", "output", ""}
+# blocks that need the torch extra: skipped "needs the torch extra" where torch is missing
+NEEDS_TORCH = re.compile(r"^\s*(import torch|from torch)\b|MLPLearner|CNNLearner", re.MULTILINE)
 TIMEOUT_S = 300  # generous: a loaded 2-core CI machine; blocks should take seconds
 
 
@@ -110,6 +112,10 @@ def sandbox(tmp_path):
 @pytest.mark.parametrize("block", RUN_BLOCKS, ids=lambda b: b.name)
 def test_code_block_runs(block, sandbox):
     folder, env = sandbox
+    if NEEDS_TORCH.search(block.code) or NEEDS_TORCH.search(block.marker or ""):
+        from train_extra import require_torch
+
+        require_torch()
     if block.marker is not None:
         cmd = ["bash", "-euo", "pipefail", "-c", block.marker]
     elif block.language == "python":
