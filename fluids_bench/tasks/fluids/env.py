@@ -16,6 +16,7 @@ from fluids_bench.core.validation import (
     check_int,
     reject_unknown_kwargs,
 )
+from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -316,6 +317,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         obs_scale: str = "physical",
         end_on_violation: bool = False,
         failure_penalty: float = 1.0,
+        driving_score: bool = False,
+        time_limit: int = 0,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -341,6 +344,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             "FluidsEnv", failure_penalty, self.reward_version
         )
         assert self.reward_version in REWARD_VERSIONS
+        self.report_score = check_bool("FluidsEnv", "driving_score", driving_score)
+        self.time_limit = check_int("FluidsEnv", "time_limit", time_limit, 0, 10**9)
         scenario = build_scenario(
             "FluidsEnv",
             controlled_cars=None,
@@ -492,6 +497,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             ran_red = self.obey_lights and bool(self.faults.ran_red[0])
             no_yield = self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
             info["is_success"] = is_success(w, cars) and not ran_red and not no_yield
+        info.update(self._episode_score(events, terminated))
         if self.reward_version == 0:
             reward = step_reward(gained, self._route_length, ego_hit)
         else:  # every way to fail is_success costs, success pays (see Rewards)
@@ -503,6 +509,20 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         if self.render_mode == "human":
             self.render()
         return float(reward), terminated, info
+
+    def _episode_score(self, events, terminated: bool) -> dict[str, Any]:
+        """With ``driving_score``, the driving score's info entries
+        (:func:`~fluids_bench.tasks.fluids.driving_score.episode_report`) when this step ends
+        the episode: it ``terminated``, or its world reached ``time_limit`` steps (a timeout);
+        else nothing. Every face (the vector env too) calls this."""
+        if not self.report_score:
+            return {}
+        timed_out = not terminated and 0 < self.time_limit == self.world.steps
+        if not (terminated or timed_out):
+            return {}
+        return scoring.episode_report(
+            self.world, self.faults, 0, self._route_length, events, timed_out
+        )
 
     def render(self):
         """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in

@@ -282,6 +282,9 @@ class FluidsVectorEnv(VectorEnv):
         infos: dict[int, dict] = {}  # the worlds' own keys
         for i in terminated.nonzero()[0].tolist():
             infos[i] = {"is_success": bool(success[i])}
+        if self.envs[0].report_score:  # the driving score of the episodes that end here
+            due = terminated | truncated | (self._elapsed == self.envs[0].time_limit)
+            self._episode_scores(stepping & due, terminated, events, infos)
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
             for i in index:
@@ -321,6 +324,15 @@ class FluidsVectorEnv(VectorEnv):
             np.array(truncated, dtype=np.bool_),
             batch_infos(infos, 1),
         )
+
+    def _episode_scores(self, ending, terminated, events, infos: dict[int, dict]) -> None:
+        """Each ``ending`` world's driving score entries into its own info, from its env's
+        ``_episode_score`` (the rule is the scalar env's; a world timed out when its env's
+        ``time_limit`` is reached, as in the scalar env)."""
+        for i in ending.nonzero()[0].tolist():
+            report = self.envs[i]._episode_score(events[i], bool(terminated[i]))
+            if report:
+                infos.setdefault(i, {}).update(report)
 
     def _violations(self, faults: FaultBatch) -> np.ndarray:
         """``FluidsEnv._violations`` of every world, from the fault trackers' rows."""
