@@ -253,12 +253,26 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``end_on_violation``: end the episode when the ego breaks a rule that fails
       ``is_success`` (default False): see Episode End.
     * ``failure_penalty``: the weight of reward version 1's collision, red-light and
-      failure-to-yield terms (default 1, 3 in the v3 ids; see Rewards).
+      failure-to-yield terms (default 1, 3 in the v3 and v4 ids; see Rewards).
+    * ``driving_score``: report the CARLA-style driving score in the info of every episode's
+      last step (default False, True in the v4 ids): ``info["driving_score"]`` (in [0, 1]),
+      ``info["route_completion"]`` (in [0, 1]) and ``info["infractions"]`` (counts by name);
+      the rule and its coefficients are in ``fluids_bench.tasks.fluids.driving_score``.
+    * ``time_limit``: the step at which an unfinished episode is scored as a timeout (0, the
+      default: never). The v4 ids set it to their ``max_episode_steps`` (600); give both when
+      you change one, so that the score lands on ``TimeLimit``'s truncating step.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
+    * v4: the benchmark id for imitation and RL alike (``FLUIDS-v4``,
+      ``FLUIDS-Sensitivity-v4``): v3's spaces and reward, the driving score in each episode's
+      last info (``driving_score=True``, ``time_limit=600``), the velocity planner at every
+      step (``planner_period=1``) so that the ego's label is what a supervisor built afresh
+      from the state gives, and (``FLUIDS-v4``) the learner acting at the trajectory level,
+      where a random policy's driving score is a small fraction of the supervisor's. The
+      older ids are legacy, unchanged bit for bit.
     * v3: v2 with the reward's failure terms weighted 3 (``failure_penalty=3.0``;
       ``FLUIDS-v3``, ``FLUIDS-Sensitivity-v3``): with PPO's default discount a policy that
       waits its turn is then clearly worth more than one that rushes, and PPO with its

@@ -235,7 +235,13 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
+    * ``driving_score``: report the driving score in each agent's last info, as
+      ``FLUIDS-v4`` does for the ego (a truncation at ``max_cycles`` is its timeout; default
+      False, True in ``FLUIDS-MultiAgent-v4``).
+
     ## Version History
+    * v4: v3 with the driving score, the velocity planner at every step (Markov labels) and
+      the agents acting at the trajectory level, as ``FLUIDS-v4``.
     * v3: v2 with the collision term weighted 3 (``failure_penalty=3.0``), as ``FLUIDS-v3``.
     * v2: v1 made RL-ready: normalised actions and labels, a reward that pays success, flat
       observations in [-1, 1] (``action_scale``, ``reward_version``, ``obs_scale``).
