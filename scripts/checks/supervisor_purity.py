@@ -58,13 +58,13 @@ def _act(env, kind, rng, info):
     return np.clip(noisy, low, high).astype(space.dtype)
 
 
-def _copy(env, env_id, how, k):
+def _copy(env, env_id, how, k, kwargs=None):
     if how == "deepcopy":
         return copy.deepcopy(env)
     from fluids_bench.core import snapshot
 
     saved = pickle.loads(pickle.dumps(snapshot.snapshot(env)))
-    target = gym.make(env_id)
+    target = gym.make(env_id, **(kwargs or {}))
     target.reset(seed=SEED + 10_000 + k)
     snapshot.restore(target, saved)
     return target
@@ -96,8 +96,10 @@ def _fresh_supervisor(env) -> bool:
     return False
 
 
-def measure(env_id: str, kind: str, states: int, ahead: int, how: str) -> dict:
-    env = gym.make(env_id)
+def measure(
+    env_id: str, kind: str, states: int, ahead: int, how: str, kwargs: dict | None = None
+) -> dict:
+    env = gym.make(env_id, **(kwargs or {}))
     env.action_space.seed(SEED)
     rng = np.random.default_rng(SEED)
     episode = 0
@@ -107,7 +109,7 @@ def measure(env_id: str, kind: str, states: int, ahead: int, how: str) -> dict:
     fresh = None
     for k in range(states):
         action = _act(env, kind, rng, info)
-        clone = _copy(env, env_id, "snapshot" if how == "fresh" else how, k)
+        clone = _copy(env, env_id, "snapshot" if how == "fresh" else how, k, kwargs)
         if how == "fresh":
             fresh = _fresh_supervisor(clone)
         if not exactly_equal(clone.unwrapped.supervisor_action(), info["supervisor_action"]):
@@ -139,16 +141,19 @@ def main() -> None:
     parser.add_argument("--states", type=int, default=60, help="states per driver and id")
     parser.add_argument("--ahead", type=int, default=2, help="steps compared after each copy")
     parser.add_argument("--copy", choices=["snapshot", "deepcopy", "fresh"], default="snapshot")
+    parser.add_argument("--env-kwargs", default="{}", help="JSON kwargs for every gym.make")
     args = parser.parse_args()
     announce("~2 min on one core at --states 60")
+    kwargs = json.loads(args.env_kwargs)
     out = {
         env_id: {
-            kind: measure(env_id, kind, args.states, args.ahead, args.copy)
+            kind: measure(env_id, kind, args.states, args.ahead, args.copy, kwargs)
             for kind in ("random", "noisy")
         }
         for env_id in args.ids
     }
-    print(json.dumps({"copy": args.copy, "ahead": args.ahead, "results": out}, indent=1))
+    summary = {"copy": args.copy, "ahead": args.ahead, "env_kwargs": kwargs, "results": out}
+    print(json.dumps(summary, indent=1))
 
 
 if __name__ == "__main__":
