@@ -79,10 +79,11 @@ class TreePolicy:
         return self
 
     def __call__(self, obs, info):
-        out = self.model.predict(_flat(obs)[None])[0]
+        # the fitted tree's own predict: one row without scikit-learn's per-call checks
+        value = self.model.tree_.predict(_flat(obs)[None].astype(np.float32))[0]
         if self.discrete:
-            return int(out)
-        return np.asarray(out, dtype=self.space.dtype).reshape(self.space.shape)
+            return int(self.model.classes_[value[0].argmax()])
+        return value[:, 0].astype(self.space.dtype).reshape(self.space.shape)
 
 
 def interval(values: list[float], seed: int = 0) -> dict[str, float]:
