@@ -127,7 +127,10 @@ class FluidsVectorEnv(VectorEnv):
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls
        (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
-    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
+    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`); with
+       ``driving_score`` (the v4 ids), each world whose episode ends here gets the driving
+       score's entries from its env's ``_episode_score`` (the one rule, in
+       ``fluids_bench.tasks.fluids.driving_score``);
     7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
        world by world);
     8. the infos and labels are read from the batched rows for all worlds at once
