@@ -202,3 +202,30 @@ def test_labels_equal_a_fresh_supervisors(driver):
         if terminated or truncated:
             episode += 1
             _, info = env.reset(seed=21 + episode)
+
+
+def test_multi_agent_labels_equal_a_fresh_supervisors():
+    """FLUIDS-MultiAgent-v4: every live agent's label is a fresh supervisor's."""
+    import copy
+
+    env = make_parallel_env("FLUIDS-MultiAgent-v4", max_cycles=40)
+    _, infos = env.reset(seed=8)
+    rng = np.random.default_rng(8)
+    checked = 0
+    while env.agents:
+        world = copy.deepcopy(env.world)
+        fresh = DrivingSupervisor(world, env.supervisor_config)
+        fresh.prepare(world)
+        for agent in env.agents:
+            i = int(agent.split("_")[1])
+            label = levels.label(fresh, world, env.action_level, i, env.action_scale)
+            assert np.array_equal(label, infos[agent]["supervisor_action"]), agent
+            checked += 1
+        actions = {
+            a: np.clip(
+                infos[a]["supervisor_action"] + 0.1 * rng.standard_normal(2 * 5), -1, 1
+            ).astype(np.float32)
+            for a in env.agents
+        }
+        _, _, _, _, infos = env.step(actions)
+    assert checked > 40
