@@ -45,6 +45,18 @@ RL_READY: dict[str, Any] = {
 # 1, so that at PPO's discount a policy that waits its turn is clearly worth more than one that
 # rushes (measured on the docs' RL page)
 RL_READY_V3: dict[str, Any] = {**RL_READY, "failure_penalty": 3.0}
+# v4, the benchmark id for imitation and RL alike: v3's spaces and reward; the CARLA-style
+# driving score in every episode's last info (time_limit = the step limit, so that a timeout is
+# scored); the velocity planner at every step, so that the label is what a supervisor built
+# afresh from the state gives (Markov labels); the learner acts at the trajectory level, where a
+# random policy scores a small fraction of the supervisor's driving score (docs' FLUIDS page)
+MARKOV_SCORED: dict[str, Any] = {"planner_period": 1, "driving_score": True}
+BENCHMARK_V4: dict[str, Any] = {
+    **RL_READY_V3,
+    **MARKOV_SCORED,
+    "action_level": "trajectory",
+    "time_limit": 600,
+}
 # FLUIDS-v1's default scene is busy enough to discriminate: 8 walkers, and 60 s, which the
 # yielding supervisor needs with them
 BUSY_SCENE: dict[str, Any] = {"num_pedestrians": 8}
@@ -65,6 +77,13 @@ ENV_SPECS: dict[str, tuple[str, int, dict[str, Any]]] = {
     "FLUIDS-Sensitivity-v2": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR, **RL_READY}),
     "FLUIDS-v3": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR, **RL_READY_V3}),
     "FLUIDS-Sensitivity-v3": (_FLUIDS, 600, {**SENSITIVITY_SCENE, **FAIR, **RL_READY_V3}),
+    "FLUIDS-v4": (_FLUIDS, 600, {**BUSY_SCENE, **FAIR, **BENCHMARK_V4}),
+    # the sensitivity analysis' scene keeps its velocity level (quasi-LIDAR -> target speed)
+    "FLUIDS-Sensitivity-v4": (
+        _FLUIDS,
+        600,
+        {**SENSITIVITY_SCENE, **FAIR, **RL_READY_V3, **MARKOV_SCORED, "time_limit": 600},
+    ),
     "GridWorld-v0": ("fluids_bench.tasks.gridworld.env:GridWorldEnv", 30, {}),
     "DAG-v0": ("fluids_bench.tasks.dag.env:DAGEnv", 3, {}),
     # ch. 6: grasp the target among five obstacles; the supervisor needs ~30 steps
@@ -99,6 +118,11 @@ PARALLEL_ENV_SPECS: dict[str, tuple[str, dict[str, Any]]] = {
     "FLUIDS-MultiAgent-v1": (_MULTI, dict(_MULTI_FAIR)),
     "FLUIDS-MultiAgent-v2": (_MULTI, {**_MULTI_FAIR, **RL_READY}),
     "FLUIDS-MultiAgent-v3": (_MULTI, {**_MULTI_FAIR, **RL_READY_V3}),
+    # (its timeout is max_cycles)
+    "FLUIDS-MultiAgent-v4": (
+        _MULTI,
+        {**_MULTI_FAIR, **RL_READY_V3, **MARKOV_SCORED, "action_level": "trajectory"},
+    ),
 }
 
 # Steps each registry-driven test (tests/test_registry.py) runs per id. An id whose steps or
@@ -142,7 +166,7 @@ def register_envs() -> None:
     superseded = "|".join(
         k
         for k in ENV_SPECS
-        if k[-2:] in ("v0", "v1", "v2") and k[:-1] + str(int(k[-1]) + 1) in ENV_SPECS
+        if k[-2:] in ("v0", "v1", "v2", "v3") and k[:-1] + str(int(k[-1]) + 1) in ENV_SPECS
     )
     warnings.filterwarnings(
         "ignore",

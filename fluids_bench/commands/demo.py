@@ -39,7 +39,7 @@ from typing import Any
 from fluids_bench.tasks.fluids.sim.config import LAYOUTS
 
 VIDEO_NAME, SNAPSHOT_NAME, TEXT_NAME = "episode.mp4", "episode.png", "episode.txt"
-DEFAULT_ENV = "FLUIDS-v0"
+DEFAULT_ENV = "FLUIDS-v4"
 DEFAULT_OUT = Path("fluids_demo")
 FLUIDS_ENTRY_POINT = "fluids_bench.tasks.fluids.env:FluidsEnv"
 DRAW_BUDGET_S = 15.0  # the default stride keeps a video's drawing to about this long
@@ -50,7 +50,7 @@ ACTION_NAMES = {"DAG-v0": ("L", "R")}
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "demo",
-        help="run a seeded episode under the supervisor (default FLUIDS-v0); write an MP4 and a PNG",
+        help="run a seeded episode under the supervisor (default FLUIDS-v4); write an MP4 and a PNG",
         description=__doc__,
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )

@@ -345,7 +345,9 @@ SENSITIVITY: dict[str, dict[str, tuple[Any, ...]]] = {
 }
 SENSITIVITY["DrivingTrack-Source-v0"] = SENSITIVITY["DrivingTrack-v0"]
 # the RL-ready versions sweep what their IL versions sweep (same scenes, other units)
-SENSITIVITY["FLUIDS-v2"] = SENSITIVITY["FLUIDS-v3"] = SENSITIVITY["FLUIDS-v1"]
+SENSITIVITY["FLUIDS-v2"] = SENSITIVITY["FLUIDS-v3"] = SENSITIVITY["FLUIDS-v4"] = SENSITIVITY[
+    "FLUIDS-v1"
+]
 SENSITIVITY["GraspingInClutter-v1"] = SENSITIVITY["GraspingInClutter-v0"]
 # three of the source's six factors as keyword arguments (the legacy Fig. 7.6 runner is v0/v1's)
 SENSITIVITY["FLUIDS-Sensitivity-v2"] = {
@@ -354,6 +356,7 @@ SENSITIVITY["FLUIDS-Sensitivity-v2"] = {
     "lidar_noise": (0.0, 0.5, 1.0),
 }
 SENSITIVITY["FLUIDS-Sensitivity-v3"] = SENSITIVITY["FLUIDS-Sensitivity-v2"]
+SENSITIVITY["FLUIDS-Sensitivity-v4"] = SENSITIVITY["FLUIDS-Sensitivity-v2"]
 for _task in ("Hopper", "Walker2d", "HalfCheetah", "Humanoid"):
     SENSITIVITY[f"{_task}-IL-v0"] = {
         "body_mass_scale": (0.75, 1.0, 1.25),

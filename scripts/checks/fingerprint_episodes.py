@@ -141,6 +141,16 @@ def main() -> None:
     out["FLUIDS-MultiAgent-v1"] = "".join(
         parallel_hash(s, args.steps, "FLUIDS-MultiAgent-v1")[:16] for s in seeds
     )
+    # every other registered FLUIDS id as registered (v2 and later): a new id appears as an
+    # added line when two revisions are compared, a changed one as a changed line
+    for env_id in sorted(gym.registry):
+        if env_id.startswith("FLUIDS-") and env_id not in out and not env_id.endswith(("v0", "v1")):
+            out[env_id] = "".join(episode_hash(env_id, s, args.steps)[:16] for s in seeds)
+    import pettingzoo
+
+    for env_id in sorted(getattr(pettingzoo, "parallel_registry", {})):
+        if env_id.startswith("FLUIDS-") and env_id not in out:
+            out[env_id] = "".join(parallel_hash(s, args.steps, env_id)[:16] for s in seeds)
     print(json.dumps(out, indent=1))
 
 

@@ -11,7 +11,14 @@ steps under the driving env's actions differ from the driving env's in anything 
 * ``--copy snapshot``: ``env.unwrapped.snapshot()`` (with ``TimeLimit``'s count), pickled,
   restored into another ``gym.make`` env reset with another seed (the contract of issue #27);
 * ``--copy deepcopy``: ``copy.deepcopy`` of the wrapped env (also runs on revisions without
-  snapshots: compare with ``PYTHONPATH=/path/to/old``).
+  snapshots: compare with ``PYTHONPATH=/path/to/old``);
+* ``--copy fresh``: the snapshot copy with its supervisor replaced by one constructed anew
+  from the restored state (no plan, no held targets, no integrators: what DAgger's theory
+  calls pi*(s)). A restored supervisor carries the driving env's plan, so only this mode sees
+  a label that depends on history. Supervisors with no memory to drop (a value table, a search
+  or a policy evaluated on the state) are kept; ``fresh`` in the output says which were
+  rebuilt. Its ``continuation`` counts are meaningless (the fresh supervisor drives the
+  background on) and reported as ``null``.
 
     PYTHONPATH=. python scripts/checks/supervisor_purity.py --ids Singulation-v0 --states 60
 """
@@ -51,32 +58,64 @@ def _act(env, kind, rng, info):
     return np.clip(noisy, low, high).astype(space.dtype)
 
 
-def _copy(env, env_id, how, k):
+def _copy(env, env_id, how, k, kwargs=None):
     if how == "deepcopy":
         return copy.deepcopy(env)
     from fluids_bench.core import snapshot
 
     saved = pickle.loads(pickle.dumps(snapshot.snapshot(env)))
-    target = gym.make(env_id)
+    target = gym.make(env_id, **(kwargs or {}))
     target.reset(seed=SEED + 10_000 + k)
     snapshot.restore(target, saved)
     return target
 
 
-def measure(env_id: str, kind: str, states: int, ahead: int, how: str) -> dict:
-    env = gym.make(env_id)
+def _fresh_supervisor(env) -> bool:
+    """Replace ``env``'s supervisor by one built anew from its current state; False when its
+    supervisor keeps no memory between labels (nothing to replace)."""
+    inner = env.unwrapped
+    name = type(inner).__name__
+    if name == "FluidsEnv":
+        from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+
+        inner.supervisor = DrivingSupervisor(inner.world, inner.supervisor_config)
+        inner.supervisor.prepare(inner.world)
+        return True
+    if name == "SingulationEnv":
+        from fluids_bench.tasks.singulation.supervisor import SingulationSupervisor
+
+        inner._supervisor = SingulationSupervisor()
+        return True
+    if name == "GraspingInClutterEnv":
+        from fluids_bench.tasks.grasping.supervisor import GraspSupervisor
+
+        inner.supervisor = GraspSupervisor(inner.cfg, foresight=inner.foresight)
+        inner.supervisor.reset()
+        inner._label = None
+        return True
+    return False
+
+
+def measure(
+    env_id: str, kind: str, states: int, ahead: int, how: str, kwargs: dict | None = None
+) -> dict:
+    env = gym.make(env_id, **(kwargs or {}))
     env.action_space.seed(SEED)
     rng = np.random.default_rng(SEED)
     episode = 0
     _, info = env.reset(seed=SEED)
     label_diff = cont_diff = 0
     active = []  # [copy, steps left]
+    fresh = None
     for k in range(states):
         action = _act(env, kind, rng, info)
-        clone = _copy(env, env_id, how, k)
+        clone = _copy(env, env_id, "snapshot" if how == "fresh" else how, k, kwargs)
+        if how == "fresh":
+            fresh = _fresh_supervisor(clone)
         if not exactly_equal(clone.unwrapped.supervisor_action(), info["supervisor_action"]):
             label_diff += 1
-        active.append([clone, ahead, False])
+        if how != "fresh":
+            active.append([clone, ahead, False])
         step = env.step(action)
         for entry in active:
             if not exactly_equal(list(step), list(entry[0].step(action))):
@@ -91,6 +130,8 @@ def measure(env_id: str, kind: str, states: int, ahead: int, how: str) -> dict:
             episode += 1
             _, info = env.reset(seed=SEED + episode)
     cont_diff += sum(e[2] for e in active)
+    if how == "fresh":
+        return {"states": states, "label": label_diff, "continuation": None, "fresh": fresh}
     return {"states": states, "label": label_diff, "continuation": cont_diff}
 
 
@@ -99,17 +140,20 @@ def main() -> None:
     parser.add_argument("--ids", nargs="+", default=sorted(ENV_SPECS))
     parser.add_argument("--states", type=int, default=60, help="states per driver and id")
     parser.add_argument("--ahead", type=int, default=2, help="steps compared after each copy")
-    parser.add_argument("--copy", choices=["snapshot", "deepcopy"], default="snapshot")
+    parser.add_argument("--copy", choices=["snapshot", "deepcopy", "fresh"], default="snapshot")
+    parser.add_argument("--env-kwargs", default="{}", help="JSON kwargs for every gym.make")
     args = parser.parse_args()
     announce("~2 min on one core at --states 60")
+    kwargs = json.loads(args.env_kwargs)
     out = {
         env_id: {
-            kind: measure(env_id, kind, args.states, args.ahead, args.copy)
+            kind: measure(env_id, kind, args.states, args.ahead, args.copy, kwargs)
             for kind in ("random", "noisy")
         }
         for env_id in args.ids
     }
-    print(json.dumps({"copy": args.copy, "ahead": args.ahead, "results": out}, indent=1))
+    summary = {"copy": args.copy, "ahead": args.ahead, "env_kwargs": kwargs, "results": out}
+    print(json.dumps(summary, indent=1))
 
 
 if __name__ == "__main__":

@@ -121,3 +121,9 @@ def test_driving_track_summary_explains_the_crashes(tmp_path, capsys):
 def test_bad_ids_and_options_are_clear_errors(argv, message, tmp_path, capsys):
     assert main(["demo", *argv, "--out", str(tmp_path / "x")]) == 2
     assert message in capsys.readouterr().err
+
+
+def test_demo_defaults_to_the_benchmark_id(tmp_path, capsys):
+    out = tmp_path / "default"
+    assert main(["demo", "--steps", "5", "--no-video", "--out", str(out)]) == 0
+    assert capsys.readouterr().out.splitlines()[0].startswith("FLUIDS-v4 demo: layout four_way")

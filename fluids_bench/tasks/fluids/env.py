@@ -16,6 +16,7 @@ from fluids_bench.core.validation import (
     check_int,
     reject_unknown_kwargs,
 )
+from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -252,12 +253,26 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``end_on_violation``: end the episode when the ego breaks a rule that fails
       ``is_success`` (default False): see Episode End.
     * ``failure_penalty``: the weight of reward version 1's collision, red-light and
-      failure-to-yield terms (default 1, 3 in the v3 ids; see Rewards).
+      failure-to-yield terms (default 1, 3 in the v3 and v4 ids; see Rewards).
+    * ``driving_score``: report the CARLA-style driving score in the info of every episode's
+      last step (default False, True in the v4 ids): ``info["driving_score"]`` (in [0, 1]),
+      ``info["route_completion"]`` (in [0, 1]) and ``info["infractions"]`` (counts by name);
+      the rule and its coefficients are in ``fluids_bench.tasks.fluids.driving_score``.
+    * ``time_limit``: the step at which an unfinished episode is scored as a timeout (0, the
+      default: never). The v4 ids set it to their ``max_episode_steps`` (600); give both when
+      you change one, so that the score lands on ``TimeLimit``'s truncating step.
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
     argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
     the allowed ones.
 
     ## Version History
+    * v4: the benchmark id for imitation and RL alike (``FLUIDS-v4``,
+      ``FLUIDS-Sensitivity-v4``): v3's spaces and reward, the driving score in each episode's
+      last info (``driving_score=True``, ``time_limit=600``), the velocity planner at every
+      step (``planner_period=1``) so that the ego's label is what a supervisor built afresh
+      from the state gives, and (``FLUIDS-v4``) the learner acting at the trajectory level,
+      where a random policy's driving score is a small fraction of the supervisor's. The
+      older ids are legacy, unchanged bit for bit.
     * v3: v2 with the reward's failure terms weighted 3 (``failure_penalty=3.0``;
       ``FLUIDS-v3``, ``FLUIDS-Sensitivity-v3``): with PPO's default discount a policy that
       waits its turn is then clearly worth more than one that rushes, and PPO with its
@@ -316,6 +331,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         obs_scale: str = "physical",
         end_on_violation: bool = False,
         failure_penalty: float = 1.0,
+        driving_score: bool = False,
+        time_limit: int = 0,
     ) -> None:
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
@@ -341,6 +358,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             "FluidsEnv", failure_penalty, self.reward_version
         )
         assert self.reward_version in REWARD_VERSIONS
+        self.report_score = check_bool("FluidsEnv", "driving_score", driving_score)
+        self.time_limit = check_int("FluidsEnv", "time_limit", time_limit, 0, 10**9)
         scenario = build_scenario(
             "FluidsEnv",
             controlled_cars=None,
@@ -492,6 +511,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             ran_red = self.obey_lights and bool(self.faults.ran_red[0])
             no_yield = self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
             info["is_success"] = is_success(w, cars) and not ran_red and not no_yield
+        info.update(self._episode_score(events, terminated))
         if self.reward_version == 0:
             reward = step_reward(gained, self._route_length, ego_hit)
         else:  # every way to fail is_success costs, success pays (see Rewards)
@@ -503,6 +523,20 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         if self.render_mode == "human":
             self.render()
         return float(reward), terminated, info
+
+    def _episode_score(self, events, terminated: bool) -> dict[str, Any]:
+        """With ``driving_score``, the driving score's info entries
+        (:func:`~fluids_bench.tasks.fluids.driving_score.episode_report`) when this step ends
+        the episode: it ``terminated``, or its world reached ``time_limit`` steps (a timeout);
+        else nothing. Every face (the vector env too) calls this."""
+        if not self.report_score:
+            return {}
+        timed_out = not terminated and 0 < self.time_limit == self.world.steps
+        if not (terminated or timed_out):
+            return {}
+        return scoring.episode_report(
+            self.world, self.faults, 0, self._route_length, events, timed_out
+        )
 
     def render(self):
         """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in

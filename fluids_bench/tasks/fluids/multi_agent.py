@@ -26,6 +26,7 @@ from fluids_bench.core.validation import (
     check_int,
     reject_unknown_kwargs,
 )
+from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -235,7 +236,13 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
       agent highlighted).
 
+    * ``driving_score``: report the driving score in each agent's last info, as
+      ``FLUIDS-v4`` does for the ego (a truncation at ``max_cycles`` is its timeout; default
+      False, True in ``FLUIDS-MultiAgent-v4``).
+
     ## Version History
+    * v4: v3 with the driving score, the velocity planner at every step (Markov labels) and
+      the agents acting at the trajectory level, as ``FLUIDS-v4``.
     * v3: v2 with the collision term weighted 3 (``failure_penalty=3.0``), as ``FLUIDS-v3``.
     * v2: v1 made RL-ready: normalised actions and labels, a reward that pays success, flat
       observations in [-1, 1] (``action_scale``, ``reward_version``, ``obs_scale``).
@@ -305,6 +312,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         reward_version: int = 0,
         obs_scale: str = "physical",
         failure_penalty: float = 1.0,
+        driving_score: bool = False,
     ) -> None:
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
@@ -320,6 +328,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         self.action_scale = check_choice(WHERE, "action_scale", action_scale, levels.ACTION_SCALES)
         self.reward_version = check_int(WHERE, "reward_version", reward_version, 0, 1)
         self.failure_penalty = check_failure_penalty(WHERE, failure_penalty, self.reward_version)
+        self.report_score = check_bool(WHERE, "driving_score", driving_score)
         scenario = build_scenario(
             WHERE,
             controlled_cars=controlled_cars,
@@ -488,6 +497,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             if hit[i]:
                 w.active[i] = False  # the car leaves the road with its episode
         finished = [i for i in live if terminations[agent_name(i)] or truncations[agent_name(i)]]
+        timed_out = {i: truncations[agent_name(i)] for i in finished}  # (before black death)
         if self.black_death:
             self._black_death(everyone, live, rewards, terminations, truncations)
         else:
@@ -498,6 +508,12 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         infos = {agent_name(i): self._info(i, hit.get(i, [])) for i in everyone}
         for i in finished:
             infos[agent_name(i)]["is_success"] = is_success(w, i)
+            if self.report_score:  # its episode ends: the driving score (timeout: max_cycles)
+                infos[agent_name(i)].update(
+                    scoring.episode_report(
+                        w, self.faults, i, self._route_length[i], hit[i], timed_out[i]
+                    )
+                )
         return observations, rewards, terminations, truncations, infos
 
     def _black_death(self, everyone, live, rewards, terminations, truncations) -> None:

@@ -127,7 +127,10 @@ class FluidsVectorEnv(VectorEnv):
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls
        (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
-    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`);
+    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`); with
+       ``driving_score`` (the v4 ids), each world whose episode ends here gets the driving
+       score's entries from its env's ``_episode_score`` (the one rule, in
+       ``fluids_bench.tasks.fluids.driving_score``);
     7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
        world by world);
     8. the infos and labels are read from the batched rows for all worlds at once
@@ -282,6 +285,9 @@ class FluidsVectorEnv(VectorEnv):
         infos: dict[int, dict] = {}  # the worlds' own keys
         for i in terminated.nonzero()[0].tolist():
             infos[i] = {"is_success": bool(success[i])}
+        if self.envs[0].report_score:  # the driving score of the episodes that end here
+            due = terminated | truncated | (self._elapsed == self.envs[0].time_limit)
+            self._episode_scores(stepping & due, terminated, events, infos)
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
             for i in index:
@@ -321,6 +327,15 @@ class FluidsVectorEnv(VectorEnv):
             np.array(truncated, dtype=np.bool_),
             batch_infos(infos, 1),
         )
+
+    def _episode_scores(self, ending, terminated, events, infos: dict[int, dict]) -> None:
+        """Each ``ending`` world's driving score entries into its own info, from its env's
+        ``_episode_score`` (the rule is the scalar env's; a world timed out when its env's
+        ``time_limit`` is reached, as in the scalar env)."""
+        for i in ending.nonzero()[0].tolist():
+            report = self.envs[i]._episode_score(events[i], bool(terminated[i]))
+            if report:
+                infos.setdefault(i, {}).update(report)
 
     def _violations(self, faults: FaultBatch) -> np.ndarray:
         """``FluidsEnv._violations`` of every world, from the fault trackers' rows."""
