@@ -6,7 +6,7 @@ not depend on ``--workers`` or ``--backend``.
 
 Everything that can refuse does so before collecting: an existing id (without
 ``--overwrite``), ``--data-format hdf5`` without h5py (the ``hdf5`` extra), and an id another
-run is writing right now (:mod:`fluids_bench.data.claims`). Reference scores: given
+run is writing right now (:mod:`fluids_bench.core.parallel`). Reference scores: given
 ``--ref-min-score``/``--ref-max-score``, those; otherwise the id's measured ones where the
 project has them (the mean return of random actions and of the default supervisor, today the
 locomotion ids with their default supervisor), else none. Example::
@@ -21,7 +21,7 @@ import argparse
 import json
 import sys
 
-from fluids_bench.commands.train import _key_value
+from fluids_bench.commands.arguments import key_value
 
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
@@ -42,7 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--env-kwarg",
         action="append",
-        type=_key_value,
+        type=key_value,
         default=[],
         metavar="K=V",
         help="env keyword argument (V parsed as JSON when it is)",
@@ -114,7 +114,7 @@ def run(args: argparse.Namespace) -> int:
 def _run(args: argparse.Namespace) -> int:
     import gymnasium as gym
 
-    from fluids_bench.data.claims import claim_dataset
+    from fluids_bench.core.parallel import claim_dataset
     from fluids_bench.data.collect import ActorSpec
     from fluids_bench.data.minari_export import check_data_format, check_new_dataset, datasets_root
 

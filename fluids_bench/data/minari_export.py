@@ -50,7 +50,7 @@ from minari.storage import get_dataset_path
 
 from fluids_bench import __version__
 from fluids_bench.algos.dataset import Trajectory
-from fluids_bench.core.pool import pid_alive
+from fluids_bench.core.parallel import pid_alive
 from fluids_bench.data.collect import PROVENANCES
 
 EXECUTED_KEY = "executed_action"

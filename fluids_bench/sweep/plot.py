@@ -26,19 +26,22 @@ from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
 
 SUCCESS, RETURN = "success", "return"
-# envs that put info["is_success"] on the terminating step only (a probe of the first step
-# cannot see it, and running an episode to its end costs too much on some tasks)
-SUCCESS_ON_TERMINATION = ("fluids_bench.tasks.fluids.env:FluidsEnv",)
+# the env metadata key of envs that put info["is_success"] on the terminating step only (a probe
+# of the first step cannot see it, and running an episode to its end costs too much on some tasks)
+SUCCESS_ON_TERMINATION = "success_on_termination"
 
 
 def reports_success(env_id: str, kwargs: Mapping[str, Any] | None = None) -> bool:
-    """Whether ``env_id`` reports ``info["is_success"]``: its env is one of
-    :data:`SUCCESS_ON_TERMINATION`, or the key is there after a reset or one labelled step."""
+    """Whether ``env_id`` reports ``info["is_success"]``: its env class says so in its metadata
+    (:data:`SUCCESS_ON_TERMINATION`), or the key is there after a reset or one labelled step."""
     import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
 
     import fluids_bench  # noqa: F401
 
-    if gym.spec(env_id).entry_point in SUCCESS_ON_TERMINATION:
+    entry_point = gym.spec(env_id).entry_point
+    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+    if getattr(creator, "metadata", {}).get(SUCCESS_ON_TERMINATION, False):
         return True
     env = gym.make(env_id, **dict(kwargs or {}))
     try:
