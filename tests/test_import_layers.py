@@ -208,3 +208,15 @@ def test_the_checks_find_what_they_look_for(
     assert upward_imports(graph, "pkg") == upward
     assert import_cycles(graph) == cycle
     assert "pkg" not in sys.modules  # parsed, never imported
+
+
+def test_no_private_name_is_imported_from_another_module() -> None:
+    found = []
+    for module, path in module_files(PACKAGE, "fluids_bench").items():
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            if isinstance(node, ast.ImportFrom) and _imported(module, path, node):
+                names = [a.name for a in node.names if a.name.startswith("_")]
+                source = _imported(module, path, node)[0]
+                if source.startswith("fluids_bench") and not all(n.startswith("__") for n in names):
+                    found.append(f"{module} imports {names} from {source}")
+    assert found == []

@@ -62,7 +62,8 @@ def _values(rows: Sequence[Mapping[str, Any]], metric: str) -> list[float]:
     return [float(r["mean_return"]) / scale for r in rows]
 
 
-def _matches(row: Mapping[str, Any], name: str, value: Any) -> bool:
+def row_matches(row: Mapping[str, Any], name: str, value: Any) -> bool:
+    """Whether result row `row` has `value` for parameter `name`."""
     if isinstance(value, str):
         return row[name] == value
     return float(row[name]) == float(value)
@@ -78,7 +79,7 @@ def marginals(
     for name in grid.names:
         points = []
         for value in grid.values[name]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, name, value)]
+            chosen = [i for i, r in enumerate(rows) if row_matches(r, name, value)]
             episodes = sum(int(rows[i]["episodes"]) for i in chosen)
             if episodes:
                 if metric == SUCCESS:
@@ -148,7 +149,9 @@ def pair_table(
     for va in grid.values[a]:
         line = []
         for vb in grid.values[b]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, a, va) and _matches(r, b, vb)]
+            chosen = [
+                i for i, r in enumerate(rows) if row_matches(r, a, va) and row_matches(r, b, vb)
+            ]
             line.append(sum(per_row[i] for i in chosen) / len(chosen) if chosen else math.nan)
         table.append(line)
     return table
@@ -192,7 +195,7 @@ def summary(rows: Sequence[Mapping[str, Any]], grid: Any, metric: str) -> dict[s
     for name in grid.names:
         levels = []
         for value in grid.values[name]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, name, value)]
+            chosen = [i for i, r in enumerate(rows) if row_matches(r, name, value)]
             if not chosen:
                 continue
             episodes = sum(int(rows[i]["episodes"]) for i in chosen)
