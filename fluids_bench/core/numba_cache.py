@@ -155,8 +155,8 @@ def _register(caching: Any) -> None:
 @functools.cache
 def _listen_for_compiles() -> None:
     """Print `COMPILE_MESSAGE` when the first FLUIDS kernel of this process is compiled (numba
-    signals a compile only on a cache miss)."""
-    from numba.core import event
+    signals a compile only on a cache miss) and no FLUIDS kernel is cached yet."""
+    from numba.core import config, event
 
     class Listener(event.Listener):
         said = False
@@ -165,10 +165,12 @@ def _listen_for_compiles() -> None:
             dispatcher = (ev.data or {}).get("dispatcher")
             module = getattr(getattr(dispatcher, "py_func", None), "__module__", "") or ""
             if not self.said and module.startswith(_FLUIDS):
-                self.said = True
-                where = os.environ.get("NUMBA_CACHE_DIR", "numba's cache")
-                line = COMPILE_MESSAGE.format(seconds=COLD_COMPILE_S, where=where)
-                print(line, file=sys.stderr, flush=True)
+                self.said = True  # one look per process
+                where = config.CACHE_DIR
+                cached = Path(where, *_FLUIDS.split(".")).rglob("*.nbi") if where else ()
+                if next(iter(cached), None) is None:  # a cold cache, not one new signature
+                    line = COMPILE_MESSAGE.format(seconds=COLD_COMPILE_S, where=where)
+                    print(line, file=sys.stderr, flush=True)
 
         def on_end(self, ev: Any) -> None:
             pass

@@ -123,3 +123,15 @@ def test_the_cache_survives_a_reinstall_at_another_path(tmp_path):
     assert "compiling" not in again.stderr
     roots = {p.parent for p in (tmp_path / "xdg").rglob("*.nbi")}
     assert len(roots) == 1 and roots.pop().parts[-4:] == ("fluids_bench", "tasks", "fluids", "sim")
+
+
+def test_a_warm_cache_compiling_one_more_kernel_says_nothing(tmp_path):
+    _run_copy(tmp_path, "first")
+    script = SMALL_SCRIPT.replace("wrap_angle(7.0)", "wrap_angle(7)")  # a new signature (int)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env |= {"XDG_CACHE_HOME": str(tmp_path / "xdg"), "PYTHONPATH": str(tmp_path / "first")}
+    out = subprocess.run(
+        [sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert "compiling" not in out.stderr
