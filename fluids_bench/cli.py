@@ -14,6 +14,8 @@ import os
 import sys
 import threading
 
+from fluids_bench.core.parallel import interrupted
+
 # subcommand modules, in the order --help lists them
 COMMAND_MODULES = (
     "fluids_bench.commands.demo",
@@ -50,18 +52,6 @@ def check_seeds(args: argparse.Namespace) -> None:
         if name.endswith("seed") and isinstance(value, int) and not 0 <= value <= SEED_MAX:
             option = "--" + name.replace("_", "-")
             raise ValueError(f"{option} is {value}; allowed: an integer in [0, {SEED_MAX}]")
-
-
-def interrupted(exc: BaseException) -> bool:
-    """Whether ``exc`` is Ctrl-C, or an error that Ctrl-C caused: a KeyboardInterrupt raised
-    inside a compiled (numba) kernel comes out as a SystemError chained to it."""
-    seen: set[int] = set()
-    while exc is not None and id(exc) not in seen:
-        if isinstance(exc, KeyboardInterrupt):
-            return True
-        seen.add(id(exc))
-        exc = exc.__cause__ or exc.__context__
-    return False
 
 
 def os_error_message(exc: OSError) -> str:
@@ -105,7 +95,7 @@ def entry() -> None:
     in two of about ten loaded full test runs an interrupted ``collect --workers 2`` had not
     exited a minute later, and Ctrl-C must end the program. Nothing is lost either way:
     finished work is on disk (collect writes atomically, sweeps resume) and pool workers die
-    with their parent (:mod:`fluids_bench.core.pool`)."""
+    with their parent (:mod:`fluids_bench.core.parallel`)."""
     code = main()
     if code == 130:
         timer = threading.Timer(EXIT_GRACE, os._exit, args=(code,))

@@ -11,6 +11,6 @@ os.environ.setdefault("SDL_VIDEODRIVER", "dummy")
 
 # pytest-xdist's workers are the parallelism: a BLAS pool in each would oversubscribe the cores.
 if os.environ.get("PYTEST_XDIST_WORKER"):
-    from fluids_bench.core.pool import one_blas_thread
+    from fluids_bench.core.parallel import one_blas_thread
 
     one_blas_thread()

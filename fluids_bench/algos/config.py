@@ -10,11 +10,9 @@ from typing import Any
 
 from fluids_bench.algos.learners.protocol import describe_source, is_learner
 from fluids_bench.algos.learners.sklearn import PolicySpec
+from fluids_bench.core.parallel import BACKENDS  # where a run's rollouts execute
 from fluids_bench.core.validation import check_choice, check_float, check_int, fail
 
-# where a run's rollouts execute (the same as fluids_bench.data.collect.BACKENDS, which cannot be
-# imported here: it imports the algorithms)
-BACKENDS = ("process", "ray")
 # settings of how a run executes, not of what it computes: left out of to_dict (and so of the
 # records), since the result is the same bit for bit whatever they are
 EXECUTION_FIELDS = ("workers", "backend", "address", "checkpoint")

@@ -15,7 +15,7 @@ timer and the evaluation protocol of one run:
   (collection, labelling, fitting), see :class:`~fluids_bench.algos.results.IterationRecord`;
 - execution: the rollouts an algorithm asks for together (:meth:`Harness.collect_many`, an
   iteration's demonstrations) and the evaluation episodes run on ``config.workers`` processes
-  or Ray tasks (:class:`~fluids_bench.sweep.backends.TaskSession`, opened once per run); their
+  or Ray tasks (`fluids_bench.core.parallel.TaskSession`, opened once per run); their
   seeds are drawn in order in this process before they start and the results are put back in
   that order, so the records are the same whatever the workers and the backend. The learner is
   fitted here, once per iteration;
@@ -58,6 +58,7 @@ from fluids_bench.algos.learners.protocol import (
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.core.parallel import TaskSession, worker_env
 from fluids_bench.core.supervisor import has_supervisor
 from fluids_bench.registration import ENV_SPECS
 
@@ -80,9 +81,7 @@ class RolloutTask:
 def run_rollout(task: RolloutTask, actor: Actor) -> Trajectory:
     """A rollout in a worker process, on that worker's env for the id and kwargs (kept across
     tasks: every rollout starts from a full reset)."""
-    from fluids_bench.data.collect import _env  # imported here: data.collect imports the algos
-
-    return rollout(_env(task.env_id, task.env_kwargs), actor, task.seed, task.max_steps)
+    return rollout(worker_env(task.env_id, task.env_kwargs), actor, task.seed, task.max_steps)
 
 
 def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
@@ -129,9 +128,6 @@ class Harness:
             raise
 
     def _setup(self) -> None:
-        from fluids_bench.sweep.backends import TaskSession  # it imports data.collect, which
-        # imports the algorithms
-
         config = self.config
         self.env = make_env(config.env_id, dict(config.env_kwargs))
         self._resources.callback(self.env.close)
@@ -139,7 +135,7 @@ class Harness:
             None if config.checkpoint is None else Checkpoint(config.checkpoint, self.algo, config)
         )
         # the fork server imports the rollout's modules once, before starting the workers
-        preload = (__name__, "fluids_bench.data.collect")
+        preload = (__name__,)
         self._session = self._resources.enter_context(
             TaskSession(config.backend, config.workers, config.address, preload=preload)
         )

@@ -11,7 +11,7 @@ import time
 
 import numpy as np
 
-from fluids_bench.commands.demo import SNAPSHOT_NAME, Recorder, progress_bar, write_png
+from fluids_bench.commands.demo_output import SNAPSHOT_NAME, Recorder, progress_bar, write_png
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
 

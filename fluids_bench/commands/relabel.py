@@ -18,7 +18,6 @@ from __future__ import annotations
 import argparse
 import datetime
 import json
-import math
 import sys
 
 from fluids_bench.commands.teleop import add_human_options
@@ -41,40 +40,6 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--overwrite", action="store_true", help="replace an existing --out")
     add_human_options(parser)
     parser.set_defaults(func=run)
-
-
-def relabelled_episodes(episodes, labels, space):
-    """Copies of ``episodes`` with ``labels`` ((e, t) -> (label, seconds)) as their actions and
-    the original actions, flags and label times in the infos."""
-    import copy
-
-    import numpy as np
-    from gymnasium import spaces
-
-    out = []
-    for e, ep in enumerate(episodes):
-        new = copy.copy(ep)
-        new.actions = list(ep.actions)
-        new.infos = dict(ep.infos)
-        zero = np.zeros_like(np.asarray(ep.actions[0]))
-        flags, times, originals = [False], [math.nan], [zero]
-        for t in range(len(ep)):
-            originals.append(np.asarray(ep.actions[t]))
-            if (e, t) in labels:
-                label, seconds = labels[(e, t)]
-                if isinstance(space, spaces.Discrete):
-                    label = np.int64(label)
-                new.actions[t] = np.asarray(label, dtype=space.dtype)
-                flags.append(True)
-                times.append(float(seconds))
-            else:
-                flags.append(False)
-                times.append(math.nan)
-        if isinstance(space, spaces.Discrete):
-            originals = [int(a) for a in originals]
-        new.infos.update(original_action=originals, relabelled=flags, label_time=times)
-        out.append(new)
-    return out
 
 
 def run(args: argparse.Namespace) -> int:
@@ -118,6 +83,7 @@ def finish(args, out, session, result, spec, episodes) -> int:
     import numpy as np
 
     from fluids_bench.human.recording import sessions, write_dataset
+    from fluids_bench.human.relabelling import relabelled_episodes
 
     code = 130 if result.ended == "interrupted" else 0
     if not result.labels:

@@ -37,7 +37,7 @@ import sys
 import time
 from pathlib import Path
 
-from fluids_bench.commands.train import _key_value
+from fluids_bench.commands.arguments import key_value
 
 
 def _values(text: str):
@@ -81,7 +81,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--env-kwarg",
         action="append",
-        type=_key_value,
+        type=key_value,
         default=[],
         metavar="K=V",
         help="env keyword argument fixed for training and every test configuration "
@@ -112,7 +112,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--train-kwarg",
         action="append",
-        type=_key_value,
+        type=key_value,
         default=[],
         metavar="K=V",
         help="env keyword argument for BC's demonstrations, e.g. lidar_noise=1 (an ablation; "
@@ -213,7 +213,7 @@ def run(args: argparse.Namespace) -> int:
     probe_env(grid, env_id, fixed)  # a bad grid fails now, not in a worker
     if args.backend == "ray":
         try:
-            from fluids_bench.data.collect import import_ray
+            from fluids_bench.core.parallel import import_ray
 
             import_ray()
         except ImportError as exc:  # the ray extra is missing

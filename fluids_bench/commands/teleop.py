@@ -20,7 +20,7 @@ import datetime
 import json
 import sys
 
-from fluids_bench.commands.train import _key_value
+from fluids_bench.commands.arguments import key_value
 
 
 def _noise(text: str) -> float | str:
@@ -61,7 +61,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="env id, e.g. GridWorld-v0, FLUIDS-v1")
-    parser.add_argument("--env-kwarg", action="append", type=_key_value, default=[], metavar="K=V")
+    parser.add_argument("--env-kwarg", action="append", type=key_value, default=[], metavar="K=V")
     parser.add_argument("--dataset", required=True, metavar="NAMESPACE/NAME-vK")
     parser.add_argument("--episodes", type=int, default=1, help="episodes to record (default 1)")
     parser.add_argument(

@@ -27,6 +27,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.commands.arguments import key_value
+
 # option -> (config field, type, help); the field decides which algorithms accept it
 ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
     "--beta": ("beta", float, "dagger: probability of executing the supervisor's action"),
@@ -72,17 +74,6 @@ ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
 LIST_FIELDS = {"retrain_at", "update_at"}
 
 
-def _key_value(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` with VALUE parsed as JSON when it is JSON (numbers, bools, lists)."""
-    key, sep, value = text.partition("=")
-    if not sep or not key:
-        raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
-    try:
-        return key, json.loads(value)
-    except json.JSONDecodeError:
-        return key, value
-
-
 def _samples(text: str) -> int | None:
     return None if text == "all" else int(text)
 
@@ -98,7 +89,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--algo", required=True, help="bc, dagger, dagger_b, noise, dart, shiv, ogd"
     )
-    parser.add_argument("--env-kwarg", action="append", type=_key_value, default=[], metavar="K=V")
+    parser.add_argument("--env-kwarg", action="append", type=key_value, default=[], metavar="K=V")
     parser.add_argument(
         "--policy",
         default="tree",
@@ -107,7 +98,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "fluids_bench.algos.learners:MLPLearner; --policy-param K=V are its keyword arguments",
     )
     parser.add_argument(
-        "--policy-param", action="append", type=_key_value, default=[], metavar="K=V"
+        "--policy-param", action="append", type=key_value, default=[], metavar="K=V"
     )
     parser.add_argument("--iterations", type=int, default=10)
     parser.add_argument("--demos-per-iteration", type=int, default=1)
@@ -279,12 +270,12 @@ def main(args: argparse.Namespace) -> int:
     from fluids_bench.algos.plots import plot_learning_curves
     from fluids_bench.algos.registry import get_algorithm
     from fluids_bench.algos.results import write_json_atomic
-    from fluids_bench.cli import interrupted
+    from fluids_bench.core.parallel import interrupted
 
     name, config = build_config(args)
     make_env(config.env_id, dict(config.env_kwargs)).close()  # fail before the progress bar
     if config.backend == "ray":
-        from fluids_bench.data.collect import import_ray
+        from fluids_bench.core.parallel import import_ray
 
         try:
             import_ray()

@@ -17,20 +17,16 @@ every episode starts from a full reset, and results come back ordered by episode
 same arguments give identical data whatever the backend and the number of workers.
 
 Backends: ``"process"`` (default) runs ``workers`` processes of a
-:class:`~concurrent.futures.ProcessPoolExecutor` started with ``start_method``
-(``"forkserver"``, whose server imports this module once, or ``"spawn"``; never ``fork``, and
-everything sent to workers pickles by reference or by value), or in this process when
-``workers == 1``. ``"ray"`` runs one Ray task per episode, at most ``workers`` at
-a time, on the Ray instance already initialised, else on the cluster at ``address``, else on a
-local instance it starts (and stops) with ``workers`` CPUs; Ray is the ``ray`` extra.
+:func:`fluids_bench.core.parallel.process_pool` started with ``start_method`` (``"forkserver"``,
+whose server imports this module once, or ``"spawn"``; never ``fork``), or in this process when
+``workers == 1``; ``"ray"`` runs one Ray task per episode, at most ``workers`` at a time (Ray is
+the ``ray`` extra). Both are :func:`fluids_bench.core.parallel.run_tasks`; the actor is sent to
+each worker once.
 """
 
 from __future__ import annotations
 
-import contextlib
-import json
-from collections.abc import Callable, Iterable, Iterator
-from concurrent.futures import FIRST_COMPLETED, wait
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,13 +39,10 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.core.pool import process_pool
+from fluids_bench.core.parallel import BACKENDS, START_METHODS, run_tasks, worker_env
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
 PROVENANCES = ("supervisor", "noise", "learner")
-BACKENDS = ("process", "ray")
-START_METHODS = ("spawn", "forkserver")
-RAY_MISSING = 'backend="ray" needs Ray: pip install "fluids-bench[ray]"'
 
 
 @dataclass(frozen=True)
@@ -88,32 +81,20 @@ class ActorSpec:
 
 @dataclass(frozen=True)
 class EpisodeTask:
-    """Everything one episode depends on (what a worker receives)."""
+    """Everything one episode depends on but the actor (what a worker receives; the actor is
+    the batch's shared payload, sent to each worker once)."""
 
     index: int
     env_id: str
     env_kwargs: dict[str, Any]
-    actor: ActorSpec
     seed: int
     max_steps: int | None
 
 
-# one env per (id, kwargs) in each worker process, reused across its episodes
-_ENVS: dict[tuple[str, str], gym.Env] = {}
-
-
-def _env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env:
-    key = (env_id, json.dumps(env_kwargs, sort_keys=True, default=repr))
-    if key not in _ENVS:
-        _ENVS[key] = gym.make(env_id, **env_kwargs)
-    return _ENVS[key]
-
-
-def run_episode(task: EpisodeTask) -> tuple[int, Trajectory]:
+def run_episode(task: EpisodeTask, actor: ActorSpec) -> tuple[int, Trajectory]:
     """Run one episode (in whichever process receives the task); returns (index, trajectory)."""
-    env = _env(task.env_id, task.env_kwargs)
-    actor = task.actor.build(env.action_space)
-    return task.index, rollout(env, actor, task.seed, task.max_steps)
+    env = worker_env(task.env_id, task.env_kwargs)
+    return task.index, rollout(env, actor.build(env.action_space), task.seed, task.max_steps)
 
 
 def collect(
@@ -129,11 +110,16 @@ def collect(
     address: str | None = None,
     start_method: str = "forkserver",
     progress: bool = True,
+    skip: Iterable[int] = (),
+    on_episode: Callable[[int, Trajectory], None] | None = None,
 ) -> list[Trajectory]:
-    """Collect ``episodes`` episodes of ``env_id``; episode ``i`` uses seed ``seed + i``.
+    """Collect `episodes` episodes of `env_id`; episode `i` uses seed `seed + i`.
 
-    ``max_steps`` cuts episodes short (on top of the env's own time limit). Returns the
-    trajectories in episode order. ``progress`` shows a tqdm bar (episodes and pairs).
+    `max_steps` cuts episodes short (on top of the env's own time limit). Returns the
+    trajectories in episode order. `progress` shows a tqdm bar (episodes and pairs).
+    `skip`: indices of episodes not to run (finished by an earlier, interrupted run; they are
+    left out of the returned list). `on_episode(i, trajectory)` is called in this process as
+    each episode finishes (completion order), e.g. to write it to disk at once.
     """
     check_int("collect", "episodes", episodes, 1)
     check_int("collect", "seed", seed, 0)
@@ -146,109 +132,33 @@ def collect(
         raise ValueError(f"collect: unknown env id {env_id!r}; allowed: {sorted(gym.registry)}")
     actor = actor or ActorSpec()
     kwargs = dict(env_kwargs or {})
-    _env(env_id, kwargs)  # a bad env argument fails here, once, before any worker starts
-    tasks = [EpisodeTask(i, env_id, kwargs, actor, seed + i, max_steps) for i in range(episodes)]
+    worker_env(env_id, kwargs)  # a bad env argument fails here, once, before any worker starts
+    done_before = set(skip)
+    todo = [i for i in range(episodes) if i not in done_before]
+    tasks = [EpisodeTask(i, env_id, kwargs, seed + i, max_steps) for i in todo]
     results: dict[int, Trajectory] = {}
-    with tqdm(total=episodes, desc=f"collect {env_id}", unit="ep", disable=not progress) as bar:
+    bar = tqdm(total=len(todo), desc=f"collect {env_id}", unit="ep", disable=not progress)
+    with bar:
         pairs = 0
 
-        def done(index: int, trajectory: Trajectory) -> None:
+        def done(task: EpisodeTask, result: tuple[int, Trajectory]) -> None:
             nonlocal pairs
+            index, trajectory = result
             results[index] = trajectory
+            if on_episode is not None:
+                on_episode(index, trajectory)
             pairs += len(trajectory)
             bar.update(1)
             bar.set_postfix(pairs=pairs, refresh=False)
 
-        if backend == "ray":
-            _run_ray(tasks, workers, address, done)
-        elif workers == 1:
-            for task in tasks:
-                done(*run_episode(task))
-        else:
-            _run_pool(tasks, workers, start_method, done)
-    return [results[i] for i in range(episodes)]
-
-
-def _bounded(
-    submit: Callable[[EpisodeTask], Any],
-    tasks: Iterable[EpisodeTask],
-    limit: int,
-    wait_any: Callable[[set], tuple[set, set]],
-) -> Iterator[Any]:
-    """Keep at most ``limit`` tasks in flight; yield each finished handle."""
-    pending: set = set()
-    for task in tasks:
-        if len(pending) >= limit:
-            finished, pending = wait_any(pending)
-            yield from finished
-        pending.add(submit(task))
-    while pending:
-        finished, pending = wait_any(pending)
-        yield from finished
-
-
-def _run_pool(
-    tasks: list[EpisodeTask],
-    workers: int,
-    start_method: str,
-    done: Callable[[int, Trajectory], None],
-) -> None:
-    # the fork server imports the heavy modules once; workers exit with this process (core.pool)
-    with process_pool(workers, start_method, [__name__]) as pool:
-
-        def wait_any(pending: set) -> tuple[set, set]:
-            finished, rest = wait(pending, return_when=FIRST_COMPLETED)
-            return set(finished), set(rest)
-
-        for future in _bounded(lambda t: pool.submit(run_episode, t), tasks, 2 * workers, wait_any):
-            done(*future.result())
-
-
-def import_ray():
-    """``ray``, or an ImportError naming the extra that installs it."""
-    try:
-        import ray
-    except ImportError as exc:
-        raise ImportError(RAY_MISSING) from exc
-    return ray
-
-
-@contextlib.contextmanager
-def ray_session(workers: int, address: str | None):
-    """Ray, initialised for this block (a cluster at ``address``, else a local instance of
-    ``workers`` CPUs) unless it already was; shut down after if this block started it."""
-    ray = import_ray()
-    started = not ray.is_initialized()
-    if started:
-        if address is not None:
-            ray.init(address=address)
-        else:
-            ray.init(num_cpus=workers, include_dashboard=False)
-    try:
-        yield ray
-    finally:
-        if started:
-            ray.shutdown()
-
-
-def ray_results(ray, submit: Callable[[Any], Any], tasks, workers: int):
-    """Results of ``submit(task)`` remote calls, at most ``workers`` in flight, as they finish."""
-
-    def wait_any(pending: set) -> tuple[set, set]:
-        finished, rest = ray.wait(list(pending), num_returns=1)
-        return set(finished), set(rest)
-
-    for ref in _bounded(submit, tasks, workers, wait_any):
-        yield ray.get(ref)
-
-
-def _run_ray(
-    tasks: list[EpisodeTask],
-    workers: int,
-    address: str | None,
-    done: Callable[[int, Trajectory], None],
-) -> None:
-    with ray_session(workers, address) as ray:
-        remote = ray.remote(num_cpus=1)(run_episode)
-        for result in ray_results(ray, remote.remote, tasks, workers):
-            done(*result)
+        run_tasks(
+            run_episode,
+            tasks,
+            actor,
+            done,
+            backend=backend,
+            workers=workers,
+            address=address,
+            start_method=start_method,
+        )
+    return [results[i] for i in todo]

@@ -50,7 +50,7 @@ from minari.storage import get_dataset_path
 
 from fluids_bench import __version__
 from fluids_bench.algos.dataset import Trajectory
-from fluids_bench.core.pool import pid_alive
+from fluids_bench.core.parallel import pid_alive
 from fluids_bench.data.collect import PROVENANCES
 
 EXECUTED_KEY = "executed_action"
@@ -215,18 +215,11 @@ def export_minari(
     env_id: str,
     env_kwargs: dict[str, Any] | None = None,
     provenance: str = "supervisor",
-    algorithm_name: str | None = None,
-    description: str | None = None,
-    author: str | None = "fluids-bench",
-    author_email: str | None = None,
-    code_permalink: str | None = None,
-    ref_min_score: float | None = None,
-    ref_max_score: float | None = None,
-    overwrite: bool = False,
-    data_format: str = "arrow",
+    **options: Any,
 ) -> minari.MinariDataset:
     """Write ``trajectories`` of ``gym.make(env_id, **env_kwargs)`` as Minari dataset
-    ``dataset_id`` and return it loaded from disk.
+    ``dataset_id`` and return it loaded from disk; ``options`` are :func:`export_buffers`'s
+    (metadata, ``overwrite``, ``data_format``).
 
     Reference scores are stored only when both are given (Minari would otherwise run 100
     random episodes to estimate the missing minimum). Raises ``FileExistsError`` when the id
@@ -236,10 +229,19 @@ def export_minari(
     check_dataset_id(dataset_id)
     if not trajectories:
         raise ValueError("export_minari: no trajectories to export")
-    if (ref_min_score is None) != (ref_max_score is None):
-        raise ValueError("export_minari: pass both ref_min_score and ref_max_score, or neither")
-    check_data_format(data_format)
-    check_new_dataset(dataset_id, overwrite)
+    _, observation_space, action_space = env_spaces(env_id, env_kwargs)
+    buffers = [
+        episode_buffer(i, t, provenance, observation_space, action_space)
+        for i, t in enumerate(trajectories)
+    ]
+    return export_buffers(dataset_id, buffers, env_id=env_id, env_kwargs=env_kwargs, **options)
+
+
+def env_spaces(
+    env_id: str, env_kwargs: dict[str, Any] | None = None
+) -> tuple[gym.envs.registration.EnvSpec, spaces.Space, spaces.Space]:
+    """``(spec, observation space, action space)`` of ``gym.make(env_id, **env_kwargs)``;
+    ValueError when the spec cannot be stored (kwargs that are not JSON-friendly)."""
     env = gym.make(env_id, **dict(env_kwargs or {}))
     spec, observation_space, action_space = env.spec, env.observation_space, env.action_space
     env.close()
@@ -250,15 +252,42 @@ def export_minari(
             f"export_minari: the env spec of {env_id!r} cannot be stored ({exc}); "
             "env kwargs must be JSON-friendly"
         ) from exc
-    buffers = [
-        episode_buffer(i, t, provenance, observation_space, action_space)
-        for i, t in enumerate(trajectories)
-    ]
+    return spec, observation_space, action_space
 
+
+def export_buffers(
+    dataset_id: str,
+    buffers: Sequence[EpisodeBuffer],
+    *,
+    env_id: str,
+    env_kwargs: dict[str, Any] | None = None,
+    algorithm_name: str | None = None,
+    description: str | None = None,
+    author: str | None = "fluids-bench",
+    author_email: str | None = None,
+    code_permalink: str | None = None,
+    ref_min_score: float | None = None,
+    ref_max_score: float | None = None,
+    overwrite: bool = False,
+    data_format: str = "arrow",
+    add_files: Callable[[Path], None] | None = None,
+) -> minari.MinariDataset:
+    """Write episode buffers (:func:`episode_buffer`) of ``gym.make(env_id, **env_kwargs)`` as
+    Minari dataset ``dataset_id`` (see :func:`export_minari`); ``add_files(folder)`` may put
+    files of its own next to Minari's."""
+    check_dataset_id(dataset_id)
+    if not buffers:
+        raise ValueError("export_minari: no trajectories to export")
+    if (ref_min_score is None) != (ref_max_score is None):
+        raise ValueError("export_minari: pass both ref_min_score and ref_max_score, or neither")
+    check_data_format(data_format)
+    check_new_dataset(dataset_id, overwrite)
+    spec, observation_space, action_space = env_spaces(env_id, env_kwargs)
     return write_staged(
         dataset_id,
         buffers,
         overwrite=overwrite,
+        add_files=add_files,
         env=spec,
         eval_env=spec,
         algorithm_name=algorithm_name,

@@ -26,6 +26,7 @@ import numpy as np
 from fluids_bench.algos.actors import LearnerActor
 from fluids_bench.algos.policies import FittedPolicy, PolicySpec, fit_policy
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.human.relabelling import relabelled_episodes
 from fluids_bench.human.simulated import SimulatedHuman
 
 
@@ -101,7 +102,6 @@ def retroactive_dagger(
 ) -> list[DaggerIteration]:
     """DAgger with retroactive labels (see the module docstring); one record per iteration,
     iteration 0 being BC on ``teleop_dataset``."""
-    from fluids_bench.commands.relabel import relabelled_episodes
     from fluids_bench.data.collect import ActorSpec, collect
     from fluids_bench.data.minari_export import export_minari
     from fluids_bench.human.recording import load_episodes, spec_of, write_dataset

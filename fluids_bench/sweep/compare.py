@@ -21,7 +21,7 @@ from collections.abc import Mapping, Sequence
 from typing import Any
 
 from fluids_bench.algos.plots import new_figure, save_png_atomic
-from fluids_bench.sweep.plot import RETURN, SUCCESS, _matches
+from fluids_bench.sweep.plot import RETURN, SUCCESS, row_matches
 
 
 def level_stats(
@@ -35,7 +35,7 @@ def level_stats(
     for name in grid.names:
         levels = []
         for value in grid.values[name]:
-            chosen = [r for r in rows if _matches(r, name, value)]
+            chosen = [r for r in rows if row_matches(r, name, value)]
             if not chosen:
                 continue
             episodes = sum(int(r["episodes"]) for r in chosen)
@@ -65,7 +65,7 @@ def nominal_row(
 ) -> Mapping[str, Any] | None:
     """The row of the nominal configuration (every factor at its ``nominal`` value), if swept."""
     for row in rows:
-        if all(_matches(row, name, value) for name, value in nominal.items()):
+        if all(row_matches(row, name, value) for name, value in nominal.items()):
             return row
     return None
 

@@ -26,19 +26,22 @@ from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
 
 SUCCESS, RETURN = "success", "return"
-# envs that put info["is_success"] on the terminating step only (a probe of the first step
-# cannot see it, and running an episode to its end costs too much on some tasks)
-SUCCESS_ON_TERMINATION = ("fluids_bench.tasks.fluids.env:FluidsEnv",)
+# the env metadata key of envs that put info["is_success"] on the terminating step only (a probe
+# of the first step cannot see it, and running an episode to its end costs too much on some tasks)
+SUCCESS_ON_TERMINATION = "success_on_termination"
 
 
 def reports_success(env_id: str, kwargs: Mapping[str, Any] | None = None) -> bool:
-    """Whether ``env_id`` reports ``info["is_success"]``: its env is one of
-    :data:`SUCCESS_ON_TERMINATION`, or the key is there after a reset or one labelled step."""
+    """Whether ``env_id`` reports ``info["is_success"]``: its env class says so in its metadata
+    (:data:`SUCCESS_ON_TERMINATION`), or the key is there after a reset or one labelled step."""
     import gymnasium as gym
+    from gymnasium.envs.registration import load_env_creator
 
     import fluids_bench  # noqa: F401
 
-    if gym.spec(env_id).entry_point in SUCCESS_ON_TERMINATION:
+    entry_point = gym.spec(env_id).entry_point
+    creator = load_env_creator(entry_point) if isinstance(entry_point, str) else entry_point
+    if getattr(creator, "metadata", {}).get(SUCCESS_ON_TERMINATION, False):
         return True
     env = gym.make(env_id, **dict(kwargs or {}))
     try:
@@ -59,7 +62,8 @@ def _values(rows: Sequence[Mapping[str, Any]], metric: str) -> list[float]:
     return [float(r["mean_return"]) / scale for r in rows]
 
 
-def _matches(row: Mapping[str, Any], name: str, value: Any) -> bool:
+def row_matches(row: Mapping[str, Any], name: str, value: Any) -> bool:
+    """Whether result row `row` has `value` for parameter `name`."""
     if isinstance(value, str):
         return row[name] == value
     return float(row[name]) == float(value)
@@ -75,7 +79,7 @@ def marginals(
     for name in grid.names:
         points = []
         for value in grid.values[name]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, name, value)]
+            chosen = [i for i, r in enumerate(rows) if row_matches(r, name, value)]
             episodes = sum(int(rows[i]["episodes"]) for i in chosen)
             if episodes:
                 if metric == SUCCESS:
@@ -145,7 +149,9 @@ def pair_table(
     for va in grid.values[a]:
         line = []
         for vb in grid.values[b]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, a, va) and _matches(r, b, vb)]
+            chosen = [
+                i for i, r in enumerate(rows) if row_matches(r, a, va) and row_matches(r, b, vb)
+            ]
             line.append(sum(per_row[i] for i in chosen) / len(chosen) if chosen else math.nan)
         table.append(line)
     return table
@@ -189,7 +195,7 @@ def summary(rows: Sequence[Mapping[str, Any]], grid: Any, metric: str) -> dict[s
     for name in grid.names:
         levels = []
         for value in grid.values[name]:
-            chosen = [i for i, r in enumerate(rows) if _matches(r, name, value)]
+            chosen = [i for i, r in enumerate(rows) if row_matches(r, name, value)]
             if not chosen:
                 continue
             episodes = sum(int(rows[i]["episodes"]) for i in chosen)

@@ -31,7 +31,7 @@ import fluids_bench  # noqa: F401  (registers the env ids in every worker)
 from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
 from fluids_bench.algos.results import write_bytes_atomic, write_json_atomic
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.sweep.backends import run_tasks
+from fluids_bench.core.parallel import run_tasks
 from fluids_bench.sweep.grid import LEGACY_IDS, Grid, KwargGrid, env_kwargs
 from fluids_bench.sweep.store import Layout, ResultStore
 

@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 from typing import Any
 
-from fluids_bench.core.pool import descendants
+from fluids_bench.core.parallel import descendants
 
 TIMING = ("train_seconds", "wall_seconds")
 

@@ -38,7 +38,7 @@ from tqdm import tqdm
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import announce
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")

@@ -30,7 +30,7 @@ import gymnasium as gym
 import numpy as np
 from tqdm import tqdm
 
-from fluids_bench.core.pool import as_finished
+from fluids_bench.core.parallel import as_finished
 from fluids_bench.core.provenance import command_line, machine
 
 SOURCE = {"Hopper": 3571.0, "Walker2d": 6717.0, "HalfCheetah": 4463.0, "Humanoid": 9575.0}

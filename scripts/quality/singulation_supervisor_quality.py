@@ -34,7 +34,7 @@ from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 
 ENV_ID = "Singulation-v0"

@@ -30,7 +30,7 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.results import write_json_atomic
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 

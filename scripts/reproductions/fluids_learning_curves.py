@@ -36,7 +36,7 @@ from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.algos.results import write_json_atomic
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 
 ENV_ID = "FLUIDS-Sensitivity-v0"
 ALGOS: dict[str, dict[str, Any]] = {

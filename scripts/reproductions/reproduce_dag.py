@@ -31,7 +31,7 @@ from fluids_bench.algos import bc, dagger
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import write_json_atomic
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.dag.model import R
 from fluids_bench.tasks.dag.supervisor import expected_return

@@ -49,7 +49,7 @@ from typing import Any
 import numpy as np
 from tqdm import tqdm
 
-from fluids_bench.core.pool import as_finished
+from fluids_bench.core.parallel import as_finished
 from fluids_bench.core.provenance import command_line, machine
 
 METHODS = ("bc", "dagger", "dagger_b", "isotropic", "dart")

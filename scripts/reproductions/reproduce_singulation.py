@@ -45,7 +45,7 @@ from fluids_bench.algos.harness import Harness
 from fluids_bench.algos.plots import new_figure, save_png_atomic
 from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.results import RunResult, write_json_atomic
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.singulation.label_noise import (
     SOURCE_CORRELATIONS,

@@ -73,7 +73,7 @@ from fluids_bench.algos.query import (
 )
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.parallel import one_blas_thread
 from fluids_bench.core.provenance import command_line, machine
 from fluids_bench.tasks.track.bandwidth import median_state_distance, source_sigma
 

@@ -20,12 +20,10 @@ from small_fluids import SMALL_FLUIDS
 from fluids_bench import cli
 from fluids_bench.algos import harness as harness_module
 from fluids_bench.algos.bc import BCConfig
-from fluids_bench.algos.config import BACKENDS, EXECUTION_FIELDS
+from fluids_bench.algos.config import EXECUTION_FIELDS
 from fluids_bench.algos.dagger import DAggerConfig
 from fluids_bench.algos.harness import Harness
-from fluids_bench.core.pool import descendants, pid_alive
-from fluids_bench.data import collect as data_collect
-from fluids_bench.sweep.backends import TaskSession
+from fluids_bench.core.parallel import TaskSession, descendants, pid_alive
 
 TIMING = ("train_seconds", "wall_seconds")
 FLUIDS_ARGS = [
@@ -137,10 +135,6 @@ def test_bad_execution_settings_are_refused(settings: dict[str, Any], message: s
     with pytest.raises(ValueError) as info:
         BCConfig(**settings)
     assert message in str(info.value)
-
-
-def test_backends_agree_with_data_collect() -> None:
-    assert BACKENDS == data_collect.BACKENDS
 
 
 @pytest.mark.parametrize(

@@ -87,3 +87,51 @@ def test_the_package_sets_it_for_this_process():
     from numba.core import config
 
     assert config.CACHE_DIR == os.environ["NUMBA_CACHE_DIR"]
+
+
+# one small FLUIDS kernel: compiled or loaded, and numba's own count of cache misses
+SMALL_SCRIPT = """
+import fluids_bench
+from fluids_bench.tasks.fluids.sim.dynamics import wrap_angle
+assert abs(wrap_angle(7.0) - (7.0 - 6.283185307179586)) < 1e-12
+print(fluids_bench.__file__, wrap_angle.stats.cache_misses.get((wrap_angle.signatures or [()])[0], 0))
+"""
+
+
+def _run_copy(tmp_path: Path, where: str) -> subprocess.CompletedProcess:
+    src = tmp_path / where
+    if not src.exists():
+        shutil.copytree(PACKAGE, src / "fluids_bench", ignore=shutil.ignore_patterns("__pycache__"))
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env |= {"XDG_CACHE_HOME": str(tmp_path / "xdg"), "PYTHONPATH": str(src)}
+    out = subprocess.run(
+        [sys.executable, "-c", SMALL_SCRIPT], env=env, cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(str(src))  # the copy ran
+    return out
+
+
+def test_the_cache_survives_a_reinstall_at_another_path(tmp_path):
+    """`pip install .` then `pip install -e .`: the same sources at another path load the
+    kernels compiled by the first (numba alone files them by the folder's absolute path)."""
+    first = _run_copy(tmp_path, "site-packages")
+    assert first.stdout.split()[-1] == "1"  # compiled
+    assert first.stderr.count("compiling FLUIDS kernels, once, ~") == 1, first.stderr
+    again = _run_copy(tmp_path, "checkout")
+    assert again.stdout.split()[-1] == "0", again.stdout  # loaded from the cache
+    assert "compiling" not in again.stderr
+    roots = {p.parent for p in (tmp_path / "xdg").rglob("*.nbi")}
+    assert len(roots) == 1 and roots.pop().parts[-4:] == ("fluids_bench", "tasks", "fluids", "sim")
+
+
+def test_a_warm_cache_compiling_one_more_kernel_says_nothing(tmp_path):
+    _run_copy(tmp_path, "first")
+    script = SMALL_SCRIPT.replace("wrap_angle(7.0)", "wrap_angle(7)")  # a new signature (int)
+    env = {k: v for k, v in os.environ.items() if not k.startswith("NUMBA_")}
+    env |= {"XDG_CACHE_HOME": str(tmp_path / "xdg"), "PYTHONPATH": str(tmp_path / "first")}
+    out = subprocess.run(
+        [sys.executable, "-c", script], env=env, cwd=tmp_path, capture_output=True, text=True
+    )
+    assert out.returncode == 0, out.stderr
+    assert "compiling" not in out.stderr

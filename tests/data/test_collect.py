@@ -14,7 +14,8 @@ import pytest
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.policies import PolicySpec, fit_policy
-from fluids_bench.data.collect import ActorSpec, collect, import_ray
+from fluids_bench.core.parallel import import_ray
+from fluids_bench.data.collect import ActorSpec, collect
 from fluids_bench.registration import ENV_SPECS
 
 IDS = sorted(ENV_SPECS)

@@ -8,7 +8,7 @@ import json
 import pytest
 
 from fluids_bench.cli import main
-from fluids_bench.data.collect import import_ray
+from fluids_bench.core.parallel import import_ray
 from fluids_bench.sweep.grid import SENSITIVITY, Grid, KwargGrid, make_grid, parse_values
 from fluids_bench.sweep.plot import pair_table, summary
 from fluids_bench.sweep.run import probe_env

@@ -17,7 +17,7 @@ from pathlib import Path
 import pytest
 
 from fluids_bench.cli import main
-from fluids_bench.data.collect import import_ray
+from fluids_bench.core.parallel import import_ray
 from fluids_bench.sweep.grid import Grid
 from fluids_bench.sweep.run import episode_seeds, load_policy, run_sweep, train_default_policy
 from fluids_bench.sweep.store import RESULTS, load_rows

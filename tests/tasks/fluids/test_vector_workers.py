@@ -16,6 +16,7 @@ from test_vector import SMALL, same
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.core import snapshot as snapshots
 from fluids_bench.tasks.fluids.vector import FluidsVectorEnv
+from fluids_bench.tasks.fluids.vector.bounds import WORLD_BYTES, max_num_envs
 from fluids_bench.tasks.fluids.vector.workers import FluidsWorkerVectorEnv, merge_infos, split
 
 
@@ -236,3 +237,39 @@ def test_an_interrupted_step_leaves_the_env_refusing_until_closed(monkeypatch):
     processes = list(vec._processes.values())
     vec.close()
     assert not any(p.is_alive() for p in processes)
+
+
+@pytest.mark.parametrize("context", ["fork", "spawn"])
+def test_a_worker_that_stops_answering_is_named_after_the_timeout(context):
+    vec = make_vec(3, 2, context=context, worker_timeout=300.0, **SMALL)
+    vec.reset(seed=0)
+    vec.step(vec.action_space.sample())  # a spawned worker has loaded its kernels now
+    vec.worker_timeout = 2.0
+    worker = vec._processes[1]
+    os.kill(worker.pid, signal.SIGSTOP)
+    try:
+        with pytest.raises(RuntimeError, match=r"worker 1 \(pid \d+, stopped\) has not answered"):
+            vec.step(vec.action_space.sample())
+        with pytest.raises(RuntimeError, match="close"):  # the slices may be a step apart now
+            vec.supervisor_action()
+    finally:
+        vec.close()  # a stopped worker is killed, not waited for
+    assert not worker.is_alive()
+
+
+def test_too_many_worlds_are_refused_before_any_is_built():
+    for workers in (1, 2):
+        with pytest.raises(ValueError, match=r"field 'num_envs' is 1000000000; allowed: an integ"):
+            make_vec(10**9, workers, **SMALL)
+
+
+@pytest.mark.parametrize("value", [0, -1.0, float("nan"), float("inf"), "5", True])
+def test_a_bad_worker_timeout_is_refused_by_name(value):
+    with pytest.raises(ValueError, match="field 'worker_timeout'"):
+        make_vec(2, 2, worker_timeout=value, **SMALL)
+
+
+def test_the_world_bound_follows_the_memory():
+    assert max_num_envs(10 * WORLD_BYTES + 1) == 10
+    assert max_num_envs(0) is None  # unknown memory: no bound
+    assert max_num_envs() >= 1000  # these machines hold thousands of worlds

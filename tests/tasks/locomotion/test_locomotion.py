@@ -21,7 +21,7 @@ from gymnasium.utils.env_checker import check_env
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.tasks.locomotion.dataset import export_supervisor_dataset
+from fluids_bench.data.locomotion import export_supervisor_dataset
 from fluids_bench.tasks.locomotion.env import DEFAULT_SUPERVISOR
 from fluids_bench.tasks.locomotion.mpc import MPCConfig, SamplingMPC
 from fluids_bench.tasks.locomotion.policy import MLPPolicy, sha256_of

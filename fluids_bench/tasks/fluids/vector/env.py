@@ -19,6 +19,7 @@ from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
 from fluids_bench.tasks.fluids.vector.act import act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
+from fluids_bench.tasks.fluids.vector.bounds import check_num_envs
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
 
@@ -26,7 +27,7 @@ WHERE = "FluidsVectorEnv"
 # the vector env's own arguments; every other one goes to each world's FluidsEnv
 OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
 # the vector entry point's, for worker processes (vector/workers.py)
-WORKER_ARGUMENTS = ("num_workers", "context")
+WORKER_ARGUMENTS = ("num_workers", "context", "worker_timeout")
 # FluidsEnv's episode bookkeeping arrays (judge.py)
 EPISODE = ("_progress", "_done")
 # the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
@@ -151,7 +152,9 @@ class FluidsVectorEnv(VectorEnv):
 
     ``render_mode="rgb_array"``: ``render()`` returns one frame per world. ``call``, ``get_attr``
     and ``set_attr`` reach each world's ``FluidsEnv`` as ``SyncVectorEnv``'s reach its envs.
-    ``num_envs`` is an integer ≥ 1; a bad value raises ``ValueError`` naming it.
+    ``num_envs`` is an integer ≥ 1 and at most what the memory available now holds
+    (:mod:`fluids_bench.tasks.fluids.vector.bounds`); a bad value raises ``ValueError`` naming
+    it.
     """
 
     metadata = {
@@ -169,6 +172,7 @@ class FluidsVectorEnv(VectorEnv):
         **kwargs: Any,
     ) -> None:
         self.num_envs = check_int(WHERE, "num_envs", num_envs, 1)
+        check_num_envs(WHERE, self.num_envs)  # before building any world
         if max_episode_steps is not None:
             max_episode_steps = check_int(WHERE, "max_episode_steps", max_episode_steps, 1)
         self.max_episode_steps = max_episode_steps

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import multiprocessing as mp
 import signal
+import time
 import traceback
 from typing import Any
 
@@ -25,6 +26,12 @@ from gymnasium.vector.utils import batch_space
 
 from fluids_bench.core.validation import check_int, fail, is_int
 from fluids_bench.tasks.fluids.vector.actions import check_batch
+from fluids_bench.tasks.fluids.vector.bounds import (
+    DEFAULT_WORKER_TIMEOUT,
+    check_num_envs,
+    check_worker_timeout,
+    process_state,
+)
 from fluids_bench.tasks.fluids.vector.env import (
     FluidsVectorEnv,
     attribute_values,
@@ -36,21 +43,31 @@ from fluids_bench.tasks.fluids.vector.env import (
 WHERE = "FluidsVectorEnv"
 # how long close() waits for a worker to exit before terminating it (s)
 CLOSE_TIMEOUT = 10.0
+POLL_INTERVAL = 0.05  # s between two looks at a worker that has not answered yet
 
 
 def make_vector_env(
-    num_envs: int = 1, num_workers: int = 1, context: str | None = None, **kwargs: Any
+    num_envs: int = 1,
+    num_workers: int = 1,
+    context: str | None = None,
+    worker_timeout: float | None = DEFAULT_WORKER_TIMEOUT,
+    **kwargs: Any,
 ) -> VectorEnv:
     """The FLUIDS ids' vector entry point: B worlds in this process (``num_workers=1``; a
-    ``context`` is then unused) or spread over ``num_workers`` worker processes started by
-    ``context`` (:class:`FluidsWorkerVectorEnv`)."""
+    ``context`` and ``worker_timeout`` are then unused) or spread over ``num_workers`` worker
+    processes started by ``context`` (:class:`FluidsWorkerVectorEnv`)."""
     if not is_int(num_workers) or num_workers < 1:
         fail(WHERE, "num_workers", num_workers, "an integer in [1, num_envs]")
     _check_context(context)
+    check_worker_timeout(WHERE, worker_timeout)
     if num_workers == 1:
         return FluidsVectorEnv(num_envs=num_envs, **kwargs)
     return FluidsWorkerVectorEnv(
-        num_envs=num_envs, num_workers=num_workers, context=context, **kwargs
+        num_envs=num_envs,
+        num_workers=num_workers,
+        context=context,
+        worker_timeout=worker_timeout,
+        **kwargs,
     )
 
 
@@ -175,7 +192,10 @@ class FluidsWorkerVectorEnv(VectorEnv):
     platform's). Every other argument is ``FluidsVectorEnv``'s and is checked there (its error
     is raised here). Each slice keeps one core busy for the whole step: use at most one per
     core. ``close()`` (or leaving a ``with`` block) stops the workers; a worker that died
-    raises ``RuntimeError`` naming it at the next call. After a call interrupted by Ctrl-C the
+    raises ``RuntimeError`` naming it at the next call (within ``POLL_INTERVAL``), and so does
+    a worker that has not answered a call after ``worker_timeout`` seconds (None: wait for
+    ever; default 600 s, room for a cold compile of the kernels in a spawned worker), e.g. one
+    stopped by SIGSTOP. After a call interrupted by Ctrl-C the
     slices may be a step apart: every later call raises ``RuntimeError`` until the env is
     closed (make a new one).
     """
@@ -185,6 +205,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
         num_envs: int = 2,
         num_workers: int = 2,
         context: str | None = None,
+        worker_timeout: float | None = DEFAULT_WORKER_TIMEOUT,
         max_episode_steps: int | None = None,
         autoreset_mode: str | AutoresetMode = AutoresetMode.NEXT_STEP,
         render_mode: str | None = None,
@@ -193,6 +214,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
         self.num_envs = check_int(WHERE, "num_envs", num_envs, 1)
         self.num_workers = check_int(WHERE, "num_workers", num_workers, 1, self.num_envs)
         _check_context(context)
+        self.worker_timeout = check_worker_timeout(WHERE, worker_timeout)
+        check_num_envs(WHERE, self.num_envs)  # before starting any worker
         self.starts = split(self.num_envs, self.num_workers)
         self._pipes: list[Any] = []  # worker w's connection (w = 0: this process's slice)
         self._interrupted = False  # a call stopped half-way: the workers are out of step
@@ -308,9 +331,14 @@ class FluidsWorkerVectorEnv(VectorEnv):
                 except (BrokenPipeError, OSError):
                     pass
         for process in self._processes.values():
+            if process_state(process.pid) == "stopped":  # SIGSTOP: it would never exit
+                process.kill()  # SIGKILL is the one signal a stopped process acts on
             process.join(CLOSE_TIMEOUT)
             if process.is_alive():
                 process.terminate()
+                process.join(CLOSE_TIMEOUT)
+            if process.is_alive():
+                process.kill()
                 process.join()
         for pipe in self._pipes:
             if pipe is not None:
@@ -368,8 +396,9 @@ class FluidsWorkerVectorEnv(VectorEnv):
             raise RuntimeError(f"{WHERE}: the env is closed")
         if self._interrupted:
             raise RuntimeError(
-                f"{WHERE}: a call was interrupted (Ctrl-C) while the workers answered, so their "
-                "worlds may be a step apart; close() this env and make a new one"
+                f"{WHERE}: a call was interrupted (Ctrl-C, or a worker that did not answer) while "
+                "the workers answered, so their worlds may be a step apart; close() this env and "
+                "make a new one"
             )
         try:
             self._pipes[w].send((name, args))
@@ -387,6 +416,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
         try:
             for w in workers:
                 try:
+                    self._wait(w)
                     answer = self._pipes[w].recv()
                 except EOFError:
                     code = self._processes[w].exitcode
@@ -401,6 +431,24 @@ class FluidsWorkerVectorEnv(VectorEnv):
         if failure is not None:  # every answer was read first: the pipes stay in step
             raise failure[1]
         return answers
+
+    def _wait(self, w: int) -> None:
+        """Until worker ``w`` has answered (or died: the pipe then reads EOF); RuntimeError
+        naming it after ``worker_timeout`` seconds without an answer."""
+        pipe = self._pipes[w]
+        if isinstance(pipe, _InProcess):
+            return
+        deadline = None if self.worker_timeout is None else time.monotonic() + self.worker_timeout
+        while not pipe.poll(POLL_INTERVAL):
+            if deadline is not None and time.monotonic() >= deadline:
+                process = self._processes[w]
+                state = process_state(process.pid)
+                raise RuntimeError(
+                    f"{WHERE}: worker {w} (pid {process.pid}{', ' + state if state else ''}) "
+                    f"has not answered for worker_timeout={self.worker_timeout:g} s; its worlds "
+                    f"are {self.starts[w]}..{self.starts[w + 1] - 1}. close() this env and make "
+                    "a new one (pass a larger worker_timeout, or None, for slower steps)"
+                )
 
     def _all(self, name: str, args: tuple) -> list[Any]:
         """Every worker's answer to one command."""

@@ -1,4 +1,4 @@
-"""Pool workers compute with one BLAS thread (``core/pool.py: one_blas_thread``), including the
+"""Pool workers compute with one BLAS thread (``core/parallel.py: one_blas_thread``), including the
 BLAS and OpenMP libraries a worker loads only after it starts (SciPy's OpenBLAS, scikit-learn's
 OpenMP), in the library's pools and in the scripts' plain ``ProcessPoolExecutor``s."""
 
@@ -13,14 +13,14 @@ import textwrap
 
 import pytest
 
-from fluids_bench.core.pool import BLAS_THREAD_VARIABLES, as_finished
+from fluids_bench.core.parallel import BLAS_THREAD_VARIABLES, as_finished
 
 PROBE = textwrap.dedent(
     """
     import json
     from concurrent.futures import ProcessPoolExecutor
     from threadpoolctl import threadpool_info
-    from fluids_bench.core.pool import one_blas_thread, process_pool
+    from fluids_bench.core.parallel import one_blas_thread, process_pool
 
     def threads():
         import scipy.linalg, sklearn.neural_network  # loaded after the worker started

@@ -9,7 +9,7 @@ import sys
 
 import pytest
 
-from fluids_bench.data.claims import claim_dataset, claim_path
+from fluids_bench.core.parallel import claim_dataset, claim_path
 
 
 def test_a_claim_is_exclusive_and_released(tmp_path):
