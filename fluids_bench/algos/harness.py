@@ -46,6 +46,7 @@ from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
 from fluids_bench.algos.policies import Policy, check_action_space, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.benchmark.splits import refuse_test_seeds
 from fluids_bench.core.supervisor import has_supervisor
 from fluids_bench.registration import ENV_SPECS
 
@@ -184,6 +185,7 @@ class Harness:
     ) -> list[Trajectory]:
         """``actor`` on each of ``seeds``; with ``names``, each finished rollout is kept in the
         checkpoint under its name (and taken from there when it is already)."""
+        refuse_test_seeds(seeds, "the algorithm harness")  # training never sees a test seed
         results: list[Trajectory | None] = [None] * len(seeds)
         store = self.store if names is not None else None
         if store is not None:

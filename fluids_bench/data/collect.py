@@ -43,6 +43,7 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.benchmark.splits import refuse_test_seeds
 from fluids_bench.core.pool import process_pool
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
@@ -137,6 +138,7 @@ def collect(
     """
     check_int("collect", "episodes", episodes, 1)
     check_int("collect", "seed", seed, 0)
+    refuse_test_seeds(range(seed, seed + episodes), "collect")
     check_int("collect", "workers", workers, 1)
     if max_steps is not None:
         check_int("collect", "max_steps", max_steps, 1)
