@@ -197,8 +197,8 @@ TASKS: tuple[Task, ...] = (
         env_kwargs={"action_level": "velocity"},
         action_level="the ego's target velocity (normalised to [-1, 1]); the supervisor plans "
         "the trajectory and the controls below it",
-        observation="explicit: the ego's state, route waypoints, the 8 nearest agents, lights "
-        "(flat vector scaled to [-1, 1])",
+        observation="explicit: the ego's state and goal, the 8 nearest agents in its frame, its "
+        "light (69 values scaled to [-1, 1])",
         ood=(
             OODSet("dense_traffic", {"num_cars": 6}, "6 background cars instead of 3"),
             OODSet(
@@ -229,8 +229,8 @@ TASKS: tuple[Task, ...] = (
         family="singulation",
         env_id="Singulation-v0",
         env_kwargs={},
-        action_level="a push direction (Box 2, [-1, 1])",
-        observation="the objects' poses (vector)",
+        action_level="the arm's joint changes: base rotation and extension (Box 2, [-1, 1])",
+        observation="the arm's pose and the 4 objects' positions and orientations (18 values)",
         ood=(
             OODSet("large_objects", {"object_size_scale": 1.25}, "objects 1.25x larger"),
             OODSet("high_friction", {"friction_scale": 2.0}, "friction x2"),
@@ -241,8 +241,9 @@ TASKS: tuple[Task, ...] = (
         family="grasping",
         env_id="GraspingInClutter-v1",
         env_kwargs={},
-        action_level="gripper motion (Box 3, [-1, 1])",
-        observation="the gripper's and objects' poses (vector)",
+        action_level="end-effector velocity and the gripper command (Box 3)",
+        observation="the 6 boxes' poses (target first), the 3 joint angles, the gripper "
+        "(22 values)",
         ood=(
             OODSet("large_obstacles", {"obstacle_size_scale": 1.25}, "obstacles 1.25x larger"),
             OODSet("high_friction", {"friction": 1.0}, "friction 1.0 instead of 0.5"),
@@ -253,7 +254,7 @@ TASKS: tuple[Task, ...] = (
         family="track",
         env_id="DrivingTrack-v0",
         env_kwargs={},
-        action_level="steering (Discrete)",
+        action_level="heading change: -15°, 0° or +15° (Discrete 3)",
         observation="HOG features of the car's view (20,736 values)",
         ood=(
             OODSet("fast", {"speed": 12.5}, "the car drives at 12.5 instead of 10"),
