@@ -180,6 +180,7 @@ def build(
         "episodes_per_set": suite.episodes,
         "tasks": tasks,
         "aggregate": aggregate,
+        "command": command,  # as every results file of the docs has it
         "provenance": provenance(command),
     }
     curve = policy.get("learning_curve")
