@@ -36,6 +36,7 @@ SHARED_RENDERERS = (
     (r"rl_(dag|singulation|grasping|track)", "rl_tasks"),
     (r"rl_(hopper|walker2d|halfcheetah|humanoid)(_sac)?", "rl_tasks"),
     (r"rl_fluids_v2_(2m|sac|end_on_violation_2m)|rl_fluids_v3(_1m)?", "rl_fluids_v2"),
+    (r"scorecard_.+", "scorecard"),  # fluids-bench evaluate's scorecards
 )
 
 

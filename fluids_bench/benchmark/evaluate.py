@@ -59,6 +59,8 @@ def _assign(
         if name is None:
             raise ValueError("a policy per task needs a name (--name)")
         sources = {task: resolve(p, name) for task, p in policy.items()}
+        for task in chosen.tasks:
+            _check_env(name, sources[task.name], task)
         return _check_name(name), chosen, sources
     source = resolve(policy, name)
     name = _check_name(source.name)
@@ -66,27 +68,47 @@ def _assign(
         raise ValueError(f"policy name {name!r} is a reference's; allowed: another --name")
     tasks = suite.tasks
     env_id = source.extras.get("env_id")
-    if env_id is not None:  # a train run: the tasks of its env, with the same kwargs
-        kwargs = source.extras.get("env_kwargs", {})
+    if env_id is not None:  # a train run: the tasks of its env
         tasks = tuple(t for t in suite.tasks if t.env_id == env_id)
         if not tasks:
             raise ValueError(
                 f"policy {name!r} was trained on {env_id}; the suite's tasks are "
                 f"{[f'{t.name} ({t.env_id})' for t in suite.tasks]}"
             )
-        for task in tasks:
-            if dict(task.env_kwargs) != dict(kwargs):
-                raise ValueError(
-                    f"policy {name!r} was trained on {env_id} with kwargs {kwargs}; task "
-                    f"{task.name!r} uses {dict(task.env_kwargs)} (train with those)"
-                )
     elif source.kind in ("sb3", "learner") and len(tasks) != 1:
         raise ValueError(
             f"policy {name!r} ({source.kind}) does not record its env; allowed: one task "
             f"(--tasks NAME) or a policy per task; tasks: {[t.name for t in tasks]}"
         )
+    for task in tasks:
+        _check_env(name, source, task)
     chosen = suite.select(suite.episodes, [t.name for t in tasks])
     return name, chosen, {t.name: source for t in chosen.tasks}
+
+
+def _check_env(name: str, source: PolicySource, task: Task) -> None:
+    """A train run's learner is evaluated only on its own env id and kwargs."""
+    env_id = source.extras.get("env_id")
+    if env_id is None:
+        return
+    kwargs = source.extras.get("env_kwargs", {})
+    if env_id != task.env_id or dict(kwargs) != dict(task.env_kwargs):
+        raise ValueError(
+            f"policy {name!r} was trained on {env_id} with kwargs {kwargs}; task {task.name!r} "
+            f"is {task.env_id} with {dict(task.env_kwargs)} (train with those)"
+        )
+
+
+def _describe(name: str, per_task: dict[str, PolicySource]) -> dict[str, Any]:
+    """The scorecard's policy entry: the source's, or one per task when they differ."""
+    sources = list(per_task.values())
+    if all(s is sources[0] for s in sources):
+        return {**sources[0].describe(), "name": name}
+    return {
+        "name": name,
+        "kind": "per_task",
+        "tasks": {task: source.describe() for task, source in per_task.items()},
+    }
 
 
 def _jobs(name: str, suite: Suite) -> list[tuple[EpisodeJob, Task]]:
@@ -199,10 +221,9 @@ def evaluate(
     by_set: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for job, _ in jobs:
         by_set.setdefault((job.policy, job.task, job.set), []).append(logs[job.policy].get(job))
-    sample = next(iter(per_task.values()))
     card = scorecards.build(
         name,
-        sample.describe(),
+        _describe(name, per_task),
         suite,
         lambda p, t, s: by_set[(p, t, s)],
         command,

@@ -84,11 +84,11 @@ def plot_scorecards(cards: Sequence[dict[str, Any]], path: str | os.PathLike[str
 
 def plot_label_efficiency_axes(axes: Any, cards: Sequence[dict[str, Any]]) -> None:
     for card in cards:
-        curve = card["label_efficiency"]
-        axes.plot(
-            curve["labels"], curve["scores"], marker="o",
-            label=f"{card['policy']['name']} (area {curve['area']:.2f})",
-        )  # fmt: skip
+        for task, curve in card["label_efficiency"].items():
+            axes.plot(
+                curve["labels"], curve["scores"], marker="o",
+                label=f"{card['policy']['name']}, {task} (area {curve['area']:.2f})",
+            )  # fmt: skip
     axes.set_xlabel("supervisor labels used")
     axes.set_ylabel("normalised performance (train run's own evaluation)")
     axes.set_title("label efficiency")

@@ -183,9 +183,14 @@ def build(
         "command": command,  # as every results file of the docs has it
         "provenance": provenance(command),
     }
-    curve = policy.get("learning_curve")
-    if curve:
-        card["label_efficiency"] = metrics.label_efficiency(
-            curve["labels"], curve["normalised_performance"]
+    described = policy.get("tasks") or {t.name: policy for t in suite.tasks}
+    curves = {
+        task: metrics.label_efficiency(
+            entry["learning_curve"]["labels"], entry["learning_curve"]["normalised_performance"]
         )
+        for task, entry in described.items()
+        if entry.get("learning_curve")
+    }
+    if curves:
+        card["label_efficiency"] = curves
     return card

@@ -116,3 +116,20 @@ def test_cli_short_run(tmp_path):
     card = json.loads((out / "scorecard_supervisor.json").read_text())
     assert card["provenance"]["command"].startswith("fluids-bench evaluate --policy supervisor")
     assert (out / "scorecard_supervisor.png").stat().st_size > 0
+
+
+def test_a_train_result_is_rebuilt_and_gives_its_label_efficiency(tmp_path):
+    assert main(
+        ["train", "--env", "GridWorld-v0", "--algo", "dagger", "--iterations", "3",
+         "--eval-episodes", "2", "--out", str(tmp_path / "train"), "--no-progress"]
+    ) == 0  # fmt: skip
+    result = tmp_path / "train" / "dagger_GridWorld-v0_seed0.json"
+    card = _run(str(result), tmp_path / "eval", suite=SUITE.select(episodes=2))
+    assert list(card["tasks"]) == ["gridworld"]  # only the task of the run's env
+    assert card["policy"]["kind"] == "learner" and card["policy"]["algo"] == "dagger"
+    records = json.loads(result.read_text())["records"]
+    curve = card["label_efficiency"]["gridworld"]
+    assert curve["labels"] == [float(r["labels_requested"]) for r in records]
+    assert 0.0 <= curve["area"] <= 1.5
+    with pytest.raises(ValueError, match="was trained on GridWorld-v0"):
+        _run(str(result), tmp_path / "eval", suite=SUITE.select(episodes=2, tasks=["hopper"]))
