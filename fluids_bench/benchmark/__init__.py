@@ -4,7 +4,7 @@
 - the seed splits and the training guard (`splits.py`);
 - the metrics (`metrics.py`: normalised score, IQM with stratified-bootstrap intervals through
   rliable, the label-efficiency curve);
-- [`evaluate`][fluids_bench.benchmark.evaluate.evaluate] (`evaluate.py`), its scorecards
+- [`evaluate`][fluids_bench.benchmark.evaluator.evaluate] (`evaluator.py`), its scorecards
   (`scorecard.py`) and plots (`plots.py`).
 
 Names are imported lazily: the training code paths import `splits` alone.
@@ -24,7 +24,7 @@ _EXPORTS = {
     "TASK_NAMES": "suite",
     "refuse_test_seeds": "splits",
     "split_seeds": "splits",
-    "evaluate": "evaluate",
+    "evaluate": "evaluator",
 }
 __all__ = sorted(_EXPORTS)
 
@@ -32,4 +32,6 @@ __all__ = sorted(_EXPORTS)
 def __getattr__(name: str) -> Any:
     if name not in _EXPORTS:
         raise AttributeError(f"module 'fluids_bench.benchmark' has no attribute {name!r}")
-    return getattr(importlib.import_module(f"fluids_bench.benchmark.{_EXPORTS[name]}"), name)
+    value = getattr(importlib.import_module(f"fluids_bench.benchmark.{_EXPORTS[name]}"), name)
+    globals()[name] = value
+    return value

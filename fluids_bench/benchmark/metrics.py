@@ -77,6 +77,11 @@ def _conf_int(matrix: np.ndarray, func: Callable[[np.ndarray], np.ndarray]) -> n
     return np.asarray(ci)
 
 
+def _clean(value: float) -> float:
+    """`value` rounded to 12 decimals, without a negative zero (-1e-17 prints as -0.000)."""
+    return round(float(value), 12) + 0.0
+
+
 def normalised_scores(
     returns: Sequence[float], random_returns: Sequence[float], supervisor_returns: Sequence[float]
 ) -> np.ndarray:
@@ -118,7 +123,7 @@ def interval(values: Sequence[float]) -> tuple[float, float, float]:
         return mean, mean, mean
     ci = _conf_int(values.reshape(-1, 1), lambda scores: np.array([np.mean(scores)]))
     low, high = ci[:, 0]
-    return mean, float(low), float(high)
+    return _clean(mean), _clean(low), _clean(high)
 
 
 def run_matrix(per_task: Mapping[str, Sequence[float]]) -> np.ndarray:
@@ -160,8 +165,8 @@ def aggregate(per_task: Mapping[str, Sequence[float]]) -> dict[str, Any]:
 
     point, ci = both(matrix), _conf_int(matrix, both)
     return {
-        "mean": [float(point[0]), float(ci[0, 0]), float(ci[1, 0])],
-        "iqm": [float(point[1]), float(ci[0, 1]), float(ci[1, 1])],
+        "mean": [_clean(point[0]), _clean(ci[0, 0]), _clean(ci[1, 0])],
+        "iqm": [_clean(point[1]), _clean(ci[0, 1]), _clean(ci[1, 1])],
         "runs": int(matrix.shape[0]),
         "tasks": list(per_task),
     }

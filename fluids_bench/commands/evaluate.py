@@ -71,7 +71,7 @@ def _policy(values: list[str]) -> object:
 
 
 def main(args: argparse.Namespace) -> int:
-    from fluids_bench.benchmark.evaluate import evaluate
+    from fluids_bench.benchmark.evaluator import evaluate
     from fluids_bench.benchmark.suite import SUITE
 
     policy = _policy(args.policy)

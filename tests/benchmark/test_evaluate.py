@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 from benchmark_policies import BatchOnly, Counter
 
-from fluids_bench.benchmark.evaluate import evaluate
+from fluids_bench.benchmark.evaluator import evaluate
 from fluids_bench.benchmark.splits import OOD_START, TEST_START
 from fluids_bench.benchmark.suite import SUITE
 from fluids_bench.cli import main

@@ -15,8 +15,13 @@ def test_set_scores_by_hand():
     rows = {
         "me": [
             _row(3.0, True, driving_score=0.5, route_completion=1.0, infractions={"red_light": 1}),
-            _row(5.0, False, driving_score=0.1, route_completion=0.4, infractions={"red_light": 0,
-                 "pedestrian": 2}),
+            _row(
+                5.0,
+                False,
+                driving_score=0.1,
+                route_completion=0.4,
+                infractions={"red_light": 0, "pedestrian": 2},
+            ),
         ],  # fmt: skip
         "random": [
             _row(1.0, False, driving_score=0.0, route_completion=0.1),
