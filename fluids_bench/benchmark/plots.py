@@ -90,6 +90,6 @@ def plot_label_efficiency_axes(axes: Any, cards: Sequence[dict[str, Any]]) -> No
                 label=f"{card['policy']['name']}, {task} (area {curve['area']:.2f})",
             )  # fmt: skip
     axes.set_xlabel("supervisor labels used")
-    axes.set_ylabel("normalised performance (train run's own evaluation)")
+    axes.set_ylabel("normalised score (train run's evaluation seeds)")
     axes.set_title("label efficiency")
     axes.legend(fontsize="small")

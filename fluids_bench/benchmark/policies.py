@@ -218,9 +218,39 @@ def resolve(policy: Any, name: str | None = None) -> PolicySource:
     )
 
 
+def harness_eval_seeds(config: Any) -> list[int]:
+    """The evaluation seeds of a train run with `config`, drawn as
+    [`Harness`][fluids_bench.algos.harness.Harness] draws them (its second seed stream;
+    tested against the harness)."""
+    from fluids_bench.algos.harness import SEED_BOUND
+
+    stream = np.random.SeedSequence(config.seed).spawn(5)[1]
+    draws = np.random.default_rng(stream).integers(SEED_BOUND, size=config.eval_episodes)
+    return [int(s) for s in draws]
+
+
+def random_return(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> float:
+    """The random policy's mean return over `seeds` (whole episodes)."""
+    import gymnasium as gym
+
+    env = gym.make(env_id, **env_kwargs)
+    total = 0.0
+    for seed in seeds:
+        env.reset(seed=seed)
+        rng, done = actor_rng(seed), False
+        while not done:
+            _, reward, terminated, truncated, _ = env.step(random_action(env.action_space, rng))
+            total += float(reward)
+            done = terminated or truncated
+    env.close()
+    return total / len(seeds)
+
+
 def _from_train_result(path: Path, name: str | None) -> PolicySource:
     """Run a train result's config again (deterministic: the same learner) and keep the
-    learner and the run's label-efficiency record."""
+    learner and the run's label-efficiency curve: each evaluated iteration's mean return on the
+    run's own evaluation seeds, normalised by the supervisor's (from the run) and the random
+    policy's (measured here) on those same seeds."""
     import dataclasses
 
     from fluids_bench.algos.policies import PolicySpec
@@ -243,7 +273,7 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
     settings = {k: v for k, v in settings.items() if k in fields}
     config = algorithm.config_class(**settings)
     result = algorithm.run(config, None)
-    records = [r for r in data.get("records", []) if r.get("normalised_performance") is not None]
+    records = [r for r in data.get("records", []) if r.get("eval_return") is not None]
     extras: dict[str, Any] = {
         "train_result": str(path),
         "algo": data["algo"],
@@ -252,9 +282,15 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
         "train_seed": config.seed,
         "labels_used": result.final.labels_requested,
     }
-    if records:
+    supervisor = result.supervisor_return
+    random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
+    if records and supervisor > random:
         extras["learning_curve"] = {
             "labels": [r["labels_requested"] for r in records],
-            "normalised_performance": [r["normalised_performance"] for r in records],
+            "normalised_performance": [
+                (r["eval_return"] - random) / (supervisor - random) for r in records
+            ],
+            "random_return": random,
+            "supervisor_return": supervisor,
         }
     return PolicySource(name or path.stem, "learner", str(path), result.policy, extras)

@@ -131,5 +131,19 @@ def test_a_train_result_is_rebuilt_and_gives_its_label_efficiency(tmp_path):
     curve = card["label_efficiency"]["gridworld"]
     assert curve["labels"] == [float(r["labels_requested"]) for r in records]
     assert 0.0 <= curve["area"] <= 1.5
+    assert curve["scores"][-1] == pytest.approx(
+        (records[-1]["eval_return"] - card["policy"]["learning_curve"]["random_return"])
+        / (json.loads(result.read_text())["supervisor_return"]
+           - card["policy"]["learning_curve"]["random_return"])
+    )  # fmt: skip
     with pytest.raises(ValueError, match="was trained on GridWorld-v0"):
         _run(str(result), tmp_path / "eval", suite=SUITE.select(episodes=2, tasks=["hopper"]))
+
+
+def test_train_runs_evaluation_seeds_are_the_harness_ones():
+    from fluids_bench.algos.harness import Harness, RunConfig
+    from fluids_bench.benchmark.policies import harness_eval_seeds
+
+    config = RunConfig(env_id="GridWorld-v0", eval_episodes=4, seed=7)
+    with Harness("bc", config) as harness:
+        assert harness.eval_seeds == harness_eval_seeds(config)
