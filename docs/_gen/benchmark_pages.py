@@ -33,6 +33,13 @@ def benchmark_definition() -> str:
     return "\n".join(rows)
 
 
+def benchmark_fluids_id() -> str:
+    """The suite's FLUIDS id."""
+    from fluids_bench.benchmark.suite import FLUIDS_ID
+
+    return FLUIDS_ID
+
+
 def seed_splits() -> str:
     """The seed ranges of the splits."""
     from fluids_bench.benchmark import splits

@@ -27,4 +27,5 @@ def define_env(env) -> None:
     env.macro(results.table)
     env.macro(benchmark_pages.benchmark_definition)
     env.macro(benchmark_pages.seed_splits)
+    env.macro(benchmark_pages.benchmark_fluids_id)
     env.macro(benchmark_pages.leaderboard)

@@ -107,13 +107,21 @@ def set_scores(rows: Rows, policy: str) -> dict[str, Any]:
         point = (float(np.mean(returns)) - low) / (high - low)
         out["normalised"] = [point, *_triple(scores.tolist())[1:]]
         out["normalised_episodes"] = [round(float(s), 12) for s in scores]
-    successes = [r["success"] for r in mine]
-    if all(s is not None for s in successes):
-        out["success"] = _triple([float(s) for s in successes])
-        out["random_success"] = _mean_or_none([r["success"] for r in rows["random"]])
-        out["supervisor_success"] = _mean_or_none([r["success"] for r in rows["supervisor"]])
-    if all("driving_score" in r for r in mine):
-        out["driving_score"] = _triple([float(r["driving_score"]) for r in mine])
+    # Gymnasium's convention: info["is_success"] on the last step. Where the env reports it on
+    # some episode, an episode that ended without it (truncated by the time limit) failed.
+    reports = any(r["success"] is not None for rs in rows.values() for r in rs)
+    if reports:
+
+        def rate(rs: list[dict[str, Any]]) -> list[float]:
+            return [float(bool(r["success"])) for r in rs]
+
+        out["success"] = _triple(rate(mine))
+        out["random_success"] = float(np.mean(rate(rows["random"])))
+        out["supervisor_success"] = float(np.mean(rate(rows["supervisor"])))
+    scored = [r for r in mine if "driving_score" in r]
+    if scored:  # FLUIDS-v4 reports it at an episode's end; the count says if some lacked it
+        out["driving_score"] = _triple([float(r["driving_score"]) for r in scored])
+        out["driving_score_episodes"] = len(scored)
         out["random_driving_score"] = _mean_or_none(
             [r.get("driving_score") for r in rows["random"]]
         )

@@ -50,3 +50,13 @@ def test_undefined_normalisation_is_reported_not_raised():
     out = set_scores(rows, "me")
     assert out["normalised"] is None and "undefined" in out["note"]
     assert "success" not in out  # the env reports none
+
+
+def test_a_truncated_episode_without_is_success_failed():
+    rows = {
+        "me": [_row(1.0, True), _row(0.0, None)],  # the second hit the time limit
+        "random": [_row(0.0, False), _row(0.0, False)],
+        "supervisor": [_row(2.0, True), _row(2.0, True)],
+    }
+    out = set_scores(rows, "me")
+    assert out["success"][0] == 0.5 and out["random_success"] == 0.0
