@@ -6,7 +6,7 @@ references normalise the score on the same episodes). Episodes run on `workers` 
 finished episode is appended at once to `OUT/episodes/<policy>.jsonl`, so Ctrl-C keeps them
 and a rerun of the same evaluation runs only the missing ones (the reference logs are shared by
 every policy evaluated into the same `OUT`). The scorecard JSON is written atomically at the
-end, with plots next to it.
+end, its plot in `OUT`.
 """
 
 from __future__ import annotations
@@ -194,7 +194,7 @@ def evaluate(
         name: the policy's name in files and scorecards (default: from the spec).
         workers: processes running episodes (1: in this process).
         progress: show a progress bar.
-        plots: write the scorecard's PNG plots next to it.
+        plots: write the scorecard's plot, `OUT/scorecard_<name>.png`.
         scorecard: the scorecard's path (default `OUT/scorecard_<name>.json`).
         command: the command line recorded in the scorecard.
 
@@ -233,5 +233,5 @@ def evaluate(
     if plots:
         from fluids_bench.benchmark.plots import plot_scorecard
 
-        plot_scorecard(card, path.with_suffix(".png"))
+        plot_scorecard(card, out / f"scorecard_{name}.png")
     return card

@@ -51,7 +51,8 @@ def _bars(axes: Any, cards: Sequence[dict[str, Any]], split: str) -> None:
             lows.append(point - low)
             highs.append(high - point)
         x = np.arange(len(labels)) + (i - (len(cards) - 1) / 2) * width
-        axes.bar(x, values, width, yerr=[lows, highs], capsize=2, label=card["policy"]["name"])
+        tasks_note = f"{card['policy']['name']} ({len(card['tasks'])} tasks)"
+        axes.bar(x, values, width, yerr=[lows, highs], capsize=2, label=tasks_note)
     axes.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
     axes.axhline(0.0, color="0.5", lw=0.8)
     axes.axhline(1.0, color="0.5", lw=0.8, ls="--")

@@ -3,8 +3,9 @@
 The policy, the random policy and the supervisor run every episode of every set (the score is
 normalised on the same episodes); each finished episode is appended to OUT/episodes/, so
 Ctrl-C keeps it and the same command continues. The scorecard (JSON, written atomically) and
-its plot (PNG) go to OUT/scorecard_<name>.json / .png, or --scorecard. ``--episodes N`` and
-``--tasks`` run a shortened evaluation, labelled so in the scorecard. Example::
+its plot go to OUT/scorecard_<name>.json and .png (the JSON to --scorecard if given).
+``--episodes N`` and ``--tasks`` run a shortened evaluation, labelled so in the scorecard.
+Example::
 
     fluids-bench evaluate --policy supervisor --episodes 5 --tasks gridworld hopper \\
         --out out/evaluate --workers 2
