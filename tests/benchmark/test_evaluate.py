@@ -147,3 +147,20 @@ def test_train_runs_evaluation_seeds_are_the_harness_ones():
     config = RunConfig(env_id="GridWorld-v0", eval_episodes=4, seed=7)
     with Harness("bc", config) as harness:
         assert harness.eval_seeds == harness_eval_seeds(config)
+
+
+def test_an_sb3_model_file(tmp_path):
+    from train_extra import require_sb3
+
+    sb3 = require_sb3()
+    import gymnasium as gym
+
+    model = sb3.PPO("MlpPolicy", gym.make("GridWorld-v0"), n_steps=32, batch_size=32, seed=0)
+    model.learn(32)
+    path = tmp_path / "ppo_gridworld.zip"
+    model.save(path)
+    card = _run(str(path), tmp_path / "eval", suite=SUITE.select(episodes=1, tasks=["gridworld"]))
+    assert card["policy"]["kind"] == "sb3" and card["policy"]["name"] == "ppo_gridworld"
+    assert card["tasks"]["gridworld"]["sets"]["test"]["episodes"] == 1
+    with pytest.raises(ValueError, match="does not record its env"):
+        _run(str(path), tmp_path / "eval", suite=SUITE.select(episodes=1))
