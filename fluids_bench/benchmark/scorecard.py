@@ -31,7 +31,9 @@ Rows = Mapping[str, list[dict[str, Any]]]  # policy name -> its rows of one (tas
 
 
 def git_revision() -> str | None:
-    """The checkout's commit (with `-dirty` when it has changes), or None outside git."""
+    """The checkout's commit, with `-dirty` when the code that computes results (the package,
+    pyproject.toml) has uncommitted changes (results files being written do not count), or
+    None outside git."""
     here = Path(__file__).resolve().parent
     try:
         rev = subprocess.run(
@@ -41,7 +43,17 @@ def git_revision() -> str | None:
             check=True,
         ).stdout.strip()
         dirty = subprocess.run(
-            ["git", "-C", str(here), "status", "--porcelain", "--untracked-files=no"],
+            [
+                "git",
+                "-C",
+                str(here.parent.parent),
+                "status",
+                "--porcelain",
+                "--untracked-files=no",
+                "--",
+                "fluids_bench",
+                "pyproject.toml",
+            ],  # fmt: skip
             capture_output=True,
             text=True,
             check=True,
