@@ -22,6 +22,7 @@ COMMAND_MODULES = (
     "fluids_bench.commands.render_layout",
     "fluids_bench.commands.train",
     "fluids_bench.commands.collect",
+    "fluids_bench.commands.evaluate",
     "fluids_bench.commands.sweep",
     "fluids_bench.commands.teleop",
     "fluids_bench.commands.relabel",

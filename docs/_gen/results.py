@@ -37,6 +37,7 @@ SHARED_RENDERERS = (
     (r"rl_(hopper|walker2d|halfcheetah|humanoid)(_sac)?", "rl_tasks"),
     (r"rl_fluids_v2_(2m|sac|end_on_violation_2m)|rl_fluids_v3(_1m)?", "rl_fluids_v2"),
     (r"fluids_v4_scores_.+", "fluids_v4_scores"),
+    (r"scorecard_.+", "scorecard"),  # fluids-bench evaluate's scorecards
 )
 
 

@@ -58,6 +58,7 @@ from fluids_bench.algos.learners.protocol import (
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.benchmark.splits import refuse_test_seeds
 from fluids_bench.core.parallel import TaskSession, worker_env
 from fluids_bench.core.supervisor import has_supervisor
 from fluids_bench.registration import ENV_SPECS
@@ -200,6 +201,7 @@ class Harness:
     ) -> list[Trajectory]:
         """``actor`` on each of ``seeds``; with ``names``, each finished rollout is kept in the
         checkpoint under its name (and taken from there when it is already)."""
+        refuse_test_seeds(seeds, "the algorithm harness")  # training never sees a test seed
         results: list[Trajectory | None] = [None] * len(seeds)
         store = self.store if names is not None else None
         if store is not None:

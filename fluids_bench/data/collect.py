@@ -39,6 +39,7 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
+from fluids_bench.benchmark.splits import refuse_test_seeds
 from fluids_bench.core.parallel import BACKENDS, START_METHODS, run_tasks, worker_env
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
@@ -123,6 +124,7 @@ def collect(
     """
     check_int("collect", "episodes", episodes, 1)
     check_int("collect", "seed", seed, 0)
+    refuse_test_seeds(range(seed, seed + episodes), "collect")
     check_int("collect", "workers", workers, 1)
     if max_steps is not None:
         check_int("collect", "max_steps", max_steps, 1)

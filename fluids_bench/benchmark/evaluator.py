@@ -1,0 +1,237 @@
+"""`evaluate(policy, suite)`: a policy on the suite's test and OOD sets, resumable, to a scorecard.
+
+The policy, the random policy and the supervisor each run every episode of every set (the
+references normalise the score on the same episodes). Episodes run on `workers` processes
+(the project's pool, [`process_pool`][fluids_bench.core.parallel.process_pool]) or here; each
+finished episode is appended at once to `OUT/episodes/<policy>.jsonl`, so Ctrl-C keeps them
+and a rerun of the same evaluation runs only the missing ones (the reference logs are shared by
+every policy evaluated into the same `OUT`). The scorecard JSON is written atomically at the
+end, its plot in `OUT`.
+"""
+
+from __future__ import annotations
+
+import os
+import pickle
+import re
+from collections.abc import Mapping
+from concurrent.futures import as_completed
+from pathlib import Path
+from typing import Any
+
+from fluids_bench.benchmark import scorecard as scorecards
+from fluids_bench.benchmark.episodes import (
+    EpisodeJob,
+    EpisodeLog,
+    init_worker,
+    kwargs_json,
+    run_episode,
+)
+from fluids_bench.benchmark.policies import BUILT_INS, PolicySource, resolve
+from fluids_bench.benchmark.suite import SUITE, Suite, Task
+
+REFERENCES = BUILT_INS  # random (score 0) and supervisor (score 1)
+NAME_PATTERN = re.compile(r"^[A-Za-z0-9][A-Za-z0-9_.+-]{0,99}$")
+
+
+def _check_name(name: str) -> str:
+    if not NAME_PATTERN.match(name):
+        raise ValueError(
+            f"policy name {name!r}; allowed: letters, digits and _ . + - (a file name), "
+            "at most 100 characters"
+        )
+    return name
+
+
+def _assign(
+    policy: Any, suite: Suite, name: str | None
+) -> tuple[str, Suite, dict[str, PolicySource]]:
+    """The policy's name, the tasks it is evaluated on and its source per task.
+
+    A single-env policy (a train result) is evaluated on the tasks of its env id; a model file
+    or learner checkpoint, whose env is not recorded, needs a suite of one task or a mapping
+    `{task: policy}`.
+    """
+    if isinstance(policy, Mapping):
+        if not policy:
+            raise ValueError("policy mapping is empty; allowed: {task name: policy}")
+        chosen = suite.select(suite.episodes, list(policy))
+        if name is None:
+            raise ValueError("a policy per task needs a name (--name)")
+        sources = {task: resolve(p, name) for task, p in policy.items()}
+        for task in chosen.tasks:
+            _check_env(name, sources[task.name], task)
+        return _check_name(name), chosen, sources
+    source = resolve(policy, name)
+    name = _check_name(source.name)
+    if name in REFERENCES and source.kind != name:
+        raise ValueError(f"policy name {name!r} is a reference's; allowed: another --name")
+    tasks = suite.tasks
+    env_id = source.extras.get("env_id")
+    if env_id is not None:  # a train run: the tasks of its env
+        tasks = tuple(t for t in suite.tasks if t.env_id == env_id)
+        if not tasks:
+            raise ValueError(
+                f"policy {name!r} was trained on {env_id}; the suite's tasks are "
+                f"{[f'{t.name} ({t.env_id})' for t in suite.tasks]}"
+            )
+    elif source.kind in ("sb3", "learner") and len(tasks) != 1:
+        raise ValueError(
+            f"policy {name!r} ({source.kind}) does not record its env; allowed: one task "
+            f"(--tasks NAME) or a policy per task; tasks: {[t.name for t in tasks]}"
+        )
+    for task in tasks:
+        _check_env(name, source, task)
+    chosen = suite.select(suite.episodes, [t.name for t in tasks])
+    return name, chosen, {t.name: source for t in chosen.tasks}
+
+
+def _check_env(name: str, source: PolicySource, task: Task) -> None:
+    """A train run's learner is evaluated only on its own env id and kwargs."""
+    env_id = source.extras.get("env_id")
+    if env_id is None:
+        return
+    kwargs = source.extras.get("env_kwargs", {})
+    if env_id != task.env_id or dict(kwargs) != dict(task.env_kwargs):
+        raise ValueError(
+            f"policy {name!r} was trained on {env_id} with kwargs {kwargs}; task {task.name!r} "
+            f"is {task.env_id} with {dict(task.env_kwargs)} (train with those)"
+        )
+
+
+def _describe(name: str, per_task: dict[str, PolicySource]) -> dict[str, Any]:
+    """The scorecard's policy entry: the source's, or one per task when they differ."""
+    sources = list(per_task.values())
+    if all(s is sources[0] for s in sources):
+        return {**sources[0].describe(), "name": name}
+    return {
+        "name": name,
+        "kind": "per_task",
+        "tasks": {task: source.describe() for task, source in per_task.items()},
+    }
+
+
+def _jobs(name: str, suite: Suite) -> list[tuple[EpisodeJob, Task]]:
+    out = []
+    policies = [name] + [r for r in REFERENCES if r != name]
+    for task in suite.tasks:
+        for set_name, kwargs, seeds in task.eval_sets(suite.episodes):
+            text = kwargs_json(kwargs)
+            for seed in seeds:
+                for policy in policies:
+                    out.append(
+                        (EpisodeJob(policy, task.name, set_name, task.env_id, text, seed), task)
+                    )
+    return out
+
+
+def _check_picklable(sources: dict[tuple[str, str], PolicySource]) -> None:
+    for (policy, task), source in sources.items():
+        try:
+            pickle.dumps(source)
+        except Exception as exc:  # noqa: BLE001  (any pickling failure)
+            raise ValueError(
+                f"policy {policy!r} on {task!r} cannot be sent to worker processes ({exc}); "
+                "allowed: workers=1, or a picklable policy / a module:factory spec"
+            ) from exc
+
+
+def run_jobs(
+    jobs: list[tuple[EpisodeJob, Task]],
+    sources: dict[tuple[str, str], PolicySource],
+    logs: dict[str, EpisodeLog],
+    workers: int,
+    progress: bool,
+) -> None:
+    """Run the jobs not yet in their logs, appending each row as it finishes."""
+    from tqdm import tqdm
+
+    pending = [(job, task) for job, task in jobs if not logs[job.policy].done(job)]
+    with tqdm(
+        total=len(jobs), initial=len(jobs) - len(pending), desc="evaluate", unit="episode",
+        disable=not progress,
+    ) as bar:  # fmt: skip
+        if not pending:
+            return
+        if workers == 1:
+            init_worker(sources)
+            for job, task in pending:
+                logs[job.policy].append(run_episode(job, task))
+                bar.update(1)
+            return
+        from fluids_bench.core.parallel import process_pool
+
+        _check_picklable(sources)
+        preload = ("fluids_bench", "fluids_bench.benchmark.episodes")
+        with process_pool(workers, "forkserver", preload, init_worker, (sources,)) as pool:
+            futures = [pool.submit(run_episode, job, task) for job, task in pending]
+            for future in as_completed(futures):
+                row = future.result()
+                logs[row["policy"]].append(row)
+                bar.update(1)
+
+
+def evaluate(
+    policy: Any,
+    suite: Suite = SUITE,
+    out: str | os.PathLike[str] = "out/evaluate",
+    *,
+    name: str | None = None,
+    workers: int = 1,
+    progress: bool = True,
+    plots: bool = True,
+    scorecard: str | os.PathLike[str] | None = None,
+    command: str | None = None,
+) -> dict[str, Any]:
+    """Evaluate `policy` on `suite`'s test and OOD sets and write its scorecard.
+
+    Args:
+        policy: a spec (`"random"`, `"supervisor"`, `"module:factory"`, a train result
+            `.json`, an SB3 `.zip`, a learner checkpoint path), an object with `act(obs)` or
+            `predict(obs_batch)`, or a mapping `{task name: either}`.
+        suite: the suite, or a shortened one (`SUITE.select(episodes=..., tasks=...)`).
+        out: folder of the episode logs (`episodes/*.jsonl`) and, by default, the scorecard.
+        name: the policy's name in files and scorecards (default: from the spec).
+        workers: processes running episodes (1: in this process).
+        progress: show a progress bar.
+        plots: write the scorecard's plot, `OUT/scorecard_<name>.png`.
+        scorecard: the scorecard's path (default `OUT/scorecard_<name>.json`).
+        command: the command line recorded in the scorecard.
+
+    Returns:
+        The scorecard (also written to `scorecard`).
+    """
+    from fluids_bench.algos.results import write_json_atomic
+
+    if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
+        raise ValueError(f"workers is {workers!r}; allowed: a positive integer")
+    if not isinstance(suite, Suite):
+        raise ValueError(f"suite is {type(suite).__name__}; allowed: a fluids_bench Suite")
+    name, suite, per_task = _assign(policy, suite, name)
+    sources: dict[tuple[str, str], PolicySource] = {}
+    for task in suite.tasks:
+        sources[(name, task.name)] = per_task[task.name]
+        for ref in REFERENCES:
+            sources.setdefault((ref, task.name), PolicySource(ref, ref, ref))
+    out = Path(out)
+    logs = {p: EpisodeLog(out / "episodes" / f"{p}.jsonl") for p in {name, *REFERENCES}}
+    jobs = _jobs(name, suite)
+    run_jobs(jobs, sources, logs, workers, progress)
+
+    by_set: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
+    for job, _ in jobs:
+        by_set.setdefault((job.policy, job.task, job.set), []).append(logs[job.policy].get(job))
+    card = scorecards.build(
+        name,
+        _describe(name, per_task),
+        suite,
+        lambda p, t, s: by_set[(p, t, s)],
+        command,
+    )
+    path = Path(scorecard) if scorecard is not None else out / f"scorecard_{name}.json"
+    write_json_atomic(path, card)
+    if plots:
+        from fluids_bench.benchmark.plots import plot_scorecard
+
+        plot_scorecard(card, out / f"scorecard_{name}.png")
+    return card
