@@ -8,9 +8,8 @@ from fluids_bench.core.numba_cache import use_user_cache_dir
 
 use_user_cache_dir()  # before any module that compiles kernels is imported
 
+from fluids_bench.core.version import __version__  # noqa: E402
 from fluids_bench.registration import register_envs  # noqa: E402
-
-__version__ = "0.1.0"
 
 register_envs()
 

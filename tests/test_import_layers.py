@@ -3,7 +3,7 @@ a task imports no other task, and no two modules import each other, even through
 an import inside a function (parsed with `ast`, so function-level imports count too).
 
 Floors, lowest first: `core`; `tasks` (each task alone); `registration` and the package root;
-`algos`; `data`; `sweep`; `human`; `commands`; `cli`.
+`algos`; `data`; `sweep`; `benchmark`; `human`; `commands`; `cli`.
 """
 
 from __future__ import annotations
@@ -18,7 +18,18 @@ import pytest
 import fluids_bench
 
 PACKAGE = Path(fluids_bench.__file__).resolve().parent
-FLOORS = ("core", "tasks", "registration", "algos", "data", "sweep", "human", "commands", "cli")
+FLOORS = (
+    "core",
+    "tasks",
+    "registration",
+    "algos",
+    "data",
+    "sweep",
+    "benchmark",
+    "human",
+    "commands",
+    "cli",
+)
 ROOT_FLOOR = "registration"  # `import fluids_bench` registers the ids: registration's floor
 
 

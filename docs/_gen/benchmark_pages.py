@@ -42,7 +42,7 @@ def benchmark_fluids_id() -> str:
 
 def seed_splits() -> str:
     """The seed ranges of the splits."""
-    from fluids_bench.benchmark import splits
+    from fluids_bench.core import splits
 
     return "\n".join(
         [

@@ -1,13 +1,14 @@
 """The benchmark: one id per task, seed splits, OOD sets, metrics, `evaluate` and scorecards.
 
 - [`SUITE`][fluids_bench.benchmark.suite.SUITE] and its tasks (`suite.py`);
-- the seed splits and the training guard (`splits.py`);
+- the seed splits and the training guard (`fluids_bench.core.splits`, on the ground floor
+  because collect and the algorithm harness call the guard);
 - the metrics (`metrics.py`: normalised score, IQM with stratified-bootstrap intervals through
   rliable, the label-efficiency curve);
 - [`evaluate`][fluids_bench.benchmark.evaluator.evaluate] (`evaluator.py`), its scorecards
   (`scorecard.py`) and plots (`plots.py`).
 
-Names are imported lazily: the training code paths import `splits` alone.
+Names are imported lazily.
 """
 
 from __future__ import annotations
@@ -22,9 +23,7 @@ _EXPORTS = {
     "OODSet": "suite",
     "FLUIDS_ID": "suite",
     "TASK_NAMES": "suite",
-    "refuse_test_seeds": "splits",
-    "split_seeds": "splits",
-    "evaluate": "evaluator",
+        "evaluate": "evaluator",
 }
 __all__ = sorted(_EXPORTS)
 

@@ -15,7 +15,7 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field, replace
 from typing import Any
 
-from fluids_bench.benchmark.splits import split_seeds
+from fluids_bench.core.splits import split_seeds
 
 SUITE_VERSION = "0"  # bump when a task, a kwarg, a split or an OOD set changes
 # The FLUIDS entry of the suite, in one place. FLUIDS-v4 (v3's spaces and reward plus a driving
@@ -74,7 +74,7 @@ class Task:
 
     def seeds(self, split: str) -> list[int]:
         """The seeds of `split`: `"validation"` or `"test"` (train: any seed below
-        [`TRAIN_END`][fluids_bench.benchmark.splits.TRAIN_END])."""
+        [`TRAIN_END`][fluids_bench.core.splits.TRAIN_END])."""
         counts = {"validation": self.validation_episodes, "test": self.test_episodes}
         if split not in counts:
             raise ValueError(f"split is {split!r}; allowed: {sorted(counts)}")

@@ -53,6 +53,7 @@ from fluids_bench.core.state_format import (
     pack,
     unpack,
 )
+from fluids_bench.core.version import __version__
 
 # the layout of the data: bump when what a snapshot holds changes shape
 FORMAT_VERSION = 1
@@ -81,8 +82,6 @@ __all__ = [
 
 
 def package_version() -> str:
-    from fluids_bench import __version__
-
     return __version__
 
 

@@ -129,7 +129,7 @@ def test_tree_fast_path_equals_sklearn_predict():
     """Trees are evaluated straight through ``tree_``: same dtype, shape and values as predict."""
     from sklearn.tree import DecisionTreeClassifier, DecisionTreeRegressor
 
-    from fluids_bench.algos.policies import _predict
+    from fluids_bench.algos.learners.sklearn import _predict
 
     rng = np.random.default_rng(0)
     X = rng.normal(size=(600, 12))

@@ -12,7 +12,7 @@ import pytest
 from benchmark_policies import BatchOnly, Counter
 
 from fluids_bench.benchmark.evaluator import evaluate
-from fluids_bench.benchmark.splits import OOD_START, TEST_START
+from fluids_bench.core.splits import OOD_START, TEST_START
 from fluids_bench.benchmark.suite import SUITE
 from fluids_bench.cli import main
 

@@ -9,8 +9,8 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos import harness as harness_module
 from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.registry import run_algorithm
-from fluids_bench.benchmark import splits
-from fluids_bench.benchmark.splits import (
+from fluids_bench.core import splits
+from fluids_bench.core.splits import (
     HELD_OUT_START,
     OOD_START,
     TEST_START,

@@ -10,8 +10,8 @@ construction and a training path can tell a held-out seed from the seed alone:
 | test | `3_000_000_000 + i` | the benchmark's reported score only |
 | out-of-distribution test | `3_500_000_000 + i` | the reported OOD scores only |
 
-Every seed from [`HELD_OUT_START`][fluids_bench.benchmark.splits.HELD_OUT_START] up (test and
-OOD sets) is held out: [`refuse_test_seeds`][fluids_bench.benchmark.splits.refuse_test_seeds]
+Every seed from [`HELD_OUT_START`][fluids_bench.core.splits.HELD_OUT_START] up (test and
+OOD sets) is held out: [`refuse_test_seeds`][fluids_bench.core.splits.refuse_test_seeds]
 is called by every training code path and raises a `ValueError` when one would be used.
 """
 
