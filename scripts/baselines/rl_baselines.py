@@ -241,12 +241,23 @@ def train_run(
     return model, curve
 
 
-def run_curves(args, command: str) -> None:
-    import torch
-
+def _torch_on_one_thread() -> None:
+    """Import torch (the `train` extra) once the arguments are checked; one thread per run."""
+    try:
+        import stable_baselines3  # noqa: F401
+        import torch
+    except ImportError as e:
+        raise ModuleNotFoundError(
+            f"{e.name} is missing: training needs the train extra (torch, stable-baselines3): "
+            'pip install torch==2.13.0 stable-baselines3  (or pip install "fluids-bench[train]")'
+        ) from e
     torch.set_num_threads(1)
+
+
+def run_curves(args, command: str) -> None:
     kwargs = json.loads(args.env_kwargs)
     algo_kwargs = _algo_kwargs(args.algo_kwargs)
+    _torch_on_one_thread()
     space = gym.make(args.env, **kwargs).action_space
     algos = args.algos or algos_for(space)
     print(
@@ -532,9 +543,7 @@ def diagnose(episodes: int, seed: int, n_envs: int) -> dict:
 
 
 def run_ablation(args, command: str) -> None:
-    import torch
-
-    torch.set_num_threads(1)
+    _torch_on_one_thread()
     env_id, base = ABLATION_BASE
     seed = args.seeds[0]
     print(

@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
@@ -13,6 +11,7 @@ from urllib.parse import unquote, urlparse
 import numpy as np
 import pytest
 from PIL import Image
+from train_extra import chromium
 
 from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
 
@@ -95,21 +94,15 @@ def test_every_results_file_is_shown_on_a_page():
     )
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
+# skipped without Debian's chromium; CI installs it (.ci/run) and sets
+# FLUIDS_BENCH_BROWSER_TESTS=1, so there it must run (tests/train_extra.py)
+@pytest.mark.browser
 @pytest.mark.parametrize("page", ["index.html", "tasks/fluids/index.html"])
 def test_a_real_browser_renders_the_page(site, page, tmp_path):
-    if CHROMIUM is None:
-        # CI installs it (.ci/run) and sets FLUIDS_BENCH_BROWSER_TESTS=1, so there it must run
-        reason = "Debian's chromium is not installed (apt-get install -y chromium)"
-        if os.environ.get("FLUIDS_BENCH_BROWSER_TESTS") == "1":
-            pytest.fail(reason)
-        pytest.skip(reason)
     shot = tmp_path / "page.png"
     subprocess.run(
         [
-            CHROMIUM,
+            chromium(),
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
