@@ -159,3 +159,28 @@ def test_env_cards_hold_no_history():
         for env_id in f.ids + f.parallel_ids:
             found += [f"{env_id}: {m}" for m in HISTORY.findall(reference._card_text(env_id))]  # noqa: SLF001
     assert not found, found
+
+
+def _tables(page: Path) -> str:
+    return "\n".join(re.findall(r"<table>.*?</table>", page.read_text(encoding="utf-8"), re.S))
+
+
+@pytest.mark.parametrize("page", ["index.html", "tasks/index.html", "api/registration/index.html"])
+def test_every_registered_id_is_in_the_id_tables(site, page):
+    tables = _tables(site / page)
+    missing = [i for i in [*ENV_SPECS, *PARALLEL_ENV_SPECS] if f"<code>{i}</code>" not in tables]
+    assert not missing, f"{page}: ids in none of its tables: {missing}"
+
+
+def test_every_family_page_lists_its_registered_ids():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "_gen"))
+    import reference
+
+    missing = []
+    for f in reference.FAMILIES:
+        md = (ROOT / "docs" / "tasks" / f"{f.slug}.md").read_text(encoding="utf-8")
+        if f'ids_table("{f.slug}")' not in md:
+            missing.append(f.slug)
+    assert not missing, f"family pages without their generated ids table: {missing}"
