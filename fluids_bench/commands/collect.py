@@ -1,15 +1,15 @@
-"""``fluids-bench collect``: roll out an env's supervisor and write a Minari dataset.
+"""`fluids-bench collect`: roll out an env's supervisor and write a Minari dataset.
 
 Actions are the supervisor's labels; what was executed, and by whom, is in the infos (see
-:mod:`fluids_bench.data.minari_export`). Episode ``i`` uses seed ``--seed + i``, so the data do
-not depend on ``--workers`` or ``--backend``.
+`fluids_bench.data.minari_export`). Episode `i` uses seed `--seed + i`, so the data do
+not depend on `--workers` or `--backend`.
 
 Everything that can refuse does so before collecting: an existing id (without
-``--overwrite``), ``--data-format hdf5`` without h5py (the ``hdf5`` extra), and an id another
-run is writing right now (:mod:`fluids_bench.data.claims`). Reference scores: given
-``--ref-min-score``/``--ref-max-score``, those; otherwise the id's measured ones where the
+`--overwrite`), `--data-format hdf5` without h5py (the `hdf5` extra), and an id another
+run is writing right now (`fluids_bench.data.claims`). Reference scores: given
+`--ref-min-score`/`--ref-max-score`, those; otherwise the id's measured ones where the
 project has them (the mean return of random actions and of the default supervisor, today the
-locomotion ids with their default supervisor), else none. Example::
+locomotion ids with their default supervisor), else none. Example:
 
     fluids-bench collect --env FLUIDS-v0 --episodes 100 --dataset fluids/velocity-noisy-v0 \\
         --env-kwarg action_level=velocity --noise 0.5 --workers 2
@@ -21,6 +21,7 @@ import argparse
 import json
 import sys
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.train import _key_value
 
 
@@ -28,7 +29,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "collect",
         help="collect supervisor-labelled episodes into a Minari dataset",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="registered env id, e.g. FLUIDS-v0")
@@ -92,9 +93,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def reference_scores(env) -> tuple[float | None, float | None]:
-    """``(ref_min_score, ref_max_score)`` where the project has measured them for this env
-    (``metadata["reference_scores"]``: the mean return of random actions and of the id's
-    default supervisor; today the locomotion ids), else ``(None, None)``: both or neither,
+    """`(ref_min_score, ref_max_score)` where the project has measured them for this env
+    (`metadata["reference_scores"]`: the mean return of random actions and of the id's
+    default supervisor; today the locomotion ids), else `(None, None)`: both or neither,
     since Minari given only one would run 100 random episodes to estimate the other."""
     refs = env.unwrapped.metadata.get("reference_scores") or {}
     low, high = refs.get("random"), refs.get("supervisor")

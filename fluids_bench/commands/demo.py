@@ -1,27 +1,27 @@
-"""``fluids-bench demo``: one seeded episode of any registered id under its supervisor.
+"""`fluids-bench demo`: one seeded episode of any registered id under its supervisor.
 
-The controlled agent follows the supervisor's label (``info["supervisor_action"]``) every
+The controlled agent follows the supervisor's label (`info["supervisor_action"]`) every
 step; for the multi-agent ids (PettingZoo ParallelEnvs, built with
-``fluids_bench.registration.make_parallel_env``) every agent follows its own label. The command
-prints a summary and writes, under ``--out`` (default ``fluids_demo/<ID>/``, one folder per id):
+`fluids_bench.registration.make_parallel_env`) every agent follows its own label. The command
+prints a summary and writes, under `--out` (default `fluids_demo/<ID>/`, one folder per id):
 
-* ``episode.png``, a snapshot: for FLUIDS ids the first collision if there is one, else the ego
+* `episode.png`, a snapshot: for FLUIDS ids the first collision if there is one, else the ego
   nearest the junction's centre (candidates are drawn as the episode goes, about 2 ms each);
-  for the others the last frame, and with ``--no-video`` that one frame is all that is drawn;
-* ``episode.mp4`` (unless ``--no-video``): every ``--frame-every``-th step and the last, played
+  for the others the last frame, and with `--no-video` that one frame is all that is drawn;
+* `episode.mp4` (unless `--no-video`): every `--frame-every`-th step and the last, played
   in real time. By default the stride keeps drawing to about 15 s (MuJoCo's software renderer
   takes ~0.1 s a frame, so a 1,000-step locomotion episode is drawn every 7th step or so;
   FLUIDS, ~2 ms a frame, every step). The summary says which stride was used;
-* for an id whose actions are named decisions (``DAG-v0``), or one without pictures, also
-  ``episode.txt``: the episode as text, one line per step, also printed.
+* for an id whose actions are named decisions (`DAG-v0`), or one without pictures, also
+  `episode.txt`: the episode as text, one line per step, also printed.
 
-A progress bar counts steps on stderr (``--no-progress`` hides it). ``--steps N`` cuts the
-episode after N steps (the tests run every id that way). Steps per second time ``env.step``
+A progress bar counts steps on stderr (`--no-progress` hides it). `--steps N` cuts the
+episode after N steps (the tests run every id that way). Steps per second time `env.step`
 alone: drawing and encoding are not counted, and the env's compiled kernels (if any) are loaded
-in a throwaway env first. MuJoCo's compiler warnings go to Python's ``warnings``, not to a
-``MUJOCO_LOG.TXT`` in the working directory (:mod:`fluids_bench.tasks.locomotion.env`).
+in a throwaway env first. MuJoCo's compiler warnings go to Python's `warnings`, not to a
+`MUJOCO_LOG.TXT` in the working directory (`fluids_bench.tasks.locomotion.env`).
 
-Examples::
+Examples:
 
     fluids-bench demo --seed 3 --layout roundabout --steps 300
     fluids-bench demo --env Hopper-IL-v0 --no-video
@@ -36,6 +36,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.commands import plain_text
 from fluids_bench.tasks.fluids.sim.config import LAYOUTS
 
 VIDEO_NAME, SNAPSHOT_NAME, TEXT_NAME = "episode.mp4", "episode.png", "episode.txt"
@@ -51,7 +52,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     p = subparsers.add_parser(
         "demo",
         help="run a seeded episode under the supervisor (default FLUIDS-v0); write an MP4 and a PNG",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
@@ -94,8 +95,8 @@ def write_png(path: Path, frame) -> None:
 
 
 class Recorder:
-    """The frames of one episode: every ``every``-th step and the last into the video (when
-    there is one), and the snapshot. ``render`` draws the current state."""
+    """The frames of one episode: every `every`-th step and the last into the video (when
+    there is one), and the snapshot. `render` draws the current state."""
 
     def __init__(self, render, out: Path, fps: float, video: bool, every: int | None, limit: int):
         self.render, self.out, self.writer = render, out, None
@@ -112,7 +113,7 @@ class Recorder:
             self.writer = open_video(out / VIDEO_NAME, max(fps / every, 1.0))
 
     def frame(self, step: int, last: bool) -> Any:
-        """Draw step ``step`` into the video when it is due (and always the last step);
+        """Draw step `step` into the video when it is due (and always the last step);
         returns the frame drawn, or None."""
         if self.writer is None or not (last or step % self.every == 0):
             return None
@@ -134,7 +135,7 @@ class Recorder:
 
 
 def _padded(frame):
-    """``frame`` padded (edge colour) to multiples of 16 pixels: H.264 wants them, and imageio
+    """`frame` padded (edge colour) to multiples of 16 pixels: H.264 wants them, and imageio
     would otherwise resize it, warning on every video (DrivingTrack's 500 x 500)."""
     import numpy as np
 
@@ -164,7 +165,7 @@ def progress_bar(total: int | None, env_id: str, disable: bool):
 
 
 def _registered(env_id: str) -> str:
-    """``"gym"`` or ``"pettingzoo"``: which registry holds ``env_id``; ValueError if neither."""
+    """`"gym"` or `"pettingzoo"`: which registry holds `env_id`; ValueError if neither."""
     import gymnasium as gym
 
     import fluids_bench  # noqa: F401  (registers the env ids)
@@ -181,7 +182,7 @@ def _registered(env_id: str) -> str:
 
 
 def _draws(env_id: str) -> bool:
-    """Whether ``env_id`` renders rgb_array frames (else the demo writes text)."""
+    """Whether `env_id` renders rgb_array frames (else the demo writes text)."""
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
 

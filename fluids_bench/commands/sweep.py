@@ -1,30 +1,30 @@
-"""``fluids-bench sweep``: a sensitivity sweep of a policy over a grid of env configurations
+"""`fluids-bench sweep`: a sensitivity sweep of a policy over a grid of env configurations
 (for FLUIDS the analysis of ch. 7, Fig. 7.6).
 
 Evaluates a policy on every configuration of the grid (default: cars 2–5, pedestrians 0–4,
-quasi-LIDAR noise and omission, lights, car mass; 256 configurations) with ``--episodes``
+quasi-LIDAR noise and omission, lights, car mass; 256 configurations) with `--episodes`
 seeded episodes each of FLUIDS-Sensitivity-v0, and plots the success rate (every car reaches
 its goal) against each normalised parameter. Rows are stored as configurations finish: run the
-same command again after an interruption and it resumes. Example::
+same command again after an interruption and it resumes. Example:
 
     fluids-bench sweep --out out/sweep --episodes 20 --workers 2
     fluids-bench sweep --out out/small --values cars=2,5 --values pedestrians=0 --episodes 5
     fluids-bench sweep --env FLUIDS-Sensitivity-v1 --out out/sweep_v1 \
         --values car_mass=750,1500,3000 --check-episodes 100
 
-Any registered id: ``--env ID --values NAME=V1,V2`` (repeatable) sweeps those keyword
-arguments of the env (checked by the env itself before any work); without ``--values`` the id's
-default sensitivity grid (``fluids_bench.sweep.grid.SENSITIVITY``). ``--env-kwarg K=V`` fixes a
-kwarg for training and every test configuration; ``--train-kwarg K=V`` for training only::
+Any registered id: `--env ID --values NAME=V1,V2` (repeatable) sweeps those keyword
+arguments of the env (checked by the env itself before any work); without `--values` the id's
+default sensitivity grid (`fluids_bench.sweep.grid.SENSITIVITY`). `--env-kwarg K=V` fixes a
+kwarg for training and every test configuration; `--train-kwarg K=V` for training only:
 
     fluids-bench sweep --env Singulation-v0 --policy supervisor --out out/sing --episodes 10
     fluids-bench sweep --env DrivingTrack-v0 --env-kwarg obs_type=state --algo dagger \
         --iterations 3 --demos 5 --values edges=3,5,7 --values speed=7.5,10,12.5
 
-The default policy is ``--algo`` (Behavior Cloning unless told) trained on ``--demos``
+The default policy is `--algo` (Behavior Cloning unless told) trained on `--demos`
 supervisor demonstrations per iteration (trained once, cached in the output folder);
-``--policy PATH`` evaluates a pickled policy instead (anything with ``act(observation)``;
-pickles run code, load only your own), ``--policy supervisor`` the supervisor itself.
+`--policy PATH` evaluates a pickled policy instead (anything with `act(observation)`;
+pickles run code, load only your own), `--policy supervisor` the supervisor itself.
 Besides the sensitivity PNG, a kwarg grid writes heatmaps for every pair of factors
 (OUT/heatmaps.png) and a summary table (OUT/summary.md).
 """
@@ -37,6 +37,7 @@ import sys
 import time
 from pathlib import Path
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.train import _key_value
 
 
@@ -55,7 +56,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "sweep",
         help="sensitivity sweep of a policy over scene parameters (resumable, PNG plot)",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--out", type=Path, default=Path("out/sweep"), help="output folder")
@@ -211,7 +212,7 @@ MATRIX = "matrix.json"
 
 
 def _run_matrix(args, grid, env_id, fixed, max_steps, workers) -> int:
-    """Train one policy per configuration of the ``--train-values`` grid and sweep each over the
+    """Train one policy per configuration of the `--train-values` grid and sweep each over the
     test grid, in OUT/train_<k>/; then OUT/matrix.json and OUT/matrix.md."""
     import copy
     import json
@@ -292,7 +293,7 @@ def _kwargs_text(kwargs) -> str:
 
 
 def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
-    """Train (or load) the policy, sweep it over ``grid`` into ``args.out``, write the plots;
+    """Train (or load) the policy, sweep it over `grid` into `args.out`, write the plots;
     the rows."""
     from tqdm.auto import tqdm
 

@@ -1,14 +1,14 @@
-"""``fluids-bench train``: run one imitation-learning algorithm on one env, save JSON and a PNG.
+"""`fluids-bench train`: run one imitation-learning algorithm on one env, save JSON and a PNG.
 
-The JSON is rewritten (atomically) as each iteration finishes, marked ``"complete": false``
+The JSON is rewritten (atomically) as each iteration finishes, marked `"complete": false`
 until the run ends: an interrupted run (Ctrl-C) keeps the records of its finished iterations
 and says where. Every finished rollout and evaluation is kept in OUT/<run>.checkpoint/ until
-the run completes; the same command with ``--resume`` continues from there (without it, a run
+the run completes; the same command with `--resume` continues from there (without it, a run
 starts again from the beginning).
 
-The rollouts of an iteration and the evaluation episodes run on ``--workers`` processes, or
-as Ray tasks with ``--backend ray``; the learner is fitted in this process. The records are
-the same whatever the workers and the backend. Example::
+The rollouts of an iteration and the evaluation episodes run on `--workers` processes, or
+as Ray tasks with `--backend ray`; the learner is fitted in this process. The records are
+the same whatever the workers and the backend. Example:
 
     fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
         --env-kwarg world_seed=3 --iterations 20 --out out/train --workers 2
@@ -23,6 +23,8 @@ import shutil
 import sys
 from pathlib import Path
 from typing import Any
+
+from fluids_bench.commands import plain_text
 
 # option -> (config field, type, help); the field decides which algorithms accept it
 ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
@@ -67,10 +69,21 @@ ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
     "--steps-per-iteration": ("steps_per_iteration", int, "ogd: gradient steps per iteration"),
 }
 LIST_FIELDS = {"retrain_at", "update_at"}
+# `fluids_bench.algos.policies.FAMILIES`, spelled out so that building the parser does not
+# import scikit-learn (tests/algos/test_train_cli.py checks that the two agree)
+POLICY_FAMILIES = (
+    "kernel_ridge",
+    "knn",
+    "linear_svm",
+    "linear_svm_span",
+    "mlp",
+    "tree",
+    "constant",
+)
 
 
 def _key_value(text: str) -> tuple[str, Any]:
-    """``KEY=VALUE`` with VALUE parsed as JSON when it is JSON (numbers, bools, lists)."""
+    """`KEY=VALUE` with VALUE parsed as JSON when it is JSON (numbers, bools, lists)."""
     key, sep, value = text.partition("=")
     if not sep or not key:
         raise argparse.ArgumentTypeError(f"expected KEY=VALUE, got {text!r}")
@@ -88,7 +101,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "train",
         help="run an imitation-learning algorithm on an env; write JSON results and a PNG",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="env id, e.g. GridWorld-v0, DAG-v0")
@@ -96,7 +109,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
         "--algo", required=True, help="bc, dagger, dagger_b, noise, dart, shiv, ogd"
     )
     parser.add_argument("--env-kwarg", action="append", type=_key_value, default=[], metavar="K=V")
-    parser.add_argument("--policy", default="tree", help="learner family (see algos.policies)")
+    parser.add_argument(
+        "--policy",
+        default="tree",
+        help=f"learner family: {', '.join(POLICY_FAMILIES)} (default: tree)",
+    )
     parser.add_argument(
         "--policy-param", action="append", type=_key_value, default=[], metavar="K=V"
     )
@@ -186,7 +203,7 @@ def build_config(args: argparse.Namespace) -> tuple[str, Any]:
 
 
 def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
-    """The JSON of a run stopped after ``records`` (``"complete": false``): the finished
+    """The JSON of a run stopped after `records` (`"complete": false`): the finished
     iterations' records and the config; the supervisor's reference return comes with the
     complete result only."""
     return {
@@ -198,8 +215,8 @@ def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
 
 
 def _saved_run_is_complete(path: Path, name: str, config: Any) -> bool:
-    """Whether ``path`` holds the complete result of this run; a run with other settings there
-    is refused (``--resume`` continues a run, it does not replace one)."""
+    """Whether `path` holds the complete result of this run; a run with other settings there
+    is refused (`--resume` continues a run, it does not replace one)."""
     if not path.is_file():
         return False
     saved = json.loads(path.read_text())

@@ -1,22 +1,22 @@
 """A local process pool whose workers never outlive the program that started them.
 
-:func:`process_pool` is a :class:`~concurrent.futures.ProcessPoolExecutor` (``"forkserver"`` or
-``"spawn"``) with three guarantees the plain one lacks:
+`process_pool` is a `ProcessPoolExecutor` (`"forkserver"` or
+`"spawn"`) with three guarantees the plain one lacks:
 
 * a worker exits when the program that made the pool dies, even by SIGKILL (which runs no
   clean-up): each worker runs a daemon thread polling that program's pid, and on Linux also
-  asks the kernel for SIGKILL when its own parent exits (``PR_SET_PDEATHSIG``). Without this a
-  killed ``collect --workers 2`` left its workers, the fork server and the resource tracker
+  asks the kernel for SIGKILL when its own parent exits (`PR_SET_PDEATHSIG`). Without this a
+  killed `collect --workers 2` left its workers, the fork server and the resource tracker
   running for ever;
 * Ctrl-C is the calling program's: workers ignore SIGINT (the terminal sends it to the whole
-  process group), so there is one ``KeyboardInterrupt``, in the caller, not one traceback per
+  process group), so there is one `KeyboardInterrupt`, in the caller, not one traceback per
   worker;
 * leaving the block by an exception (Ctrl-C included) cancels the queued tasks, lets each worker
   finish the task it holds for a few seconds, then terminates what is left, instead of
   waiting for every queued task;
-* each worker computes with one BLAS thread (:func:`one_blas_thread`).
+* each worker computes with one BLAS thread (`one_blas_thread`).
 
-:func:`one_blas_thread` is also the ``initializer`` for the scripts' plain process pools.
+`one_blas_thread` is also the `initializer` for the scripts' plain process pools.
 """
 
 from __future__ import annotations
@@ -42,7 +42,7 @@ BLAS_THREAD_VARIABLES = ("OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS", "MKL_NUM_THR
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` is running (a zombie, killed but not yet reaped, is not)."""
+    """Whether process `pid` is running (a zombie, killed but not yet reaped, is not)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -57,7 +57,7 @@ def pid_alive(pid: int) -> bool:
 
 
 def descendants(pid: int) -> list[int]:
-    """Every process below ``pid`` (children, their children, ...), read from Linux's /proc
+    """Every process below `pid` (children, their children, ...), read from Linux's /proc
     (empty elsewhere): what a clean shutdown must leave behind none of."""
     parents: dict[int, list[int]] = {}
     entries = os.listdir("/proc") if os.path.isdir("/proc") else []
@@ -147,8 +147,8 @@ def process_pool(
     initializer: Callable[..., None] | None = None,
     initargs: tuple[Any, ...] = (),
 ) -> Iterator[ProcessPoolExecutor]:
-    """A pool of ``workers`` processes (see the module docstring). ``preload``: modules the
-    fork server imports once, before forking workers (``"forkserver"`` only)."""
+    """A pool of `workers` processes (see the module docstring). `preload`: modules the
+    fork server imports once, before forking workers (`"forkserver"` only)."""
     context = multiprocessing.get_context(start_method)
     if start_method == "forkserver" and preload:
         context.set_forkserver_preload(list(preload))
@@ -169,8 +169,8 @@ def process_pool(
 def as_finished(
     fn: Callable[..., Any], jobs: Sequence[tuple[Any, ...]], workers: int
 ) -> Iterator[tuple[int, Any]]:
-    """``(i, fn(*jobs[i]))`` as each job finishes, with one BLAS thread either way (so results
-    do not depend on the core count): in this process for one worker (``fn`` need not be
+    """`(i, fn(*jobs[i]))` as each job finishes, with one BLAS thread either way (so results
+    do not depend on the core count): in this process for one worker (`fn` need not be
     importable by a worker, e.g. a script loaded by path), else in a plain process pool."""
     if workers == 1:
         with threadpool_limits(1):

@@ -1,6 +1,6 @@
 """Where a result came from: the command line that produced it and the machine it ran on.
 
-Every script that writes a results file for the docs (``docs/results/*.json``) stores both, so a
+Every script that writes a results file for the docs (`docs/results/*.json`) stores both, so a
 number on a page carries its command, seeds and machine.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 
 def command_line() -> str:
-    """The running script's command line, its path shown from the repository's ``scripts/``."""
+    """The running script's command line, its path shown from the repository's `scripts/`."""
     script = Path(sys.argv[0]).resolve()
     parts = script.parts
     shown = (

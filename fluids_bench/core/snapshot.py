@@ -1,26 +1,26 @@
-"""Snapshots of an env's state: ``env.unwrapped.snapshot()`` and ``restore(snapshot)``.
+"""Snapshots of an env's state: `env.unwrapped.snapshot()` and `restore(snapshot)`.
 
-Every Gymnasium env of the suite mixes in :class:`SnapshotMixin`. ``snapshot()`` returns an
-:class:`EnvSnapshot`: a picklable record of everything the env's future depends on (the
-simulator, the supervisor's memory where it has one, the episode counters and ``np_random``),
-plus the env's class, id and construction kwargs. ``restore(snapshot)`` on another env of the
-same class and kwargs (built with ``gym.make`` of the same id, reset with any seed or not reset
+Every Gymnasium env of the suite mixes in `SnapshotMixin`. `snapshot()` returns an
+`EnvSnapshot`: a picklable record of everything the env's future depends on (the
+simulator, the supervisor's memory where it has one, the episode counters and `np_random`),
+plus the env's class, id and construction kwargs. `restore(snapshot)` on another env of the
+same class and kwargs (built with `gym.make` of the same id, reset with any seed or not reset
 at all) makes it continue bit-identically under the same actions: the same observations,
 rewards, terminated/truncated flags, infos and supervisor labels. Restoring into an env of
-another class, id or kwargs raises ``ValueError`` (``render_mode`` may differ: drawing only
+another class, id or kwargs raises `ValueError` (`render_mode` may differ: drawing only
 reads).
 
-What an env's state is, each env says in :attr:`SnapshotMixin._snapshot_fields` (attribute
+What an env's state is, each env says in `SnapshotMixin._snapshot_fields` (attribute
 names, copied by pickling them together, so objects they share stay shared) and
-:meth:`SnapshotMixin._snapshot_static` (objects built from the kwargs alone, which reset and
+`SnapshotMixin._snapshot_static` (objects built from the kwargs alone, which reset and
 step never change, such as a compiled FLUIDS layout: stored by name, never copied, and taken
-from the restoring env). An env whose state needs more (MuJoCo's ``MjData``) overrides
-:meth:`SnapshotMixin._snapshot_state` / :meth:`SnapshotMixin._restore_state`.
+from the restoring env). An env whose state needs more (MuJoCo's `MjData`) overrides
+`SnapshotMixin._snapshot_state` / `SnapshotMixin._restore_state`.
 
-``env.unwrapped.snapshot()`` covers the env, not the wrappers ``gym.make`` puts around it:
-``TimeLimit`` counts the episode's steps itself. :func:`snapshot` and :func:`restore` take a
-wrapped env and also carry the wrappers' counters (``TimeLimit``'s elapsed steps, the
-``OrderEnforcing`` reset flag), so truncation happens at the same step too.
+`env.unwrapped.snapshot()` covers the env, not the wrappers `gym.make` puts around it:
+`TimeLimit` counts the episode's steps itself. `snapshot` and `restore` take a
+wrapped env and also carry the wrappers' counters (`TimeLimit`'s elapsed steps, the
+`OrderEnforcing` reset flag), so truncation happens at the same step too.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ WRAPPER_FIELDS = {
 
 
 def _plain(value: Any) -> Any:
-    """``value`` with numpy scalars as Python numbers and tuples as lists (for comparison)."""
+    """`value` with numpy scalars as Python numbers and tuples as lists (for comparison)."""
     if isinstance(value, np.generic):
         return value.item()
     if isinstance(value, np.ndarray):
@@ -65,11 +65,11 @@ def _class_name(cls: type) -> str:
 
 @dataclass(frozen=True)
 class EnvSnapshot:
-    """The state of one env at one moment (picklable; restore it with ``env.restore``).
+    """The state of one env at one moment (picklable; restore it with `env.restore`).
 
-    ``env_class`` (``module:qualname``), ``env_id`` (None for an env built without
-    ``gym.make``) and ``kwargs`` (every construction argument, defaults included, without
-    ``render_mode``) say which envs it fits; ``state`` is the pickled state itself."""
+    `env_class` (`module:qualname`), `env_id` (None for an env built without
+    `gym.make`) and `kwargs` (every construction argument, defaults included, without
+    `render_mode`) say which envs it fits; `state` is the pickled state itself."""
 
     env_class: str
     env_id: str | None
@@ -78,7 +78,7 @@ class EnvSnapshot:
 
 
 class SnapshotMixin:
-    """``snapshot()`` / ``restore()`` for an env class; see the module docstring."""
+    """`snapshot()` / `restore()` for an env class; see the module docstring."""
 
     # attribute names holding the env's state (Gymnasium's np_random is always added)
     _snapshot_fields: tuple[str, ...] = ()
@@ -95,18 +95,18 @@ class SnapshotMixin:
         return {}
 
     def _snapshot_state(self) -> dict[str, Any]:
-        """The env's state as a dict (pickled by :meth:`snapshot`)."""
+        """The env's state as a dict (pickled by `snapshot`)."""
         names = (*RNG_FIELDS, *self._snapshot_fields)
         return {name: getattr(self, name) for name in names if hasattr(self, name)}
 
     def _restore_state(self, state: dict[str, Any]) -> None:
-        """Put ``state`` (what :meth:`_snapshot_state` returned, unpickled) into this env."""
+        """Put `state` (what `_snapshot_state` returned, unpickled) into this env."""
         for name, value in state.items():
             setattr(self, name, value)
 
     # -- the API ---------------------------------------------------------------------------
     def snapshot(self) -> EnvSnapshot:
-        """A picklable copy of the env's current state; :meth:`restore` it on an env of the
+        """A picklable copy of the env's current state; `restore` it on an env of the
         same id and kwargs to continue from here bit-identically."""
         static = self._snapshot_static()
         by_id = {id(obj): name for name, obj in static.items()}
@@ -122,10 +122,10 @@ class SnapshotMixin:
         )
 
     def restore(self, snapshot: EnvSnapshot) -> None:
-        """Continue from ``snapshot`` (taken from an env of the same class, id and kwargs).
+        """Continue from `snapshot` (taken from an env of the same class, id and kwargs).
 
-        Raises ``ValueError`` naming the difference when ``snapshot`` is from another kind
-        of env, and ``TypeError`` when it is not an :class:`EnvSnapshot`."""
+        Raises `ValueError` naming the difference when `snapshot` is from another kind
+        of env, and `TypeError` when it is not an `EnvSnapshot`."""
         if not isinstance(snapshot, EnvSnapshot):
             raise TypeError(
                 f"{type(self).__name__}.restore: snapshot is {type(snapshot).__name__}; "
@@ -186,8 +186,8 @@ class SnapshotMixin:
 
 
 def _recording_kwargs(init):
-    """Wrap ``__init__`` so the instance records its construction kwargs (defaults applied,
-    as plain Python values) before anything else runs: the outermost ``__init__`` wins."""
+    """Wrap `__init__` so the instance records its construction kwargs (defaults applied,
+    as plain Python values) before anything else runs: the outermost `__init__` wins."""
     signature = inspect.signature(init)
 
     @functools.wraps(init)
@@ -212,7 +212,7 @@ def _recording_kwargs(init):
 
 @dataclass(frozen=True)
 class WrappedSnapshot:
-    """A snapshot of a wrapped env: the base env's :class:`EnvSnapshot` and the wrappers'
+    """A snapshot of a wrapped env: the base env's `EnvSnapshot` and the wrappers'
     episode counters (outermost first)."""
 
     env: EnvSnapshot
@@ -228,9 +228,9 @@ def _chain(env: gym.Env) -> list[gym.Env]:
 
 
 def snapshot(env: gym.Env) -> WrappedSnapshot:
-    """``env.unwrapped.snapshot()`` plus the wrappers' counters (``TimeLimit``'s elapsed steps,
-    ``OrderEnforcing``'s reset flag): restore it with :func:`restore` into an env built the
-    same way (``gym.make`` of the same id) and it also truncates at the same step."""
+    """`env.unwrapped.snapshot()` plus the wrappers' counters (`TimeLimit`'s elapsed steps,
+    `OrderEnforcing`'s reset flag): restore it with `restore` into an env built the
+    same way (`gym.make` of the same id) and it also truncates at the same step."""
     wrappers = tuple(
         (type(w).__name__, {k: getattr(w, k) for k in WRAPPER_FIELDS.get(type(w).__name__, ())})
         for w in _chain(env)
@@ -239,7 +239,7 @@ def snapshot(env: gym.Env) -> WrappedSnapshot:
 
 
 def restore(env: gym.Env, snap: WrappedSnapshot) -> None:
-    """Put ``snap`` (from :func:`snapshot`) into ``env``, which must be wrapped the same way."""
+    """Put `snap` (from `snapshot`) into `env`, which must be wrapped the same way."""
     chain = _chain(env)
     names = tuple(type(w).__name__ for w in chain)
     if names != tuple(name for name, _ in snap.wrappers):

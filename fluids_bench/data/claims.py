@@ -1,12 +1,12 @@
 """One writer per dataset id: a claim file created exclusively before collecting.
 
-Two ``fluids-bench collect`` runs into the same new id both passed the "does it exist?" check
+Two `fluids-bench collect` runs into the same new id both passed the "does it exist?" check
 (it did not, yet), both collected, and the second silently replaced the first. A claim closes
-that window from the start: ``O_CREAT | O_EXCL`` is atomic on a local file system (and on NFS
+that window from the start: `O_CREAT | O_EXCL` is atomic on a local file system (and on NFS
 v3+), so of two runs racing for one id exactly one creates the claim and the other is refused
-before it collects anything. The claim holds ``host pid``; a claim whose process is gone (a run
+before it collects anything. The claim holds `host pid`; a claim whose process is gone (a run
 killed with SIGKILL, which runs no clean-up) is taken over. The export's final rename never
-replaces a dataset that appeared meanwhile either (:mod:`fluids_bench.data.minari_export`), so
+replaces a dataset that appeared meanwhile either (`fluids_bench.data.minari_export`), so
 the claim is the early refusal and the rename the guarantee.
 """
 
@@ -25,12 +25,12 @@ CLAIMS_DIR = ".fluids-bench-claims"  # hidden: Minari skips dot-folders when lis
 
 
 def claim_path(root: Path, dataset_id: str) -> Path:
-    """The claim file of ``dataset_id`` under the datasets root (one flat name per id)."""
+    """The claim file of `dataset_id` under the datasets root (one flat name per id)."""
     return root / CLAIMS_DIR / quote(dataset_id, safe="")
 
 
 def _owner(path: Path) -> tuple[str, int] | None:
-    """``(host, pid)`` written in a claim, or None when unreadable (being written, or gone)."""
+    """`(host, pid)` written in a claim, or None when unreadable (being written, or gone)."""
     try:
         host, pid = path.read_text().split()
         return host, int(pid)
@@ -57,7 +57,7 @@ def _create(path: Path) -> bool:
 
 @contextlib.contextmanager
 def claim_dataset(root: Path, dataset_id: str) -> Iterator[Path]:
-    """Hold the claim on ``dataset_id`` for the block; ``FileExistsError`` naming the process
+    """Hold the claim on `dataset_id` for the block; `FileExistsError` naming the process
     that holds it when another live run does."""
     path = claim_path(root, dataset_id)
     if not _create(path):

@@ -1,28 +1,28 @@
 """Supervisor-labelled episodes collected in parallel: a local process pool, or Ray.
 
-Every episode is :func:`fluids_bench.algos.rollout.rollout` (the suite's one rollout function)
-on ``gym.make(env_id, **env_kwargs)``, and returns its :class:`~fluids_bench.algos.dataset.Trajectory`:
+Every episode is `fluids_bench.algos.rollout.rollout` (the suite's one rollout function)
+on `gym.make(env_id, **env_kwargs)`, and returns its `Trajectory`:
 the observations, the executed actions, the supervisor's labels of the states they were taken
-from, rewards and infos. Who acts is an :class:`ActorSpec`:
+from, rewards and infos. Who acts is an `ActorSpec`:
 
-* ``"supervisor"``: the supervisor itself (the executed action is the label);
-* ``"noise"``: the supervisor with injected noise: ``label + N(0, noise_std² I)`` clipped to
-  the bounds for Box actions, another action with probability ``epsilon`` for Discrete ones
-  (:func:`fluids_bench.algos.noise.isotropic_actor`); the label stays the supervisor's;
-* ``"learner"``: a fitted policy acts and the supervisor labels what it visits.
+* `"supervisor"`: the supervisor itself (the executed action is the label);
+* `"noise"`: the supervisor with injected noise: `label + N(0, noise_std² I)` clipped to
+  the bounds for Box actions, another action with probability `epsilon` for Discrete ones
+  (`fluids_bench.algos.noise.isotropic_actor`); the label stays the supervisor's;
+* `"learner"`: a fitted policy acts and the supervisor labels what it visits.
 
-Reproducibility: episode ``i`` always runs from ``reset(seed=seed + i)`` and its actor draws
+Reproducibility: episode `i` always runs from `reset(seed=seed + i)` and its actor draws
 from a generator derived from that seed only, each worker keeps one env per (id, kwargs) and
 every episode starts from a full reset, and results come back ordered by episode index. So the
 same arguments give identical data whatever the backend and the number of workers.
 
-Backends: ``"process"`` (default) runs ``workers`` processes of a
-:class:`~concurrent.futures.ProcessPoolExecutor` started with ``start_method``
-(``"forkserver"``, whose server imports this module once, or ``"spawn"``; never ``fork``, and
+Backends: `"process"` (default) runs `workers` processes of a
+`ProcessPoolExecutor` started with `start_method`
+(`"forkserver"`, whose server imports this module once, or `"spawn"`; never `fork`, and
 everything sent to workers pickles by reference or by value), or in this process when
-``workers == 1``. ``"ray"`` runs one Ray task per episode, at most ``workers`` at
-a time, on the Ray instance already initialised, else on the cluster at ``address``, else on a
-local instance it starts (and stops) with ``workers`` CPUs; Ray is the ``ray`` extra.
+`workers == 1`. `"ray"` runs one Ray task per episode, at most `workers` at
+a time, on the Ray instance already initialised, else on the cluster at `address`, else on a
+local instance it starts (and stops) with `workers` CPUs; Ray is the `ray` extra.
 """
 
 from __future__ import annotations
@@ -54,7 +54,7 @@ RAY_MISSING = 'backend="ray" needs Ray: pip install "fluids-bench[ray]"'
 
 @dataclass(frozen=True)
 class ActorSpec:
-    """Who executes the actions (``kind``, one of :data:`PROVENANCES`) and with which noise."""
+    """Who executes the actions (`kind`, one of `PROVENANCES`) and with which noise."""
 
     kind: str = "supervisor"
     noise_std: float = 0.0  # "noise", Box actions: std of the Gaussian added to the label
@@ -130,10 +130,10 @@ def collect(
     start_method: str = "forkserver",
     progress: bool = True,
 ) -> list[Trajectory]:
-    """Collect ``episodes`` episodes of ``env_id``; episode ``i`` uses seed ``seed + i``.
+    """Collect `episodes` episodes of `env_id`; episode `i` uses seed `seed + i`.
 
-    ``max_steps`` cuts episodes short (on top of the env's own time limit). Returns the
-    trajectories in episode order. ``progress`` shows a tqdm bar (episodes and pairs).
+    `max_steps` cuts episodes short (on top of the env's own time limit). Returns the
+    trajectories in episode order. `progress` shows a tqdm bar (episodes and pairs).
     """
     check_int("collect", "episodes", episodes, 1)
     check_int("collect", "seed", seed, 0)
@@ -175,7 +175,7 @@ def _bounded(
     limit: int,
     wait_any: Callable[[set], tuple[set, set]],
 ) -> Iterator[Any]:
-    """Keep at most ``limit`` tasks in flight; yield each finished handle."""
+    """Keep at most `limit` tasks in flight; yield each finished handle."""
     pending: set = set()
     for task in tasks:
         if len(pending) >= limit:
@@ -205,7 +205,7 @@ def _run_pool(
 
 
 def import_ray():
-    """``ray``, or an ImportError naming the extra that installs it."""
+    """`ray`, or an ImportError naming the extra that installs it."""
     try:
         import ray
     except ImportError as exc:
@@ -215,8 +215,8 @@ def import_ray():
 
 @contextlib.contextmanager
 def ray_session(workers: int, address: str | None):
-    """Ray, initialised for this block (a cluster at ``address``, else a local instance of
-    ``workers`` CPUs) unless it already was; shut down after if this block started it."""
+    """Ray, initialised for this block (a cluster at `address`, else a local instance of
+    `workers` CPUs) unless it already was; shut down after if this block started it."""
     ray = import_ray()
     started = not ray.is_initialized()
     if started:
@@ -232,7 +232,7 @@ def ray_session(workers: int, address: str | None):
 
 
 def ray_results(ray, submit: Callable[[Any], Any], tasks, workers: int):
-    """Results of ``submit(task)`` remote calls, at most ``workers`` in flight, as they finish."""
+    """Results of `submit(task)` remote calls, at most `workers` in flight, as they finish."""
 
     def wait_any(pending: set) -> tuple[set, set]:
         finished, rest = ray.wait(list(pending), num_returns=1)

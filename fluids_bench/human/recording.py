@@ -1,38 +1,38 @@
 """Datasets people record (teleop) or label (relabel), and the env states stored with them.
 
-A recorded dataset is a Minari dataset laid out as :mod:`fluids_bench.data.minari_export`'s
-(``actions`` are the labels, infos have ``T + 1`` rows with the reset's first, so a per-step
-column's row ``t + 1`` belongs to step ``t``), with these infos columns:
+A recorded dataset is a Minari dataset laid out as `fluids_bench.data.minari_export`'s
+(`actions` are the labels, infos have `T + 1` rows with the reset's first, so a per-step
+column's row `t + 1` belongs to step `t`), with these infos columns:
 
-* ``executed_action``: what the env executed at step ``t`` (the person's action, plus the
-  injected noise under ``--noise``);
-* ``provenance``: ``"human"``, ``"human_noise"`` (a person acted, noise was added),
-  ``"simulated_human"`` / ``"simulated_human_noise"`` (a simulated person), or what the source
+* `executed_action`: what the env executed at step `t` (the person's action, plus the
+  injected noise under `--noise`);
+* `provenance`: `"human"`, `"human_noise"` (a person acted, noise was added),
+  `"simulated_human"` / `"simulated_human_noise"` (a simulated person), or what the source
   dataset said;
-* ``supervisor_action``: the algorithmic supervisor's label of the same state;
-* ``time``: seconds since the session started when the action was taken;
-* ``reaction_time``: seconds from showing the state to the person's first input after it
+* `supervisor_action`: the algorithmic supervisor's label of the same state;
+* `time`: seconds since the session started when the action was taken;
+* `reaction_time`: seconds from showing the state to the person's first input after it
   (NaN when nothing changed while the state was shown);
-* ``noise_level``: the trace of the injected covariance (Box) or the probability of another
+* `noise_level`: the trace of the injected covariance (Box) or the probability of another
   action (Discrete), 0 without noise;
-* ``state_stored``: whether the env state of ``observations[t]`` is stored (row ``t``).
+* `state_stored`: whether the env state of `observations[t]` is stored (row `t`).
 
-``actions[t]`` is the person's intended action (with noise injected, what they meant, not what
-was executed). A relabelled dataset keeps the source's columns and adds ``original_action``
-(the source dataset's ``actions``), ``relabelled`` (whether a person labelled the step; when
-not, the action is the original) and ``label_time`` (seconds the person took).
+`actions[t]` is the person's intended action (with noise injected, what they meant, not what
+was executed). A relabelled dataset keeps the source's columns and adds `original_action`
+(the source dataset's `actions`), `relabelled` (whether a person labelled the step; when
+not, the action is the original) and `label_time` (seconds the person took).
 
-The env states live next to Minari's ``data`` folder, in ``fluids_bench_states/``: one file per
-episode, a pickled dict ``{t: snapshot}`` (:func:`fluids_bench.core.snapshot.snapshot`, the
+The env states live next to Minari's `data` folder, in `fluids_bench_states/`: one file per
+episode, a pickled dict `{t: snapshot}` (`fluids_bench.core.snapshot.snapshot`, the
 wrapped env's state including its time limit counter) for the observations whose state was
-stored (every ``snapshot_every`` steps, and the first). Any other step's state is rebuilt by
+stored (every `snapshot_every` steps, and the first). Any other step's state is rebuilt by
 restoring the nearest stored state before it and re-executing the recorded actions (the envs
-continue bit-identically); a dataset without stored states (e.g. from ``fluids-bench
-collect``) is replayed from its episode seeds. :class:`StateRebuilder` does this and checks
+continue bit-identically); a dataset without stored states (e.g. from `fluids-bench
+collect`) is replayed from its episode seeds. `StateRebuilder` does this and checks
 every rebuilt observation against the recorded one.
 
 Writing is atomic (staged in a hidden folder of the datasets root, then renamed into place, as
-``export_minari``); appending to an existing id rewrites it with the old episodes first.
+`export_minari`); appending to an existing id rewrites it with the old episodes first.
 """
 
 from __future__ import annotations
@@ -59,8 +59,8 @@ SESSIONS_FILE = "sessions.json"  # in STATES_DIR: one record per teleop / relabe
 
 @dataclass
 class Episode:
-    """One recorded episode: ``observations`` has ``T + 1`` rows, ``actions`` / ``rewards``
-    ``T``; every ``infos`` column ``T + 1`` rows; ``states`` maps observation index to a
+    """One recorded episode: `observations` has `T + 1` rows, `actions` / `rewards`
+    `T`; every `infos` column `T + 1` rows; `states` maps observation index to a
     wrapped snapshot."""
 
     seed: int | None
@@ -129,7 +129,7 @@ def episode_buffer(index: int, ep: Episode, obs_space, act_space) -> EpisodeBuff
 
 
 def env_spec(env: gym.Env) -> gym.envs.registration.EnvSpec:
-    """The env's spec without ``render_mode`` (a dataset rebuilds its env headless)."""
+    """The env's spec without `render_mode` (a dataset rebuilds its env headless)."""
     spec = env.spec
     kwargs = {k: v for k, v in spec.kwargs.items() if k != "render_mode"}
     return gym.envs.registration.EnvSpec(
@@ -148,7 +148,7 @@ def spec_of(dataset: minari.MinariDataset) -> gym.envs.registration.EnvSpec:
 
 
 def load_episodes(dataset: minari.MinariDataset) -> list[Episode]:
-    """Every episode of ``dataset`` with its infos and stored states (for append / relabel)."""
+    """Every episode of `dataset` with its infos and stored states (for append / relabel)."""
     root = Path(dataset.spec.data_path).parent / STATES_DIR
     metadata = list(dataset.storage.get_episode_metadata(dataset.episode_indices))
     out = []
@@ -192,8 +192,8 @@ def sessions(dataset_id: str) -> list[dict[str, Any]]:
 
 
 def check_writable(dataset_id: str, *, overwrite: bool = False, append: bool = False) -> bool:
-    """Whether ``dataset_id`` exists; FileExistsError when it does and neither ``overwrite``
-    nor ``append`` is set; ValueError for a malformed id or both flags."""
+    """Whether `dataset_id` exists; FileExistsError when it does and neither `overwrite`
+    nor `append` is set; ValueError for a malformed id or both flags."""
     check_dataset_id(dataset_id)
     if overwrite and append:
         raise ValueError("pass --append or --overwrite, not both")
@@ -219,8 +219,8 @@ def write_dataset(
     data_format: str = "arrow",
     previous_sessions: list[dict[str, Any]] | None = None,
 ) -> minari.MinariDataset:
-    """Write ``episodes`` (after the existing ones when ``append``) atomically as
-    ``dataset_id``, with their states and the session record; returns the loaded dataset."""
+    """Write `episodes` (after the existing ones when `append`) atomically as
+    `dataset_id`, with their states and the session record; returns the loaded dataset."""
     check_dataset_id(dataset_id)
     exists = check_writable(dataset_id, overwrite=overwrite, append=append)
     if not episodes:
@@ -281,7 +281,7 @@ def write_dataset(
 
 
 def next_version(dataset_id: str) -> str:
-    """``NAME-vK`` → ``NAME-v(K+1)``, skipping versions that exist."""
+    """`NAME-vK` → `NAME-v(K+1)`, skipping versions that exist."""
     namespace, name, version = check_dataset_id(dataset_id)
     prefix = f"{namespace}/{name}" if namespace else name
     version += 1
@@ -299,10 +299,10 @@ def _same_observation(a: Any, b: Any) -> bool:
 class StateRebuilder:
     """Puts an env into the state of any recorded observation (see the module docstring).
 
-    ``env`` is built from the dataset's spec (``render_mode`` as given). ``go(episode, t)``
-    restores the nearest stored state at or before ``t`` (or resets with the episode's seed),
-    re-executes the recorded actions up to ``t`` and checks the observation; consecutive
-    ``t`` of one episode step the env once."""
+    `env` is built from the dataset's spec (`render_mode` as given). `go(episode, t)`
+    restores the nearest stored state at or before `t` (or resets with the episode's seed),
+    re-executes the recorded actions up to `t` and checks the observation; consecutive
+    `t` of one episode step the env once."""
 
     def __init__(self, spec, episodes: list[Episode], dataset_id: str, render_mode=None):
         self.episodes = episodes

@@ -1,11 +1,11 @@
-"""The pygame window of ``teleop`` and ``relabel``: a frame, a status bar, and the input state.
+"""The pygame window of `teleop` and `relabel`: a frame, a status bar, and the input state.
 
-pygame is the optional ``human`` extra. The window shows an env's ``rgb_array`` frame (small
+pygame is the optional `human` extra. The window shows an env's `rgb_array` frame (small
 frames are scaled up by a whole factor) above a status bar, and turns pygame events into an
-:class:`~fluids_bench.human.controls.Inputs` plus commands: ``p`` pause, ``s`` slow motion,
-``r`` restart the episode, ``l`` toggle the supervisor's label overlay, Backspace go back
-(relabel), Esc or ``q`` or closing the window quit. Input can be injected with
-``pygame.event.post`` (the tests do); under SDL's dummy video driver or Xvfb it runs without
+`Inputs` plus commands: `p` pause, `s` slow motion,
+`r` restart the episode, `l` toggle the supervisor's label overlay, Backspace go back
+(relabel), Esc or `q` or closing the window quit. Input can be injected with
+`pygame.event.post` (the tests do); under SDL's dummy video driver or Xvfb it runs without
 a screen.
 """
 
@@ -26,7 +26,7 @@ MIN_SIDE = 400  # frames smaller than this are scaled up by a whole factor
 
 
 def require_pygame():
-    """Import pygame, or raise ImportError naming the ``human`` extra."""
+    """Import pygame, or raise ImportError naming the `human` extra."""
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     try:
         import pygame
@@ -59,7 +59,7 @@ INPUT_KEYS = {
 
 
 class Window:
-    """One pygame window; :meth:`poll` reads events, :meth:`show` draws a frame and status."""
+    """One pygame window; `poll` reads events, `show` draws a frame and status."""
 
     def __init__(self, title: str) -> None:
         self.pg = pg = require_pygame()
@@ -76,8 +76,8 @@ class Window:
 
     # -- events ----------------------------------------------------------------------------
     def poll(self) -> tuple[list[str], list[tuple[str, Any]]]:
-        """Read pending events: update :attr:`inputs`; return the commands and the input
-        events (``("key", name)`` for a key press, ``("click", button)``)."""
+        """Read pending events: update `inputs`; return the commands and the input
+        events (`("key", name)` for a key press, `("click", button)`)."""
         pg = self.pg
         commands: list[str] = []
         pressed: list[tuple[str, Any]] = []

@@ -1,25 +1,25 @@
 """Run independent tasks in parallel with one large shared payload: in-process, a local process
 pool, or Ray.
 
-``run_tasks(fn, tasks, shared, ...)`` calls ``fn(task, shared)`` for every task and hands each
-``(task, result)`` to ``on_result`` in the calling process as soon as it finishes (in
-completion order). ``fn`` must be a module-level function; ``shared`` (here: the policy under
+`run_tasks(fn, tasks, shared, ...)` calls `fn(task, shared)` for every task and hands each
+`(task, result)` to `on_result` in the calling process as soon as it finishes (in
+completion order). `fn` must be a module-level function; `shared` (here: the policy under
 evaluation, tens of MB) is sent to each worker once, not with every task:
 
-* ``"process"`` with ``workers == 1``: a plain loop in this process;
-* ``"process"``: a :class:`~concurrent.futures.ProcessPoolExecutor` of ``workers`` processes
-  started with ``start_method`` (``"forkserver"``, whose server imports ``fn``'s module once,
-  or ``"spawn"``; never ``fork``); each worker unpickles ``shared`` once in its initializer;
-* ``"ray"``: one Ray task per task, at most ``workers`` in flight, ``shared`` put in the object
-  store once; on the Ray instance already initialised, else on the cluster at ``address``, else
-  on a local instance started (and stopped) here with ``workers`` CPUs. Ray is the ``ray``
-  extra; without it an ImportError names ``pip install "fluids-bench[ray]"``.
+* `"process"` with `workers == 1`: a plain loop in this process;
+* `"process"`: a `ProcessPoolExecutor` of `workers` processes
+  started with `start_method` (`"forkserver"`, whose server imports `fn`'s module once,
+  or `"spawn"`; never `fork`); each worker unpickles `shared` once in its initializer;
+* `"ray"`: one Ray task per task, at most `workers` in flight, `shared` put in the object
+  store once; on the Ray instance already initialised, else on the cluster at `address`, else
+  on a local instance started (and stopped) here with `workers` CPUs. Ray is the `ray`
+  extra; without it an ImportError names `pip install "fluids-bench[ray]"`.
 
-:class:`TaskSession` keeps the workers (and so each worker's env) for several batches, each
+`TaskSession` keeps the workers (and so each worker's env) for several batches, each
 with its own shared payload: the algorithm layer's rollouts, one batch per iteration.
 
 The bounded submission loop and the Ray import are shared with
-:mod:`fluids_bench.data.collect`, whose pool and Ray runners are tied to per-episode tasks that
+`fluids_bench.data.collect`, whose pool and Ray runners are tied to per-episode tasks that
 return whole trajectories (and would pickle the policy with every episode).
 """
 
@@ -66,7 +66,7 @@ def run_tasks(
     address: str | None = None,
     start_method: str = "forkserver",
 ) -> None:
-    """Call ``fn(task, shared)`` for every task; ``on_result(task, result)`` as each finishes."""
+    """Call `fn(task, shared)` for every task; `on_result(task, result)` as each finishes."""
     check_choice("run_tasks", "backend", backend, BACKENDS)
     check_choice("run_tasks", "start_method", start_method, START_METHODS)
     check_int("run_tasks", "workers", workers, 1)
@@ -124,21 +124,21 @@ def _run_ray(
 class TaskSession:
     """Workers kept for several batches of tasks, each batch with its own shared payload.
 
-    :func:`run_tasks` starts its workers for one batch and hands them one payload for good; an
+    `run_tasks` starts its workers for one batch and hands them one payload for good; an
     algorithm runs a batch of rollouts per iteration with a new policy each time, and starting
     a pool (and each worker's env, and its compiled kernels) per iteration would cost more than
-    the rollouts. Used as ``with TaskSession(backend, workers, address) as session:``, then
-    ``session.run(fn, tasks, shared, on_result)`` per batch, with :func:`run_tasks`'s meaning:
+    the rollouts. Used as `with TaskSession(backend, workers, address) as session:`, then
+    `session.run(fn, tasks, shared, on_result)` per batch, with `run_tasks`'s meaning:
 
-    * ``"process"`` with ``workers == 1``: a plain loop in this process, nothing started;
-    * ``"process"``: one :func:`~fluids_bench.core.pool.process_pool` for the whole session (its
-      fork server imports ``preload`` once). A batch's payload is pickled once and travels
+    * `"process"` with `workers == 1`: a plain loop in this process, nothing started;
+    * `"process"`: one `process_pool` for the whole session (its
+      fork server imports `preload` once). A batch's payload is pickled once and travels
       with each of its tasks; a worker unpickles it once per batch;
-    * ``"ray"``: one :func:`~fluids_bench.data.collect.ray_session` for the whole session; a
+    * `"ray"`: one `ray_session` for the whole session; a
       batch's payload is put in the object store once.
 
     Leaving the block by an exception (Ctrl-C included) stops the workers at once (see
-    :mod:`fluids_bench.core.pool`); a finished batch has no task left in flight.
+    `fluids_bench.core.pool`); a finished batch has no task left in flight.
     """
 
     def __init__(
@@ -173,7 +173,7 @@ class TaskSession:
 
     @property
     def local(self) -> bool:
-        """Whether batches run in this process (``"process"`` with one worker)."""
+        """Whether batches run in this process (`"process"` with one worker)."""
         return self.backend == "process" and self.workers == 1
 
     def __exit__(self, *exc_info: Any) -> bool | None:
@@ -181,7 +181,7 @@ class TaskSession:
         return self._stack.__exit__(*exc_info)
 
     def run(self, fn: TaskFn, tasks: Iterable[Any], shared: Any, on_result: ResultFn) -> None:
-        """Call ``fn(task, shared)`` for every task; ``on_result(task, result)`` in this process
+        """Call `fn(task, shared)` for every task; `on_result(task, result)` in this process
         as each finishes (completion order)."""
         self._batches += 1
         if self._ray is not None:

@@ -184,3 +184,31 @@ def test_every_family_page_lists_its_registered_ids():
         if f'ids_table("{f.slug}")' not in md:
             missing.append(f.slug)
     assert not missing, f"family pages without their generated ids table: {missing}"
+
+
+RST_ROLE = re.compile(r":(?:class|data|mod|func|meth|attr|obj|exc|const|ref):(?:<code>|`)")
+
+
+def test_no_page_shows_a_raw_rest_role(site):
+    found = []
+    for page in _pages(site):
+        hits = RST_ROLE.findall(page.read_text(encoding="utf-8"))
+        if hits:
+            found.append(f"{page.relative_to(site)}: {len(hits)}")
+    assert not found, f"raw reST roles (write Markdown code spans instead): {found}"
+
+
+def test_no_docstring_uses_rest_markup():
+    """Docstrings are Google style with Markdown: the API pages and env cards render them."""
+    import ast
+
+    role = re.compile(r":(?:class|data|mod|func|meth|attr|obj|exc|const|ref):`")
+    found = []
+    for path in sorted((ROOT / "fluids_bench").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
+                text = node.value.value if isinstance(node.value.value, str) else ""
+                rest = role.search(text) or re.search(r"\S::\n|(?<!`)``(?!`)", text)
+                if rest:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not found, f"reST in docstrings: {found}"
