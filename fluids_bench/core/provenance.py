@@ -22,7 +22,21 @@ def command_line() -> str:
         if "scripts" in parts
         else sys.argv[0]
     )
-    return " ".join(["python", shown, *map(shlex.quote, sys.argv[1:])])
+    return " ".join(["python", shown, *map(shlex.quote, relative_paths(sys.argv[1:]))])
+
+
+def relative_paths(args: list[str]) -> list[str]:
+    """`args` with every absolute path (`/a/b`, `--out=/a/b`) shown relative to the working
+    directory: a results file records no machine's folders, and the command reruns from a
+    checkout anywhere."""
+
+    def shown(arg: str) -> str:
+        option, eq, value = arg.partition("=") if arg.startswith("-") else ("", "", arg)
+        if not os.path.isabs(value):
+            return arg
+        return option + eq + os.path.relpath(value)
+
+    return [shown(a) for a in args]
 
 
 def machine() -> str:

@@ -44,6 +44,7 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import relative_paths
 
 EVAL_SEED = 100_000
 
@@ -632,7 +633,7 @@ def main(argv: list[str] | None = None) -> None:
                         "finished --out (after a new teacher is shipped) and redraw --image")  # fmt: skip
     args = parser.parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
-    command = "python " + " ".join(shlex.quote(a) for a in [sys.argv[0], *given])
+    command = "python " + " ".join(shlex.quote(a) for a in [sys.argv[0], *relative_paths(given)])
     if args.references_only:
         return refresh_references(args, command)
     (run_ablation if args.ablation else run_curves)(args, command)

@@ -28,6 +28,7 @@ from tqdm import tqdm
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.provenance import relative_paths
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
@@ -83,7 +84,7 @@ def main() -> None:
             args.results,
             {
                 "command": "python scripts/quality/supervisor_quality.py "
-                + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+                + " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:])),
                 "settings": {
                     "cars": list(args.cars),
                     "pedestrians": list(args.peds),

@@ -37,6 +37,7 @@ from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.pool import one_blas_thread
+from fluids_bench.core.provenance import relative_paths
 
 ENV_ID = "FLUIDS-Sensitivity-v0"
 ALGOS: dict[str, dict[str, Any]] = {
@@ -201,7 +202,9 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     summary = {
         "command": "python "
-        + " ".join(["scripts/reproductions/fluids_learning_curves.py", *sys.argv[1:]]),
+        + " ".join(
+            ["scripts/reproductions/fluids_learning_curves.py", *relative_paths(sys.argv[1:])]
+        ),
         "settings": {**common, "eval_at": list(args.eval_at), "seeds": args.seeds},
         "env_id": ENV_ID,
         "algorithms": json.loads(json.dumps(ALGOS)),

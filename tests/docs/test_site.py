@@ -212,3 +212,25 @@ def test_no_docstring_uses_rest_markup():
                 if rest:
                     found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
     assert not found, f"reST in docstrings: {found}"
+
+
+MACHINE_PATH = re.compile(r"(?<![\w.~-])/(?:work|tmp|home|root|Users|mnt|scratch)/[\w./-]*")
+
+
+def test_no_page_or_results_file_holds_a_machine_path():
+    """Provenance is relative: commands rerun from a checkout anywhere (absolute paths of the
+    machine that ran them tell a reader nothing)."""
+    found = []
+    for path in [*(ROOT / "docs").rglob("*.md"), *(ROOT / "docs" / "results").glob("*.json")]:
+        if path.name == "changelog.md":
+            continue
+        found += [f"{path.relative_to(ROOT)}: {m}" for m in MACHINE_PATH.findall(path.read_text())]
+    assert not found, found
+
+
+def test_no_built_page_holds_a_machine_path(site):
+    found = []
+    for page in _pages(site):
+        text = re.sub(r"<[^>]+>", " ", page.read_text(encoding="utf-8"))
+        found += [f"{page.relative_to(site)}: {m}" for m in MACHINE_PATH.findall(text)]
+    assert not [f for f in found if not f.startswith("changelog/")], found
