@@ -297,7 +297,7 @@ def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
     the rows."""
     from tqdm.auto import tqdm
 
-    from fluids_bench.sweep.plot import metric_for, plot_sensitivity, write_kwarg_outputs
+    from fluids_bench.sweep.plot import SUCCESS, metric_for, plot_sensitivity, write_kwarg_outputs
     from fluids_bench.sweep.run import (
         SUPERVISOR_POLICY,
         check_folder_for_new_policy,
@@ -392,9 +392,10 @@ def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
         if grid.legacy
         else f", mean return {sum(r['mean_return'] for r in rows) / len(rows):.3f}"
     )
+    # an id without a success flag (metric "return") has no success rate to report
+    rate = f", success rate {successes / episodes:.3f}" if metric == SUCCESS else ""
     print(
-        f"{len(rows)} configurations, {episodes} episodes, success rate {successes / episodes:.3f}"
-        f"{returns}; "
+        f"{len(rows)} configurations, {episodes} episodes{rate}{returns}; "
         f"this run: {counts['episodes']} episodes in {seconds:.1f} s wall, "
         f"{counts['cpu']:.1f} s CPU in the workers ({workers} {args.backend} workers)"
     )

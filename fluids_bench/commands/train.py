@@ -319,7 +319,8 @@ def main(args: argparse.Namespace) -> int:
         f"{_number(final.normalised_performance)}, "
         f"{success}{final.training_labels} training labels "
         f"(+{final.estimation_labels} for noise estimation), "
-        f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s total"
+        f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s collecting, labelling "
+        "and fitting in all (evaluation and start-up not counted)"
     )
     print(f"wrote {json_path} and {png_path}")
     return 0

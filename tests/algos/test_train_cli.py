@@ -96,7 +96,10 @@ def test_train_accepts_the_protocol_knobs_and_reports_both_label_counts(
     final = payload["records"][-1]
     assert final["training_labels"] == final["estimation_labels"] == 60
     out = capsys.readouterr().out
-    assert "60 training labels (+60 for noise estimation)" in out and "s total" in out
+    assert (
+        "60 training labels (+60 for noise estimation)" in out
+        and "s collecting, labelling and fitting in all (evaluation" in out
+    )
 
 
 def test_summary_numbers_have_a_sensible_precision(

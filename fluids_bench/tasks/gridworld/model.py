@@ -21,6 +21,7 @@ FREE, PENALTY, GOAL = 0, 1, 2
 COLOURS = np.array([(235, 235, 235), (200, 40, 40), (40, 170, 60)], dtype=np.uint8)
 ROBOT_COLOUR = np.array((40, 80, 220), dtype=np.uint8)
 CELL_PIXELS = 16
+ROBOT_MARGIN = 3  # pixels of the cell's colour around the robot
 
 
 @dataclass(frozen=True, eq=False)
@@ -102,13 +103,17 @@ class GridWorld:
         return divmod(state, self.size)
 
     def draw(self, state: int) -> np.ndarray:
-        """RGB picture, `CELL_PIXELS` per cell, forward (y + 1) pointing up."""
-        image = COLOURS[self.cells].copy()
+        """RGB picture, `CELL_PIXELS` per cell, forward (y + 1) pointing up. The robot is a
+        square inset in its cell, so the cell's own colour (the goal's green, a penalty's red)
+        still shows around it."""
         x, y = self.cell(state)
-        image[x, y] = ROBOT_COLOUR
         # rows of the image are y from top to bottom, so forward (y + 1) points up
-        image = np.flipud(image.transpose(1, 0, 2))
-        return np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
+        image = np.flipud(COLOURS[self.cells].transpose(1, 0, 2))
+        image = np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
+        row, col = (self.size - 1 - y) * CELL_PIXELS, x * CELL_PIXELS
+        m = ROBOT_MARGIN
+        image[row + m : row + CELL_PIXELS - m, col + m : col + CELL_PIXELS - m] = ROBOT_COLOUR
+        return image
 
 
 def generate_cells(size: int, penalty_fraction: float, rng: np.random.Generator) -> np.ndarray:
