@@ -507,7 +507,7 @@ def _help(parser: argparse.ArgumentParser) -> str:
     import os
 
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"  # the same wrapping wherever the docs are built
+    os.environ["COLUMNS"] = "80"  # the same wrapping wherever the docs are built; fits the column
     try:
         return parser.format_help().rstrip()
     finally:

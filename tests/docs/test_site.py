@@ -234,3 +234,58 @@ def test_no_built_page_holds_a_machine_path(site):
         text = re.sub(r"<[^>]+>", " ", page.read_text(encoding="utf-8"))
         found += [f"{page.relative_to(site)}: {m}" for m in MACHINE_PATH.findall(text)]
     assert not [f for f in found if not f.startswith("changelog/")], found
+
+
+# the pages with the widest tables and the CLI help; measured at a laptop's 1280 px
+WIDE_PAGES = [
+    "reproductions/fig-3-3/index.html",
+    "tasks/fluids-rl/index.html",
+    "tasks/fluids-v1/index.html",
+    "tasks/locomotion/index.html",
+    "benchmarks/index.html",
+    "cli/index.html",
+]
+_MEASURE = """<script>
+window.addEventListener("load", () => {
+  const column = document.querySelector("article.md-content__inner");
+  const wide = [];
+  column.querySelectorAll("table").forEach((t) => {
+    if (t.scrollWidth > column.clientWidth + 1) wide.push(["table", t.scrollWidth]);
+  });
+  column.querySelectorAll(".wrap-code pre > code").forEach((c) => {
+    if (c.scrollWidth > c.clientWidth + 1) wide.push(["help text", c.scrollWidth]);
+  });
+  const bare = [...column.querySelectorAll("img")].filter((i) => !i.closest("a")).length;
+  const out = document.createElement("pre");
+  out.id = "measured";
+  out.textContent = JSON.stringify({column: column.clientWidth, wide: wide, bare: bare});
+  document.body.appendChild(out);
+});
+</script>"""
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("page", WIDE_PAGES)
+def test_tables_fit_their_column_and_figures_open_full_size(site, page, tmp_path):
+    import json
+
+    source = site / page
+    probe = source.with_name(f"_measure_{tmp_path.name}.html")  # beside it: relative assets load
+    probe.write_text(source.read_text(encoding="utf-8").replace("</body>", _MEASURE + "</body>"))
+    try:
+        run = subprocess.run(
+            [
+                chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,900",
+                "--virtual-time-budget=5000", "--dump-dom", probe.as_uri(),
+            ],
+            capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+    finally:
+        probe.unlink()
+    found = re.search(r'<pre id="measured">(.*?)</pre>', run.stdout, re.S)
+    assert found, f"chromium measured nothing on {page}: {run.stderr[-500:]}"
+    measured = json.loads(found.group(1))
+    assert measured["column"] > 500, measured
+    assert not measured["wide"], f"{page}: wider than the {measured['column']} px column"
+    assert measured["bare"] == 0, f"{page}: {measured['bare']} figures link to no full image"
