@@ -1,7 +1,7 @@
 """fluids-bench: imitation-learning environments centred on the FLUIDS driving simulator.
 
 Importing the package registers every environment id with Gymnasium, so
-``gym.make("FLUIDS-v0")`` works after ``import fluids_bench``.
+`gym.make("FLUIDS-v0")` works after `import fluids_bench`.
 """
 
 from fluids_bench.core.numba_cache import use_user_cache_dir

@@ -1,8 +1,8 @@
-"""The ``fluids-bench`` command line.
+"""The `fluids-bench` command line.
 
-Each subcommand lives in its own module under :mod:`fluids_bench.commands` and exposes
-``add_parser(subparsers)``, which registers the subcommand and sets ``func`` (taking the parsed
-args, returning an exit code). Modules are imported lazily so that ``--help`` stays fast.
+Each subcommand lives in its own module under `fluids_bench.commands` and exposes
+`add_parser(subparsers)`, which registers the subcommand and sets `func` (taking the parsed
+args, returning an exit code). Modules are imported lazily so that `--help` stays fast.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ SEED_MAX = 2**32 - 1  # numpy's and Gymnasium's seeds: non-negative, 32 bits her
 
 
 def check_seeds(args: argparse.Namespace) -> None:
-    """Every ``--…seed`` option must be a seed Gymnasium and numpy accept: refuse a negative or
+    """Every `--…seed` option must be a seed Gymnasium and numpy accept: refuse a negative or
     too large one before the command starts (not deep inside an env's reset)."""
     for name, value in vars(args).items():
         if name.endswith("seed") and isinstance(value, int) and not 0 <= value <= SEED_MAX:
@@ -89,14 +89,14 @@ EXIT_GRACE = 10.0  # s the exit handlers get after Ctrl-C before the process end
 
 
 def entry() -> None:
-    """The ``fluids-bench`` command: :func:`main`, then exit with its code.
+    """The `fluids-bench` command: `main`, then exit with its code.
 
     After Ctrl-C, Python's exit handlers run as usual (they release the pool's semaphores), but
-    a daemon timer ends the process after :data:`EXIT_GRACE` seconds if they have not finished:
-    in two of about ten loaded full test runs an interrupted ``collect --workers 2`` had not
+    a daemon timer ends the process after `EXIT_GRACE` seconds if they have not finished:
+    in two of about ten loaded full test runs an interrupted `collect --workers 2` had not
     exited a minute later, and Ctrl-C must end the program. Nothing is lost either way:
     finished work is on disk (collect writes atomically, sweeps resume) and pool workers die
-    with their parent (:mod:`fluids_bench.core.parallel`)."""
+    with their parent (`fluids_bench.core.parallel`)."""
     code = main()
     if code == 130:
         timer = threading.Timer(EXIT_GRACE, os._exit, args=(code,))

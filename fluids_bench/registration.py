@@ -132,7 +132,7 @@ TEST_STEPS: dict[str, int] = {}
 
 
 def make_parallel_env(env_id: str, **kwargs: Any):
-    """Build the PettingZoo ParallelEnv ``env_id`` of :data:`PARALLEL_ENV_SPECS`."""
+    """Build the PettingZoo ParallelEnv `env_id` of `PARALLEL_ENV_SPECS`."""
     if env_id not in PARALLEL_ENV_SPECS:
         raise ValueError(
             f"unknown parallel env id {env_id!r}; allowed: {sorted(PARALLEL_ENV_SPECS)}"
@@ -143,8 +143,8 @@ def make_parallel_env(env_id: str, **kwargs: Any):
 
 
 def register_envs() -> None:
-    """Register every id of :data:`ENV_SPECS` with Gymnasium and every id of
-    :data:`PARALLEL_ENV_SPECS` with PettingZoo (idempotent)."""
+    """Register every id of `ENV_SPECS` with Gymnasium and every id of
+    `PARALLEL_ENV_SPECS` with PettingZoo (idempotent)."""
     for env_id, (entry_point, max_steps, kwargs) in ENV_SPECS.items():
         if env_id in gym.registry:
             continue

@@ -3,11 +3,11 @@ case is refused with a `ValueError` (CLI: exit 2, one line) naming the user's ar
 never a raw error, never a silent acceptance.
 
 The cases are generated from the registry and from argparse, so a new id, kwarg or option is
-attacked by being added. CI runs a sample (the cases without the `slow` marker); the full set:
+attacked by being added. Every run takes a sample (the unmarked cases); the rest are marked `fuzz_full` and skip, with that
+reason, unless `FLUIDS_BENCH_FULL_FUZZ=1` (a few minutes on 2 cores):
 
-    python3 -m pytest -q -p no:cacheprovider tests/test_fuzz.py tests/tasks/fluids/sim/test_layouts.py
-
-and only the sample: the same with `-m "not slow"`.
+    FLUIDS_BENCH_FULL_FUZZ=1 python3 -m pytest -q -n 2 tests/test_fuzz.py \
+        tests/core/test_snapshot_fuzz.py tests/tasks/fluids/sim/test_layouts.py
 """
 
 from __future__ import annotations
@@ -66,7 +66,7 @@ def _kwarg_cases() -> list:
         for i, name in enumerate(numeric_kwargs(env_id)):
             for j, value in enumerate(BAD_NUMBERS):
                 sample = j == i % len(BAD_NUMBERS)
-                marks = () if sample else (pytest.mark.slow,)
+                marks = () if sample else (pytest.mark.fuzz_full,)
                 cases.append(pytest.param(env_id, name, value, marks=marks))
     return cases
 
@@ -105,7 +105,7 @@ def _action_cases() -> list:
     cases = []
     for k, env_id in enumerate(ENV_SPECS):
         for j, value in enumerate(HUGE_ACTIONS):
-            marks = () if j == k % len(HUGE_ACTIONS) else (pytest.mark.slow,)
+            marks = () if j == k % len(HUGE_ACTIONS) else (pytest.mark.fuzz_full,)
             cases.append(pytest.param(env_id, value, marks=marks))
     return cases
 
@@ -174,7 +174,7 @@ def _cli_cases() -> list:
         for i, (option, kind, _) in enumerate(_numeric_options(command)):
             values = BAD_INTS if kind is int else BAD_FLOATS
             for j, value in enumerate(values):
-                marks = () if j == i % len(values) else (pytest.mark.slow,)
+                marks = () if j == i % len(values) else (pytest.mark.fuzz_full,)
                 cases.append(pytest.param(command, option, value, marks=marks))
     return cases
 

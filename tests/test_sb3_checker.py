@@ -43,16 +43,19 @@ def _warnings(env_id: str, **kwargs) -> list[str]:
     return [str(w.message) for w in caught]
 
 
+@pytest.mark.train_extra
 @pytest.mark.parametrize("env_id", [i for i in IDS if i not in SUPERSEDED])
 def test_sb3_check_env_is_silent(env_id):
     assert _warnings(env_id) == []
 
 
+@pytest.mark.train_extra
 @pytest.mark.parametrize(("env_id", "kwargs"), LEVELS)
 def test_sb3_check_env_is_silent_at_every_level_of_fluids_v2(env_id, kwargs):
     assert _warnings(env_id, **kwargs) == []
 
 
+@pytest.mark.train_extra
 @pytest.mark.parametrize("env_id", sorted(SUPERSEDED))
 def test_superseded_ids_have_a_silent_successor(env_id):
     successor, _ = SUPERSEDED[env_id]

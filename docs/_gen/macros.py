@@ -1,8 +1,8 @@
-"""mkdocs-macros hook: the functions pages call as ``{{ name(...) }}``.
+"""mkdocs-macros hook: the functions pages call as `{{ name(...) }}`.
 
 Everything a page shows about the code (ids, arguments, spaces, env cards, CLI help) or about
-measurements (tables from ``docs/results/``) comes through here; see ``reference.py`` and
-``results.py`` beside this file.
+measurements (tables from `docs/results/`) comes through here; see `reference.py` and
+`results.py` beside this file.
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ def define_env(env) -> None:
     env.macro(reference.ids_table)
     env.macro(reference.spaces_table)
     env.macro(reference.gallery)
+    env.macro(reference.registry_table)
+    env.macro(reference.id_guide)
     env.macro(reference.cli_reference)
     env.macro(results.table)
     env.macro(benchmark_pages.benchmark_definition)

@@ -1,10 +1,10 @@
 """Reference material generated from the code: env cards, ids, keyword arguments, spaces, CLI.
 
-Used by the site's macros (``docs/_gen/macros.py``) and by the docs tests, so a page cannot say
+Used by the site's macros (`docs/_gen/macros.py`) and by the docs tests, so a page cannot say
 something the code does not. Nothing here is hand-copied: the ids come from
-:mod:`fluids_bench.registration`, the arguments from each entry point's signature, what a
+`fluids_bench.registration`, the arguments from each entry point's signature, what a
 value may be from the entry point's own validation (it is called with a value no check accepts
-and the ``allowed:`` part of its error is shown), the spaces from the built env.
+and the `allowed:` part of its error is shown), the spaces from the built env.
 """
 
 from __future__ import annotations
@@ -26,82 +26,103 @@ import numpy as np
 import fluids_bench  # noqa: F401  (registers every id)
 from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
 
+_VERSION = re.compile(r"-v(\d+)$")
+
+
+def _version(env_id: str) -> int:
+    m = _VERSION.search(env_id)
+    return int(m.group(1)) if m else -1
+
+
+def _module_of(env_id: str) -> str:
+    """The module of the id's entry point (`package.module` of `package.module:Name`)."""
+    target = ENV_SPECS[env_id][0] if env_id in ENV_SPECS else PARALLEL_ENV_SPECS[env_id][0]
+    return target.partition(":")[0]
+
 
 @dataclass(frozen=True)
 class Family:
-    """One page of the site: a task family, its ids and its picture."""
+    """One page of the site: a task family, its picture and the entry-point module(s) whose
+    registered ids are its ids (read from the registry, so a new id appears by itself)."""
 
     slug: str
     title: str
-    ids: tuple[str, ...]
-    parallel_ids: tuple[str, ...] = ()
+    modules: tuple[str, ...]  # every Gymnasium / PettingZoo id whose entry point lives here
     image: str = ""
     blurb: str = ""
     extra: dict = field(default_factory=dict)
 
+    def _registered(self, specs: dict) -> tuple[str, ...]:
+        ids = [i for i in specs if _module_of(i) in self.modules]
+        order = {env_id: n for n, env_id in enumerate(specs)}
+        return tuple(sorted(ids, key=lambda i: (-_version(i), order[i])))  # newest first
 
+    @property
+    def ids(self) -> tuple[str, ...]:
+        """The family's Gymnasium ids, newest version first, then in the registry's order."""
+        return self._registered(ENV_SPECS)
+
+    @property
+    def parallel_ids(self) -> tuple[str, ...]:
+        """The family's PettingZoo ids, newest version first."""
+        return self._registered(PARALLEL_ENV_SPECS)
+
+
+_TASKS = "fluids_bench.tasks."
 FAMILIES: tuple[Family, ...] = (
     Family(
         "fluids",
         "FLUIDS",
-        (
-            "FLUIDS-v2",
-            "FLUIDS-Sensitivity-v2",
-            "FLUIDS-v1",
-            "FLUIDS-Sensitivity-v1",
-            "FLUIDS-v0",
-            "FLUIDS-Sensitivity-v0",
-        ),
+        (_TASKS + "fluids.env",),
         image="images/demo_frame.png",
         blurb="an urban intersection: kinematic cars, pedestrians, lights; four-level supervisor",
     ),
     Family(
         "fluids-multi-agent",
         "FLUIDS multi-agent",
-        (),
-        ("FLUIDS-MultiAgent-v2", "FLUIDS-MultiAgent-v1", "FLUIDS-MultiAgent-v0"),
+        (_TASKS + "fluids.multi_agent",),
         image="images/demo_frame.png",
         blurb="PettingZoo ParallelEnv: every controlled car is an agent with its own label",
     ),
     Family(
         "gridworld",
         "GridWorld",
-        ("GridWorld-v0",),
+        (_TASKS + "gridworld.env",),
         image="images/task_gridworld.png",
         blurb="ch. 3: a 15×15 stochastic gridworld with an exact value-iteration supervisor",
     ),
     Family(
         "dag",
         "DAG",
-        ("DAG-v0",),
+        (_TASKS + "dag.env",),
         image="images/task_dag.png",
         blurb="ch. 4: the three-level decision DAG of Theorem 1 and its greedy supervisor",
     ),
     Family(
         "singulation",
         "Singulation",
-        ("Singulation-v0",),
+        (_TASKS + "singulation.env",),
         image="images/singulation_supervisor.png",
         blurb="ch. 5: a planar arm separates one of four touching objects (pymunk)",
     ),
     Family(
         "grasping",
         "Grasping in clutter",
-        ("GraspingInClutter-v1", "GraspingInClutter-v0"),
+        (_TASKS + "grasping.env",),
         image="images/grasping_supervisor.png",
         blurb="ch. 6: a 3-joint arm grasps a target among five obstacles (pymunk)",
     ),
     Family(
         "track",
         "DrivingTrack",
-        ("DrivingTrack-v0", "DrivingTrack-Source-v0"),
+        (_TASKS + "track.env",),
         image="images/track_laps.png",
         blurb="ch. 6: a car on a random polygonal track, seen through HOG features",
     ),
     Family(
         "locomotion",
         "MuJoCo locomotion",
-        ("Hopper-IL-v0", "Walker2d-IL-v0", "HalfCheetah-IL-v0", "Humanoid-IL-v0"),
+        (_TASKS + "locomotion.env",),
         image="images/locomotion_hopper.png",
         blurb="ch. 3: Gymnasium's MuJoCo v5 envs, unchanged, with shipped supervisors",
     ),
@@ -113,6 +134,22 @@ def family(slug: str) -> Family:
         if f.slug == slug:
             return f
     raise ValueError(f"family is {slug!r}; allowed: {[f.slug for f in FAMILIES]}")
+
+
+def family_of(env_id: str) -> Family:
+    """The family whose page shows `env_id`; an id of no family is an error, not a gap."""
+    owners = [f for f in FAMILIES if env_id in f.ids + f.parallel_ids]
+    if len(owners) != 1:
+        raise ValueError(
+            f"{env_id} (entry point in {_module_of(env_id)}) belongs to {len(owners)} families; "
+            "give its module to exactly one Family in docs/_gen/reference.py"
+        )
+    return owners[0]
+
+
+def all_ids() -> list[str]:
+    """Every registered id, Gymnasium's then PettingZoo's, in the registry's order."""
+    return [*ENV_SPECS, *PARALLEL_ENV_SPECS]
 
 
 def _entry_point(env_id: str):
@@ -170,8 +207,8 @@ class _Unacceptable:
 
 @cache
 def allowed_values(env_id: str) -> dict[str, str]:
-    """For every keyword argument of ``env_id``'s entry point: what its validation allows, read
-    from the ``ValueError`` it raises for a value nothing accepts ("not checked" if it takes it)."""
+    """For every keyword argument of `env_id`'s entry point: what its validation allows, read
+    from the `ValueError` it raises for a value nothing accepts ("not checked" if it takes it)."""
     obj, registered = _entry_point(env_id)
     out: dict[str, str] = {}
     for p in _signature_params(env_id):
@@ -197,7 +234,7 @@ def _card_text(env_id: str) -> str:
 
 
 def card_sections(env_id: str) -> dict[str, str]:
-    """The env card's sections (``## Name`` → body), in order."""
+    """The env card's sections (`## Name` → body), in order."""
     sections: dict[str, str] = {}
     name = "Summary"
     lines: list[str] = []
@@ -245,8 +282,8 @@ def kwargs_table(env_id: str) -> str:
 
 
 def env_card(env_id: str, level: int = 3) -> str:
-    """The env card as Markdown, headings at ``level``; its hand-written Arguments table is
-    replaced by :func:`kwargs_table` (one source of truth: the code)."""
+    """The env card as Markdown, headings at `level`; its hand-written Arguments table is
+    replaced by `kwargs_table` (one source of truth: the code)."""
     parts = []
     for name, body in card_sections(env_id).items():
         if name == "Summary":
@@ -279,7 +316,7 @@ def _kwargs_text(kwargs: dict) -> str:
 
 
 def _space_text(space) -> str:
-    """``str(space)``, except that a Box whose bounds vary per element (the quasi-LIDAR's rows)
+    """`str(space)`, except that a Box whose bounds vary per element (the quasi-LIDAR's rows)
     shows one row of bounds instead of the whole array."""
     if (
         isinstance(space, gym.spaces.Box)
@@ -329,19 +366,132 @@ def spaces_table(slug: str) -> str:
     return "\n".join(rows)
 
 
+def _family_ids(f: Family) -> tuple[str, ...]:
+    return f.ids + f.parallel_ids
+
+
+def _check_every_id_has_a_family() -> None:
+    for env_id in all_ids():
+        family_of(env_id)  # raises for an id no page would show
+
+
 def gallery(root: str = "") -> str:
-    """The families side by side: picture, ids, one line. ``root``: the docs root relative to
-    the calling page ("" for a top-level page, "../" one folder down)."""
+    """The families side by side: picture, ids (every registered id, newest first), one line.
+    `root`: the docs root relative to the calling page ("" top level, "../" one folder down)."""
+    _check_every_id_has_a_family()
     rows = ["| | family | ids |", "|---|---|---|"]
     for f in FAMILIES:
-        ids = ", ".join(f"`{i}`" for i in f.ids + f.parallel_ids)
+        ids = ", ".join(f"`{i}`" for i in _family_ids(f))
         picture = f"![{f.title}]({root}{f.image}){{ width=160 }}"
         rows.append(f"| {picture} | [{f.title}]({root}tasks/{f.slug}.md): {f.blurb} | {ids} |")
     return "\n".join(rows)
 
 
+def readme_tasks_table() -> str:
+    """The README's task table (GitHub renders no macros: tests/docs check that the README holds
+    exactly this; `python docs/_gen/reference.py --readme` prints it)."""
+    _check_every_id_has_a_family()
+    rows = ["| | family | ids |", "|---|---|---|"]
+    for f in FAMILIES:
+        ids = ", ".join(f"`{i}`" for i in _family_ids(f))
+        picture = f'<img src="docs/{f.image}" width="140">'
+        rows.append(f"| {picture} | [{f.title}](docs/tasks/{f.slug}.md): {f.blurb} | {ids} |")
+    return "\n".join(rows)
+
+
+def registry_table(root: str = "") -> str:
+    """Every registered id in one table: its family page, how it is made, its step limit and
+    registered kwargs, in the registry's order."""
+    rows = ["| id | family | made with | step limit | registered kwargs |", "|---|---|---|---|---|"]
+    for env_id in all_ids():
+        f = family_of(env_id)
+        link = f"[{f.title}]({root}tasks/{f.slug}.md)"
+        if env_id in ENV_SPECS:
+            _, steps, kwargs = ENV_SPECS[env_id]
+            made = "`gym.make`"
+        else:
+            _, kwargs = PARALLEL_ENV_SPECS[env_id]
+            made, steps = '`pettingzoo.make("parallel", …)`', "`max_cycles`"
+        rows.append(f"| `{env_id}` | {link} | {made} | {steps} | {_kwargs_text(kwargs)} |")
+    return "\n".join(rows)
+
+
+# What each kind of user should make; every id named here must be registered (checked when the
+# page is built). The benchmark's ids come from fluids_bench.benchmark's suite where it exists.
+ID_USES: tuple[tuple[str, tuple[str, ...], str], ...] = (
+    (
+        "train an off-the-shelf RL agent on FLUIDS (actions and observations in [-1, 1], a reward "
+        "that agrees with success, failures weighted 3)",
+        ("FLUIDS-v3", "FLUIDS-Sensitivity-v3", "FLUIDS-MultiAgent-v3"),
+        "tasks/fluids-rl.md",
+    ),
+    (
+        "compare imitation learners on FLUIDS in physical units (defensive background drivers, "
+        "success that requires obeying lights and yielding)",
+        ("FLUIDS-v1", "FLUIDS-Sensitivity-v1", "FLUIDS-MultiAgent-v1"),
+        "tasks/fluids-v1.md",
+    ),
+    (
+        "reproduce the source's FLUIDS experiments (its setting, kept unchanged)",
+        ("FLUIDS-v0", "FLUIDS-Sensitivity-v0", "FLUIDS-MultiAgent-v0"),
+        "reproductions/fig-7-6.md",
+    ),
+    (
+        "reproduce the source's track experiments with its crash-prone supervisor",
+        ("DrivingTrack-Source-v0",),
+        "reproductions/fig-6-3.md",
+    ),
+)
+
+
+def _benchmark_ids() -> list[str]:
+    try:
+        from fluids_bench.benchmark import SUITE
+    except ImportError:  # the suite is not part of this version
+        return []
+    return [t.env_id for t in SUITE.tasks]
+
+
+def _newest() -> list[str]:
+    """The newest version of every id name (the id less its `-vN`), in the registry's order."""
+    newest: dict[str, str] = {}
+    for env_id in all_ids():
+        name = _VERSION.sub("", env_id)
+        if name not in newest or _version(env_id) > _version(newest[name]):
+            newest[name] = env_id
+    return list(newest.values())
+
+
+def id_guide(root: str = "") -> str:
+    """Which id to use for what: the uses above, the benchmark's ids, and the newest version of
+    every id (for anything else)."""
+    registered = set(all_ids())
+    rows = ["| to … | make | see |", "|---|---|---|"]
+    bench = _benchmark_ids()
+    if bench:
+        rows.append(
+            "| evaluate a learner on the benchmark (seed splits, OOD sets, scorecards) | "
+            + ", ".join(f"`{i}`" for i in dict.fromkeys(bench))
+            + f" | [Benchmarks]({root}benchmarks/index.md) |"
+        )
+    for use, ids, page in ID_USES:
+        unknown = [i for i in ids if i not in registered]
+        if unknown:
+            raise ValueError(
+                f"ID_USES names unregistered ids {unknown}; allowed: {sorted(registered)}"
+            )
+        named = ", ".join(f"`{i}`" for i in ids)
+        rows.append(f"| {use} | {named} | [{page.rsplit('/', 1)[-1][:-3]}]({root}{page}) |")
+    newest = ", ".join(f"`{i}`" for i in _newest())
+    rows.append(
+        f"| anything else: the newest version of each id | {newest} "
+        f"| [Versioning]({root}versioning.md) |"
+    )
+    return "\n".join(rows)
+
+
 def cli_reference() -> str:
-    """Every ``fluids-bench`` subcommand's ``--help``, as argparse prints it."""
+    """Every `fluids-bench` subcommand's `--help`, as argparse prints it."""
     from fluids_bench.cli import build_parser
 
     parser = build_parser()
@@ -357,7 +507,7 @@ def _help(parser: argparse.ArgumentParser) -> str:
     import os
 
     old = os.environ.get("COLUMNS")
-    os.environ["COLUMNS"] = "100"  # the same wrapping wherever the docs are built
+    os.environ["COLUMNS"] = "80"  # the same wrapping wherever the docs are built; fits the column
     try:
         return parser.format_help().rstrip()
     finally:
@@ -365,3 +515,11 @@ def _help(parser: argparse.ArgumentParser) -> str:
             os.environ.pop("COLUMNS")
         else:
             os.environ["COLUMNS"] = old
+
+
+if __name__ == "__main__":
+    import sys
+
+    if sys.argv[1:] != ["--readme"]:
+        raise SystemExit("usage: python docs/_gen/reference.py --readme")
+    print(readme_tasks_table())

@@ -1,10 +1,10 @@
-"""Tables read from the results files under ``docs/results/``.
+"""Tables read from the results files under `docs/results/`.
 
-A page never holds a measured number by hand: it calls ``table("<name>")``, which loads
-``docs/results/<name>.json`` and renders it with ``docs/_gen/tables/<name>.py``'s
-``render(data) -> str`` (files of one layout share one, see :data:`SHARED_RENDERERS`; a
-renderer may take keyword arguments for a part of its file: ``table("x", part="speed")``).
-Each results file names the command that wrote it (``"command"``), shown under the table.
+A page never holds a measured number by hand: it calls `table("<name>")`, which loads
+`docs/results/<name>.json` and renders it with `docs/_gen/tables/<name>.py`'s
+`render(data) -> str` (files of one layout share one, see `SHARED_RENDERERS`; a
+renderer may take keyword arguments for a part of its file: `table("x", part="speed")`).
+Each results file names the command that wrote it (`"command"`), shown under the table.
 """
 
 from __future__ import annotations
@@ -60,7 +60,7 @@ def renderer(name: str):
 
 
 def table(name: str, **options) -> str:
-    """The rendered table of ``docs/results/<name>.json``, with the command that produced it."""
+    """The rendered table of `docs/results/<name>.json`, with the command that produced it."""
     data = load(name)
     out = renderer(name)(data, **options)
     command = data.get("command") if isinstance(data, dict) else None

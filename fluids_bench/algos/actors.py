@@ -1,17 +1,17 @@
-"""Who acts during a rollout: the sampling distribution ``p(u | x, psi)`` of ch. 1.
+"""Who acts during a rollout: the sampling distribution `p(u | x, psi)` of ch. 1.
 
-An actor maps ``(observation, supervisor label, rng)`` to the executed action. The label is the
-supervisor's action for the current state (the env's ``info["supervisor_action"]``), so every
+An actor maps `(observation, supervisor label, rng)` to the executed action. The label is the
+supervisor's action for the current state (the env's `info["supervisor_action"]`), so every
 actor can be written without knowing the env:
 
-- :data:`SUPERVISOR`: ``delta(pi*(x))``, behaviour cloning's sampling;
-- :class:`LearnerActor`: ``delta(pi_theta(x))``, on-policy sampling;
-- :class:`NoisySupervisorActor`: ``pi*(x) + eps`` with ``eps ~ N(0, Sigma)`` for Box actions,
-  or a different action with probability ``epsilon`` for Discrete ones (noise injection, DART);
-- :class:`MixtureActor`: the supervisor with probability ``beta`` and the learner otherwise,
-  drawn every step (DAgger's ``pi_i = beta_i pi* + (1 - beta_i) pi_hat_i``).
+- `SUPERVISOR`: `delta(pi*(x))`, behaviour cloning's sampling;
+- `LearnerActor`: `delta(pi_theta(x))`, on-policy sampling;
+- `NoisySupervisorActor`: `pi*(x) + eps` with `eps ~ N(0, Sigma)` for Box actions,
+  or a different action with probability `epsilon` for Discrete ones (noise injection, DART);
+- `MixtureActor`: the supervisor with probability `beta` and the learner otherwise,
+  drawn every step (DAgger's `pi_i = beta_i pi* + (1 - beta_i) pi_hat_i`).
 
-Actors draw only from the ``rng`` they are given, never from a global generator.
+Actors draw only from the `rng` they are given, never from a global generator.
 """
 
 from __future__ import annotations
@@ -26,7 +26,7 @@ from fluids_bench.algos.policies import Policy, check_action_space
 
 class Actor(Protocol):
     def __call__(self, observation: np.ndarray, label: Any, rng: np.random.Generator) -> Any:
-        """The action to execute in the state with ``observation`` and supervisor ``label``."""
+        """The action to execute in the state with `observation` and supervisor `label`."""
         ...
 
 
@@ -48,9 +48,9 @@ class LearnerActor:
 class NoisySupervisorActor:
     """The supervisor's label with injected noise.
 
-    Box actions: ``label + L z`` with ``z ~ N(0, I)`` and ``L L^T = covariance``, clipped to the
-    action bounds. Discrete actions: with probability ``epsilon`` one of the other actions,
-    uniformly, so that ``epsilon`` is exactly the chance of executing a non-supervisor action
+    Box actions: `label + L z` with `z ~ N(0, I)` and `L L^T = covariance`, clipped to the
+    action bounds. Discrete actions: with probability `epsilon` one of the other actions,
+    uniformly, so that `epsilon` is exactly the chance of executing a non-supervisor action
     (the disagreement probability DART estimates).
     """
 
@@ -97,7 +97,7 @@ class NoisySupervisorActor:
 
 
 class MixtureActor:
-    """The supervisor with probability ``beta``, otherwise ``other`` (a learner), every step."""
+    """The supervisor with probability `beta`, otherwise `other` (a learner), every step."""
 
     def __init__(self, beta: float, other: Actor) -> None:
         if not 0.0 <= beta <= 1.0:

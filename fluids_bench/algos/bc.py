@@ -1,11 +1,11 @@
 """Behavior Cloning (ch. 2, "Off-Policy Sampling").
 
-The supervisor tele-operates: the sampling distribution is ``p(u | x, psi) = delta(pi*(x))``.
+The supervisor tele-operates: the sampling distribution is `p(u | x, psi) = delta(pi*(x))`.
 Its demonstrations are aggregated and the learner minimises the empirical surrogate loss
 
     theta^R = argmin_theta sum_n J(theta, theta* | xi_n),   xi_n ~ p(xi | theta*)
 
-(ch. 1, with ``J`` the summed per-step loss). Each iteration adds ``demos_per_iteration``
+(ch. 1, with `J` the summed per-step loss). Each iteration adds `demos_per_iteration`
 demonstrations, subsampled by the ch. 3 protocol.
 """
 
@@ -21,7 +21,7 @@ from fluids_bench.algos.results import RunResult
 
 @dataclass(frozen=True, kw_only=True)
 class BCConfig(RunConfig):
-    """Behavior Cloning has no settings beyond :class:`RunConfig`."""
+    """Behavior Cloning has no settings beyond `RunConfig`."""
 
 
 def run(config: BCConfig, progress: ProgressCallback | None = None) -> RunResult:

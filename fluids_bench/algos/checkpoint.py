@@ -6,12 +6,12 @@ the interrupted run finished from its checkpoint folder instead of computing it 
 fits are redone (in the driver, on the same data, with the same seeds: the same learners); the
 rollouts, which are the expensive part, are not. The folder holds:
 
-- ``run.json``: the algorithm, its config (without the execution settings, see
-  :data:`~fluids_bench.algos.config.EXECUTION_FIELDS`) and the suite's version; a folder of
+- `run.json`: the algorithm, its config (without the execution settings, see
+  `EXECUTION_FIELDS`) and the suite's version; a folder of
   another run is refused, so that no rollout of another config is ever reused;
-- ``rollout-NNNNNN.pkl``: the n-th rollout the algorithm collected (its trajectory);
-- ``eval-NNNN.pkl``: the n-th evaluation's summary (0 is the supervisor's);
-- ``record-NNNN.pkl``: the record of iteration NNNN, as first computed (with its timing).
+- `rollout-NNNNNN.pkl`: the n-th rollout the algorithm collected (its trajectory);
+- `eval-NNNN.pkl`: the n-th evaluation's summary (0 is the supervisor's);
+- `record-NNNN.pkl`: the record of iteration NNNN, as first computed (with its timing).
 
 Every file is written atomically as soon as its work is done, so Ctrl-C or a crash keeps
 everything finished before it, including the finished rollouts of an unfinished iteration.
@@ -48,7 +48,7 @@ def _differences(saved: dict[str, Any], key: dict[str, Any]) -> list[str]:
 
 
 class Checkpoint:
-    """The checkpoint folder ``folder`` of one run of ``algo`` with ``config``."""
+    """The checkpoint folder `folder` of one run of `algo` with `config`."""
 
     def __init__(self, folder: str | os.PathLike[str], algo: str, config: Any) -> None:
         self.folder = Path(folder)
@@ -75,7 +75,7 @@ class Checkpoint:
         return self.folder / f"{name}.pkl"
 
     def load(self, name: str) -> Any | None:
-        """The object saved as ``name``, or None."""
+        """The object saved as `name`, or None."""
         path = self._path(name)
         if not path.is_file():
             return None
@@ -85,5 +85,5 @@ class Checkpoint:
         write_bytes_atomic(self._path(name), pickle.dumps(value, protocol=pickle.HIGHEST_PROTOCOL))
 
     def count(self, prefix: str) -> int:
-        """How many ``prefix-*`` entries are saved (e.g. finished records)."""
+        """How many `prefix-*` entries are saved (e.g. finished records)."""
         return len(list(self.folder.glob(f"{prefix}-*.pkl")))

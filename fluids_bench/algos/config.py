@@ -1,4 +1,4 @@
-"""The settings every algorithm shares; each algorithm's config extends :class:`RunConfig`."""
+"""The settings every algorithm shares; each algorithm's config extends `RunConfig`."""
 
 from __future__ import annotations
 
@@ -22,29 +22,29 @@ EXECUTION_FIELDS = ("workers", "backend", "address", "checkpoint")
 class RunConfig:
     """Environment, learner, data budget, evaluation and seed of one run.
 
-    ``iterations`` counts data-collection rounds after any initial demonstrations, each round
-    collecting ``demos_per_iteration`` rollouts. ``samples_per_demo`` is the ch. 3 protocol:
+    `iterations` counts data-collection rounds after any initial demonstrations, each round
+    collecting `demos_per_iteration` rollouts. `samples_per_demo` is the ch. 3 protocol:
     keep that many state–label pairs of each rollout for training (None: all of them). The
-    learner is evaluated at the iterations in ``eval_at`` (None: every ``eval_every``-th,
+    learner is evaluated at the iterations in `eval_at` (None: every `eval_every`-th,
     counting the initial demonstrations as iteration 0) and always at the last one, over
-    ``eval_episodes`` seeded episodes; the supervisor is rolled out with the same seeds once, to
-    normalise: ``(R - return_floor) / (R_supervisor - return_floor)`` (1.0 = the supervisor).
+    `eval_episodes` seeded episodes; the supervisor is rolled out with the same seeds once, to
+    normalise: `(R - return_floor) / (R_supervisor - return_floor)` (1.0 = the supervisor).
 
-    ``policy`` is a scikit-learn family (a ``PolicySpec``), or any learner with
-    ``fit(observations, labels)`` and ``predict(observations)``, or a zero-argument factory of
+    `policy` is a scikit-learn family (a `PolicySpec`), or any learner with
+    `fit(observations, labels)` and `predict(observations)`, or a zero-argument factory of
     one (a class, a function), which each run calls once for a fresh learner
-    (:mod:`fluids_bench.algos.learners`). A learner given itself is refit in place: a second
+    (`fluids_bench.algos.learners`). A learner given itself is refit in place: a second
     run with it continues from its state if it warm-starts.
 
     Execution (the result does not depend on it): the rollouts of an iteration and the
-    evaluation episodes run on ``workers`` processes (``backend="process"``; 1: in this
-    process) or as Ray tasks, at most ``workers`` at a time (``backend="ray"``: on the Ray
-    instance already initialised, else the cluster at ``address``, else a local one with
-    ``workers`` CPUs); the learner is fitted in this process. Every rollout's seed is drawn in
-    order from the run's seed, so any ``workers`` and either backend give the same records.
-    ``checkpoint``: a folder where every finished rollout, evaluation and record is kept; a run
+    evaluation episodes run on `workers` processes (`backend="process"`; 1: in this
+    process) or as Ray tasks, at most `workers` at a time (`backend="ray"`: on the Ray
+    instance already initialised, else the cluster at `address`, else a local one with
+    `workers` CPUs); the learner is fitted in this process. Every rollout's seed is drawn in
+    order from the run's seed, so any `workers` and either backend give the same records.
+    `checkpoint`: a folder where every finished rollout, evaluation and record is kept; a run
     of the same config with the same folder reuses them and continues where the last one
-    stopped (:mod:`fluids_bench.algos.checkpoint`).
+    stopped (`fluids_bench.algos.checkpoint`).
     """
 
     env_id: str = "GridWorld-v0"
@@ -103,7 +103,7 @@ class RunConfig:
             fail(where, "checkpoint", self.checkpoint, "a folder path or None")
 
     def evaluates_at(self, iteration: int) -> bool:
-        """Whether the learner is evaluated after ``iteration``."""
+        """Whether the learner is evaluated after `iteration`."""
         if iteration == self.iterations:
             return True
         if self.eval_at is not None:
@@ -132,8 +132,8 @@ class RunConfig:
 def check_iterations(
     where: str, name: str, values: tuple[int, ...], first: int = 1, last: int | None = None
 ) -> tuple[int, ...]:
-    """A schedule of iteration numbers: a tuple of distinct ints in ``[first, last]``
-    (``last=None``: no upper bound), increasing."""
+    """A schedule of iteration numbers: a tuple of distinct ints in `[first, last]`
+    (`last=None`: no upper bound), increasing."""
     top = math.inf if last is None else last
     if not isinstance(values, tuple) or any(
         isinstance(v, bool) or not isinstance(v, int) or not first <= v <= top for v in values

@@ -4,21 +4,21 @@ DAgger is Follow-The-Leader on the aggregate of on-policy data (Ross et al., 201
 
     theta^{k+1} = argmin_theta sum_{i=1}^{k} E_{p(xi | theta^i)} J(theta, theta* | xi)
 
-At iteration ``k`` the executed policy is the mixture ``pi_k = beta_k pi* + (1 - beta_k) pi_theta^k``
+At iteration `k` the executed policy is the mixture `pi_k = beta_k pi* + (1 - beta_k) pi_theta^k`
 (drawn every step), every visited state is labelled by the supervisor, and the learner is
 refit on all data. Two common variants are built in: an initial set of supervisor
-demonstrations (``initial_demos``, the source always uses one) and a beta schedule:
+demonstrations (`initial_demos`, the source always uses one) and a beta schedule:
 
-- ``constant``: ``beta_k = beta`` (``beta = 0`` is pure on-policy, the source's Theorem 1 case;
-  ``beta = 1`` collects exactly what Behavior Cloning collects);
-- ``exponential``: ``beta_k = beta^k`` (Ross et al.'s ``p^{k-1}`` decay, shifted because the
-  initial demonstrations already play the role of ``beta_1 = 1``).
+- `constant`: `beta_k = beta` (`beta = 0` is pure on-policy, the source's Theorem 1 case;
+  `beta = 1` collects exactly what Behavior Cloning collects);
+- `exponential`: `beta_k = beta^k` (Ross et al.'s `p^{k-1}` decay, shifted because the
+  initial demonstrations already play the role of `beta_1 = 1`).
 
-DAgger-B (ch. 3) refits the learner only after the iterations listed in ``retrain_at``, or
-after every ``retrain_every``-th iteration (which then replaces ``retrain_at``), and after the
+DAgger-B (ch. 3) refits the learner only after the iterations listed in `retrain_at`, or
+after every `retrain_every`-th iteration (which then replaces `retrain_at`), and after the
 initial demonstrations, trading performance for compute. The source's Humanoid protocol, "60
-initial demonstrations, then an update every 15 iterations", is ``initial_demos=60,
-retrain_every=15``; its ch. 3 DAgger is ``beta=0.5, beta_schedule="exponential"``.
+initial demonstrations, then an update every 15 iterations", is `initial_demos=60,
+retrain_every=15`; its ch. 3 DAgger is `beta=0.5, beta_schedule="exponential"`.
 """
 
 from __future__ import annotations
@@ -36,8 +36,8 @@ BETA_SCHEDULES = ("constant", "exponential")
 
 @dataclass(frozen=True, kw_only=True)
 class DAggerConfig(RunConfig):
-    """``retrain_at=None`` and ``retrain_every=None`` refit every iteration (DAgger); either
-    gives DAgger-B (``retrain_every`` wins when both are set)."""
+    """`retrain_at=None` and `retrain_every=None` refit every iteration (DAgger); either
+    gives DAgger-B (`retrain_every` wins when both are set)."""
 
     beta: float = 0.0
     beta_schedule: str = "constant"
@@ -63,14 +63,14 @@ class DAggerConfig(RunConfig):
 
 
 def beta_at(config: DAggerConfig, iteration: int) -> float:
-    """The probability of executing the supervisor's action at ``iteration`` (>= 1)."""
+    """The probability of executing the supervisor's action at `iteration` (>= 1)."""
     if config.beta_schedule == "exponential":
         return config.beta**iteration
     return config.beta
 
 
 def refits_at(config: DAggerConfig, iteration: int) -> bool:
-    """Whether the learner is refit after ``iteration`` (>= 1)."""
+    """Whether the learner is refit after `iteration` (>= 1)."""
     if config.retrain_every is not None:
         return iteration % config.retrain_every == 0
     return config.retrain_at is None or iteration in config.retrain_at

@@ -7,27 +7,27 @@ sample of the current learner), the covariance update is Eq. 3:
     Sigma_{k+1} = 1/T E_{p(xi | psi_k)} sum_t (pi_theta^k(x_t) - pi*(x_t)) (pi_theta^k(x_t) - pi*(x_t))^T
 
 estimated here on the held-out pairs of the rollouts collected under the current noise
-``psi_k`` (pairs the learner was not trained on). Those pairs are labelled by the supervisor
-but never trained on: records count them as ``estimation_labels``, apart from the
-``training_labels`` (``labels_requested`` is their sum). Optionally the magnitude is set by a
+`psi_k` (pairs the learner was not trained on). Those pairs are labelled by the supervisor
+but never trained on: records count them as `estimation_labels`, apart from the
+`training_labels` (`labels_requested` is their sum). Optionally the magnitude is set by a
 prior:
 
     Sigma^alpha_{k+1} = alpha / tr(Sigma_{k+1}) Sigma_{k+1}
 
-``alpha`` is an absolute target trace. The source states its settings relative to an
-estimate: ch. 5's "alpha = 3" means ``3 tr(Sigma_1)`` (the first estimate), written here
-``alpha_relative=3`` (``alpha_reference="first"``); ch. 3's "alpha = T tr(Sigma_k)",
+`alpha` is an absolute target trace. The source states its settings relative to an
+estimate: ch. 5's "alpha = 3" means `3 tr(Sigma_1)` (the first estimate), written here
+`alpha_relative=3` (`alpha_reference="first"`); ch. 3's "alpha = T tr(Sigma_k)",
 which it describes as using no prior knowledge, keeps the estimate's own magnitude:
-``alpha=None`` (with this module's per-step average in Eq. 3, the literal ``T`` factor would
-be ``alpha_relative=T, alpha_reference="current"``).
+`alpha=None` (with this module's per-step average in Eq. 3, the literal `T` factor would
+be `alpha_relative=T, alpha_reference="current"`).
 
 For Discrete actions the same estimate is the probability that the learner disagrees with
 the supervisor; the supervisor then executes another action with that probability.
 
-Loop: optionally ``initial_demos`` demonstrations under the initial noise first (iteration
-0, followed by an update); then ``demos_per_iteration`` noise-injected demonstrations per
-iteration; after the iterations in ``update_at`` (or every ``update_every``-th, e.g. the
-source's Humanoid protocol "60 initial, then every 15": ``initial_demos=60, update_every=15``)
+Loop: optionally `initial_demos` demonstrations under the initial noise first (iteration
+0, followed by an update); then `demos_per_iteration` noise-injected demonstrations per
+iteration; after the iterations in `update_at` (or every `update_every`-th, e.g. the
+source's Humanoid protocol "60 initial, then every 15": `initial_demos=60, update_every=15`)
 fit the learner and re-estimate the noise. The learner is not refit in between, which is where
 DART saves compute over DAgger.
 """
@@ -51,11 +51,11 @@ ALPHA_REFERENCES = ("first", "current")
 
 @dataclass(frozen=True, kw_only=True)
 class DARTConfig(RunConfig):
-    """``alpha`` (absolute target trace) or ``alpha_relative`` (a multiple of the trace of the
-    ``alpha_reference`` estimate: the first one or the current one); both None keeps the
-    estimated magnitude. ``update_every`` (when set) replaces ``update_at``. ``initial_demos``
+    """`alpha` (absolute target trace) or `alpha_relative` (a multiple of the trace of the
+    `alpha_reference` estimate: the first one or the current one); both None keeps the
+    estimated magnitude. `update_every` (when set) replaces `update_at`. `initial_demos`
     demonstrations under the initial noise come first (iteration 0) and are followed by an
-    update. ``heldout_fraction`` = 0 holds out only the pairs the ch. 3 subsampling leaves over
+    update. `heldout_fraction` = 0 holds out only the pairs the ch. 3 subsampling leaves over
     (the state-level experiment uses 0.1)."""
 
     alpha: float | None = None
@@ -91,9 +91,9 @@ class DARTConfig(RunConfig):
 
 
 def disagreement_covariance(learner: np.ndarray, supervisor: np.ndarray) -> np.ndarray:
-    """Eq. 3 on samples: the mean of ``d d^T`` with ``d = learner - supervisor`` per pair.
+    """Eq. 3 on samples: the mean of `d d^T` with `d = learner - supervisor` per pair.
 
-    It is a second moment about the supervisor (Approximation 1), not about the mean of ``d``.
+    It is a second moment about the supervisor (Approximation 1), not about the mean of `d`.
     """
     d = np.asarray(learner, dtype=np.float64).reshape(len(learner), -1)
     d = d - np.asarray(supervisor, dtype=np.float64).reshape(len(supervisor), -1)
@@ -101,7 +101,7 @@ def disagreement_covariance(learner: np.ndarray, supervisor: np.ndarray) -> np.n
 
 
 def scale_to_trace(covariance: np.ndarray, alpha: float) -> np.ndarray:
-    """``alpha / tr(Sigma) Sigma``; a zero covariance stays zero (no direction to scale)."""
+    """`alpha / tr(Sigma) Sigma`; a zero covariance stays zero (no direction to scale)."""
     trace = float(np.trace(covariance))
     return covariance if trace == 0.0 else covariance * (alpha / trace)
 
@@ -112,7 +112,7 @@ def disagreement_probability(learner: np.ndarray, supervisor: np.ndarray) -> flo
 
 
 def updates_at(config: DARTConfig, iteration: int) -> bool:
-    """Whether DART refits and re-estimates the noise after ``iteration`` (>= 1)."""
+    """Whether DART refits and re-estimates the noise after `iteration` (>= 1)."""
     if config.update_every is not None:
         return iteration % config.update_every == 0
     return iteration in config.update_at

@@ -1,8 +1,8 @@
 """Trajectories, aggregated datasets of state–label pairs, and the ch. 3 subsampling protocol.
 
-A trajectory ``xi = (x_0, u_0, x_1, ..., x_T)`` (ch. 1) has one more observation than actions.
-Next to the executed actions ``u_t`` it stores the supervisor's labels ``u*_t`` for the states
-``x_t`` the actions were taken from (``info["supervisor_action"]``), whoever acted. Algorithms
+A trajectory `xi = (x_0, u_0, x_1, ..., x_T)` (ch. 1) has one more observation than actions.
+Next to the executed actions `u_t` it stores the supervisor's labels `u*_t` for the states
+`x_t` the actions were taken from (`info["supervisor_action"]`), whoever acted. Algorithms
 decide which labels they actually use; only those count as requested.
 """
 
@@ -16,7 +16,7 @@ import numpy as np
 
 @dataclass
 class Trajectory:
-    """One episode: ``observations`` has ``T + 1`` rows, the other per-step arrays ``T``."""
+    """One episode: `observations` has `T + 1` rows, the other per-step arrays `T`."""
 
     observations: np.ndarray
     actions: np.ndarray
@@ -46,13 +46,13 @@ class Trajectory:
 
     @property
     def states(self) -> np.ndarray:
-        """The ``T`` observations actions were taken from (the last one has no label)."""
+        """The `T` observations actions were taken from (the last one has no label)."""
         return self.observations[:-1]
 
 
 @dataclass
 class Dataset:
-    """An aggregate of state–label pairs ``D = D_1 ∪ D_2 ∪ ...`` (rows are appended in order)."""
+    """An aggregate of state–label pairs `D = D_1 ∪ D_2 ∪ ...` (rows are appended in order)."""
 
     _observations: list[np.ndarray] = field(default_factory=list)
     _labels: list[np.ndarray] = field(default_factory=list)
@@ -62,7 +62,7 @@ class Dataset:
         return self._size
 
     def add(self, observations: np.ndarray, labels: np.ndarray) -> None:
-        """Aggregate a batch of pairs (row ``i`` of ``labels`` labels row ``i`` of observations)."""
+        """Aggregate a batch of pairs (row `i` of `labels` labels row `i` of observations)."""
         if len(observations) != len(labels):
             raise ValueError(
                 f"Dataset.add: {len(observations)} observations but {len(labels)} labels"
@@ -96,10 +96,10 @@ def split_pairs(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Indices of the training and held-out pairs of one demonstration (ch. 3 protocol).
 
-    First ``round(heldout_fraction * n_pairs)`` pairs are drawn at random and held out (the
-    state-level experiment holds out 10%); of the rest, ``samples_per_demo`` drawn at random are
+    First `round(heldout_fraction * n_pairs)` pairs are drawn at random and held out (the
+    state-level experiment holds out 10%); of the rest, `samples_per_demo` drawn at random are
     kept for training (Ho & Ermon's 50 per demonstration) and the others are held out too.
-    ``samples_per_demo=None`` keeps every remaining pair for training. Indices come back sorted.
+    `samples_per_demo=None` keeps every remaining pair for training. Indices come back sorted.
     """
     order = rng.permutation(n_pairs)
     n_heldout = int(round(heldout_fraction * n_pairs))

@@ -1,9 +1,9 @@
 """What an evaluation measures over seeded episodes: mean return and, where the env reports
 them, success and collisions, each with its standard error.
 
-Success is Gymnasium's convention, ``info["is_success"]`` on an episode's last step (an
+Success is Gymnasium's convention, `info["is_success"]` on an episode's last step (an
 episode that ends without it, e.g. truncated, counts as a failure). Collisions are the events
-an env lists in ``info["collisions"]`` (FLUIDS: this step's collisions), summed per episode.
+an env lists in `info["collisions"]` (FLUIDS: this step's collisions), summed per episode.
 Envs that report neither get None for both.
 """
 
@@ -57,7 +57,7 @@ def evaluate_trajectories(
     trajectories: Sequence[Trajectory], reports_success: bool = False
 ) -> Evaluation:
     """Summarise evaluation episodes. Success is reported when one of them ends with
-    ``info["is_success"]``, or when ``reports_success`` says the env does (an earlier
+    `info["is_success"]`, or when `reports_success` says the env does (an earlier
     evaluation saw it: then a batch where every episode timed out scores 0, not None)."""
     returns = [t.total_return for t in trajectories]
     reports_success = reports_success or any(SUCCESS_KEY in t.infos[-1] for t in trajectories)

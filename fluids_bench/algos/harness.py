@@ -1,31 +1,31 @@
 """The bookkeeping every algorithm shares, so that each algorithm module shows only its loop.
 
-A :class:`Harness` owns the env, the seeds, the aggregate dataset, the label count, the fit
+A `Harness` owns the env, the seeds, the aggregate dataset, the label count, the fit
 timer and the evaluation protocol of one run:
 
-- seeds: one :class:`numpy.random.SeedSequence` from ``config.seed`` is split into independent
+- seeds: one `numpy.random.SeedSequence` from `config.seed` is split into independent
   streams for episode seeds, evaluation seeds, subsampling, the algorithm's own choices and
-  model ``random_state``s (one per training-set size, so evaluating more often never changes
+  model `random_state`s (one per training-set size, so evaluating more often never changes
   what the algorithm learns);
 - evaluation: the learner and (once, up front) the supervisor are rolled out on the same
-  ``eval_episodes`` seeds; normalised performance is their ratio after ``return_floor``;
+  `eval_episodes` seeds; normalised performance is their ratio after `return_floor`;
   success and collisions are summarised too where the env reports them
-  (:mod:`~fluids_bench.algos.evaluation`);
-- compute: ``fit_seconds`` (fitting) and the wall clock of everything but evaluation
-  (collection, labelling, fitting), see :class:`~fluids_bench.algos.results.IterationRecord`;
-- execution: the rollouts an algorithm asks for together (:meth:`Harness.collect_many`, an
-  iteration's demonstrations) and the evaluation episodes run on ``config.workers`` processes
+  (`evaluation`);
+- compute: `fit_seconds` (fitting) and the wall clock of everything but evaluation
+  (collection, labelling, fitting), see `IterationRecord`;
+- execution: the rollouts an algorithm asks for together (`Harness.collect_many`, an
+  iteration's demonstrations) and the evaluation episodes run on `config.workers` processes
   or Ray tasks (`fluids_bench.core.parallel.TaskSession`, opened once per run); their
   seeds are drawn in order in this process before they start and the results are put back in
   that order, so the records are the same whatever the workers and the backend. The learner is
   fitted here, once per iteration;
-- learners: ``config.policy`` a ``PolicySpec`` is fit afresh with a seeded ``random_state``;
-  a user's learner (:mod:`fluids_bench.algos.learners`) is built once per run and refit in
+- learners: `config.policy` a `PolicySpec` is fit afresh with a seeded `random_state`;
+  a user's learner (`fluids_bench.algos.learners`) is built once per run and refit in
   place by every fit, including a fit only an evaluation needs: with a warm-starting learner
   (the torch ones) later fits continue from it, so there the evaluation schedule is part of
   what is learned;
-- resuming: with ``config.checkpoint``, every finished rollout, evaluation and record is kept
-  on disk and a rerun takes them from there (:mod:`~fluids_bench.algos.checkpoint`).
+- resuming: with `config.checkpoint`, every finished rollout, evaluation and record is kept
+  on disk and a rerun takes them from there (`checkpoint`).
 """
 
 from __future__ import annotations
@@ -86,7 +86,7 @@ def run_rollout(task: RolloutTask, actor: Actor) -> Trajectory:
 
 
 def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
-    """``gym.make`` with errors that say which ids exist and what an algorithm needs."""
+    """`gym.make` with errors that say which ids exist and what an algorithm needs."""
     if env_id not in gym.registry:
         raise ValueError(
             f"unknown env id {env_id!r}; allowed: the suite's ids {sorted(ENV_SPECS)} "
@@ -113,7 +113,7 @@ def make_env(env_id: str, env_kwargs: dict[str, Any]) -> gym.Env[Any, Any]:
 
 
 class Harness:
-    """Env, data, seeds, timing and evaluation of one run of algorithm ``algo``."""
+    """Env, data, seeds, timing and evaluation of one run of algorithm `algo`."""
 
     def __init__(
         self, algo: str, config: RunConfig, progress: ProgressCallback | None = None
@@ -184,11 +184,11 @@ class Harness:
     # -- data --------------------------------------------------------------------------------
 
     def collect(self, actor: Actor) -> Trajectory:
-        """Roll out ``actor`` on the next episode seed."""
+        """Roll out `actor` on the next episode seed."""
         return self.collect_many(actor, 1)[0]
 
     def collect_many(self, actor: Actor, count: int) -> list[Trajectory]:
-        """Roll out ``actor`` on the next ``count`` episode seeds, in parallel where the run
+        """Roll out `actor` on the next `count` episode seeds, in parallel where the run
         has workers; the trajectories come back in seed order."""
         seeds = [int(self._episode_rng.integers(SEED_BOUND)) for _ in range(count)]
         first = self.demonstrations
@@ -199,7 +199,7 @@ class Harness:
     def _rollouts(
         self, actor: Actor, seeds: list[int], names: list[str] | None = None
     ) -> list[Trajectory]:
-        """``actor`` on each of ``seeds``; with ``names``, each finished rollout is kept in the
+        """`actor` on each of `seeds`; with `names`, each finished rollout is kept in the
         checkpoint under its name (and taken from there when it is already)."""
         refuse_test_seeds(seeds, "the algorithm harness")  # training never sees a test seed
         results: list[Trajectory | None] = [None] * len(seeds)
@@ -245,10 +245,10 @@ class Harness:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Add the supervisor's labels of some visited states to the training set.
 
-        ``candidates`` are the step indices whose labels the algorithm requests (default all);
-        they are split by the ch. 3 protocol (:func:`split_pairs`), capped at
-        ``samples_per_demo`` unless ``subsample=False`` (SHIV's queried states are all kept).
-        Held-out pairs are kept in :attr:`heldout` (and counted) only when ``keep_heldout``.
+        `candidates` are the step indices whose labels the algorithm requests (default all);
+        they are split by the ch. 3 protocol (`split_pairs`), capped at
+        `samples_per_demo` unless `subsample=False` (SHIV's queried states are all kept).
+        Held-out pairs are kept in `heldout` (and counted) only when `keep_heldout`.
         Returns the training pairs.
         """
         steps = np.arange(len(trajectory)) if candidates is None else np.asarray(candidates)
@@ -295,7 +295,7 @@ class Harness:
         return self.set_policy(policy)
 
     def set_policy(self, policy: Policy) -> Policy:
-        """Declare ``policy`` the learner for all data so far (algorithms that fit their own way)."""
+        """Declare `policy` the learner for all data so far (algorithms that fit their own way)."""
         self.policy = policy
         self._policy_pairs = len(self.train)
         return policy
@@ -304,7 +304,7 @@ class Harness:
         return self.policy is not None and self._policy_pairs == len(self.train)
 
     def evaluate(self, actor: Actor) -> Evaluation:
-        """``actor`` over the evaluation seeds: return, success, collisions."""
+        """`actor` over the evaluation seeds: return, success, collisions."""
         name = f"eval-{self._evaluations:04d}"
         self._evaluations += 1
         summary = None if self.store is None else self.store.load(name)
@@ -317,7 +317,7 @@ class Harness:
         return summary
 
     def evaluate_actor(self, actor: Actor) -> float:
-        """Mean return of ``actor`` over the evaluation seeds."""
+        """Mean return of `actor` over the evaluation seeds."""
         return self.evaluate(actor).mean_return
 
     def normalise(self, value: float) -> float | None:
@@ -377,7 +377,7 @@ class Harness:
         return record
 
     def _keep(self, record: IterationRecord) -> None:
-        """Save ``record`` in the checkpoint, or, when a finished run saved this iteration,
+        """Save `record` in the checkpoint, or, when a finished run saved this iteration,
         check that it is the same and keep the saved timing (the work it measured was done
         then); later records' cumulative times continue from it."""
         assert self.store is not None
@@ -401,7 +401,7 @@ class Harness:
             )
 
     def result(self) -> RunResult:
-        """The run's result; ``policy`` is the learner fit on all training data."""
+        """The run's result; `policy` is the learner fit on all training data."""
         if not self._policy_is_current():
             self.policy = self._fit()[0]
             self._policy_pairs = len(self.train)

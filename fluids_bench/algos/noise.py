@@ -1,11 +1,11 @@
 """Isotropic noise injection (ch. 2, "Noise Injection"; the "Isotropic-Gaussian" baseline of ch. 3).
 
-Off-policy sampling from a widened supervisor: ``u = pi*(x) + eps``. For Box actions
-``eps ~ N(0, noise_std^2 I)`` (the source's baseline uses ``Sigma = I``); for Discrete actions
+Off-policy sampling from a widened supervisor: `u = pi*(x) + eps`. For Box actions
+`eps ~ N(0, noise_std^2 I)` (the source's baseline uses `Sigma = I`); for Discrete actions
 the supervisor's action is replaced by a uniformly drawn other action with probability
-``epsilon``. The noise forces the supervisor into recoverable mistakes, so its labels include
+`epsilon`. The noise forces the supervisor into recoverable mistakes, so its labels include
 corrective examples; the learner is then fit on the aggregate data as in Behavior Cloning.
-The noise never changes; DART (:mod:`fluids_bench.algos.dart`) chooses it from data.
+The noise never changes; DART (`fluids_bench.algos.dart`) chooses it from data.
 """
 
 from __future__ import annotations
@@ -25,7 +25,7 @@ from fluids_bench.core.validation import check_float
 
 @dataclass(frozen=True, kw_only=True)
 class NoiseConfig(RunConfig):
-    """``noise_std`` applies to Box actions, ``epsilon`` to Discrete ones."""
+    """`noise_std` applies to Box actions, `epsilon` to Discrete ones."""
 
     noise_std: float = 1.0
     epsilon: float = 0.1
@@ -40,7 +40,7 @@ class NoiseConfig(RunConfig):
 def isotropic_actor(
     action_space: spaces.Space[Any], noise_std: float, epsilon: float
 ) -> NoisySupervisorActor:
-    """The supervisor with ``N(0, noise_std^2 I)`` noise (Box) or ``epsilon``-random (Discrete)."""
+    """The supervisor with `N(0, noise_std^2 I)` noise (Box) or `epsilon`-random (Discrete)."""
     if isinstance(action_space, spaces.Discrete):
         return NoisySupervisorActor(action_space, epsilon=epsilon)
     dim = int(np.prod(action_space.shape))

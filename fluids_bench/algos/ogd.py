@@ -5,14 +5,14 @@ loss of the latest on-policy data only (Online Gradient Descent, Cheng et al. 20
 
     theta^{k+1} = theta^k - eta grad_theta E_{p(xi | theta^k)} J(theta, theta* | xi) |_{theta^k}
 
-(the source writes the step with ``+`` for a reward; on a loss it descends). The policy class
+(the source writes the step with `+` for a reward; on a loss it descends). The policy class
 is linear in standardised features, so the gradient is exact:
 
-- Box actions: ``pi_theta(x) = W^T phi(x)``, squared L2 loss, gradient ``2/n Phi^T (Phi W - U)``;
+- Box actions: `pi_theta(x) = W^T phi(x)`, squared L2 loss, gradient `2/n Phi^T (Phi W - U)`;
 - Discrete actions: linear softmax scores, cross-entropy (a convex surrogate of the 0/1
-  loss), gradient ``1/n Phi^T (softmax(Phi W) - Y)``; the policy takes the arg-max.
+  loss), gradient `1/n Phi^T (softmax(Phi W) - Y)`; the policy takes the arg-max.
 
-``phi(x) = ((x - m) / s, 1)`` with ``m, s`` from the initial demonstrations, fixed afterwards.
+`phi(x) = ((x - m) / s, 1)` with `m, s` from the initial demonstrations, fixed afterwards.
 The learner acts alone (beta = 0) after the initial supervisor demonstrations.
 
 With a user's learner in `config.policy` (not a `PolicySpec`, which OGD ignores: its class is
@@ -41,7 +41,7 @@ from fluids_bench.core.validation import check_float, check_int
 
 @dataclass(frozen=True, kw_only=True)
 class OGDConfig(RunConfig):
-    """``learning_rate`` is eta; ``steps_per_iteration`` gradient steps on each iteration's loss."""
+    """`learning_rate` is eta; `steps_per_iteration` gradient steps on each iteration's loss."""
 
     learning_rate: float = 0.5
     steps_per_iteration: int = 1
@@ -56,7 +56,7 @@ class OGDConfig(RunConfig):
 
 
 class LinearPolicy:
-    """``pi(x) = argmax / identity of phi(x) W``; immutable (a step returns a new policy)."""
+    """`pi(x) = argmax / identity of phi(x) W`; immutable (a step returns a new policy)."""
 
     def __init__(
         self,

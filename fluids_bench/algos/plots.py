@@ -24,8 +24,8 @@ def new_figure(rows: int = 1, cols: int = 1, size: tuple[float, float] = (6.0, 4
 def save_png_atomic(
     figure: Figure, path: str | os.PathLike[str], legend_loc: str | None = "best"
 ) -> None:
-    """Add a light grid and a small legend (unless ``legend_loc`` is None) to every axes,
-    render ``figure`` to PNG in memory, then write it atomically."""
+    """Add a light grid and a small legend (unless `legend_loc` is None) to every axes,
+    render `figure` to PNG in memory, then write it atomically."""
     for axes in figure.axes:
         axes.grid(alpha=0.3)
         if legend_loc is not None:
@@ -47,7 +47,7 @@ X_AXES = {
 def learning_curve_figure(results: Sequence[RunResult], x: str = "training_labels") -> Figure:
     """Normalised performance (± standard error) of the learned policy, its success rate when
     the env reports success, and the return while collecting (the layout of the source's
-    Fig. 3.3), all against ``x`` (a key of :data:`X_AXES`)."""
+    Fig. 3.3), all against `x` (a key of `X_AXES`)."""
     check_choice("learning_curve_figure", "x", x, X_AXES)
     with_success = any(r.eval_success_rate is not None for res in results for r in res.records)
     figure = new_figure(3 if with_success else 2, 1, (6.5, 9.0 if with_success else 6.5))
@@ -105,5 +105,5 @@ def learning_curve_figure(results: Sequence[RunResult], x: str = "training_label
 def plot_learning_curves(
     results: Sequence[RunResult], path: str | os.PathLike[str], x: str = "training_labels"
 ) -> None:
-    """:func:`learning_curve_figure` written to ``path`` as PNG."""
+    """`learning_curve_figure` written to `path` as PNG."""
     save_png_atomic(learning_curve_figure(results, x), path)

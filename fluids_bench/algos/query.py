@@ -3,32 +3,32 @@
 Every selector is fit on the current training set and the current learner, then marks the
 states of a new rollout as risky (ask) or safe (do not ask):
 
-- :class:`ShivSelector`, SHIV's risk (Eq. 7–8): a One-Class SVM ``g_s`` (``nu``, ``sigma``) on
-  the states the learner predicts well and one ``g_r`` (``nu_r``, ``sigma_r``) on those it
+- `ShivSelector`, SHIV's risk (Eq. 7–8): a One-Class SVM `g_s` (`nu`, `sigma`) on
+  the states the learner predicts well and one `g_r` (`nu_r`, `sigma_r`) on those it
   mispredicts; a state is safe only if it lies strictly inside the well-predicted level set
-  and outside the mispredicted one. "Well predicted" means a loss ``<= epsilon``: 0/1 loss with
-  ``epsilon = 0`` for Discrete actions, the L2 distance between predicted and supervisor
-  action for Box actions, where ``epsilon=None`` takes the median training error (the
+  and outside the mispredicted one. "Well predicted" means a loss `<= epsilon`: 0/1 loss with
+  `epsilon = 0` for Discrete actions, the L2 distance between predicted and supervisor
+  action for Box actions, where `epsilon=None` takes the median training error (the
   source's choice for grasping). When the learner predicts every training state within
-  ``epsilon`` (a deep tree on consistent Discrete labels) there is no mispredicted set and SHIV
-  *is* novelty detection (:class:`NoveltySelector` on the same states);
-- :class:`NoveltySelector`: the plain One-Class SVM on all training states (no holes carved);
-- :class:`ConfidenceSelector`: distance to a linear SVM's hyperplane (Tong & Koller); risky
+  `epsilon` (a deep tree on consistent Discrete labels) there is no mispredicted set and SHIV
+  *is* novelty detection (`NoveltySelector` on the same states);
+- `NoveltySelector`: the plain One-Class SVM on all training states (no holes carved);
+- `ConfidenceSelector`: distance to a linear SVM's hyperplane (Tong & Koller); risky
   below the mean margin of the misclassified training states;
-- :class:`CommitteeSelector`: query-by-committee of 3 linear SVMs bagged on overlapping 80%
+- `CommitteeSelector`: query-by-committee of 3 linear SVMs bagged on overlapping 80%
   subsets; risky when they disagree;
-- :class:`MMDSelector`: the Maximum Mean Discrepancy between a state and the training set
+- `MMDSelector`: the Maximum Mean Discrepancy between a state and the training set
   (Kim & Pineau's MMD-IL); risky among the largest values, with the threshold at the
-  ``1 - nu`` quantile of the training states' own values (the lowest 10% of similarity for
-  ``nu = 0.1``).
+  `1 - nu` quantile of the training states' own values (the lowest 10% of similarity for
+  `nu = 0.1`).
 
 The confidence and committee baselines need class labels: they accept Discrete actions only.
-Their linear SVM is ``svm`` (a :class:`~fluids_bench.algos.policies.PolicySpec`; default
-``linear_svm`` with scikit-learn's C = 1).
-The Gaussian kernel is ``k(x, x') = exp(-|x - x'|^2 / (2 sigma^2))``, i.e. scikit-learn's
-``gamma = 1 / (2 sigma^2)``. Bandwidths (:class:`KernelSpace`): an explicit ``sigma`` is in the
+Their linear SVM is `svm` (a `PolicySpec`; default
+`linear_svm` with scikit-learn's C = 1).
+The Gaussian kernel is `k(x, x') = exp(-|x - x'|^2 / (2 sigma^2))`, i.e. scikit-learn's
+`gamma = 1 / (2 sigma^2)`. Bandwidths (`KernelSpace`): an explicit `sigma` is in the
 units of the raw observation, as the source states its values (200 on HOG features, 5 and 6 on
-the grasping state); ``sigma=None`` standardises every feature on the first training set a
+the grasping state); `sigma=None` standardises every feature on the first training set a
 selector is fit on (in SHIV, the initial demonstrations, where the source tunes its bandwidths)
 and takes the median distance between its distinct states (the "median heuristic"), then keeps
 both for the rest of the run. So the default means the same on a gridworld's cells and on
@@ -63,7 +63,7 @@ class QuerySelector(Protocol):
 
 
 def gamma_of(sigma: float) -> float:
-    """scikit-learn's RBF ``gamma`` for bandwidth ``sigma``."""
+    """scikit-learn's RBF `gamma` for bandwidth `sigma`."""
     return 1.0 / (2.0 * sigma**2)
 
 
@@ -76,9 +76,9 @@ def surrogate_loss(predicted: np.ndarray, labels: np.ndarray, discrete: bool) ->
 
 
 def median_distance(X: np.ndarray) -> float:
-    """Median Euclidean distance between distinct rows of ``X`` (1.0 if there are none).
+    """Median Euclidean distance between distinct rows of `X` (1.0 if there are none).
 
-    At most :data:`MEDIAN_HEURISTIC_STATES` rows, evenly spaced, so the cost stays bounded.
+    At most `MEDIAN_HEURISTIC_STATES` rows, evenly spaced, so the cost stays bounded.
     """
     distinct = np.unique(X, axis=0)
     if len(distinct) < 2:
@@ -93,7 +93,7 @@ def median_distance(X: np.ndarray) -> float:
 class KernelSpace:
     """The feature space and bandwidth a kernel selector works in.
 
-    ``sigma`` given: raw observations, that bandwidth. ``sigma=None``: features standardised on
+    `sigma` given: raw observations, that bandwidth. `sigma=None`: features standardised on
     the first training set (constant features keep scale 1), bandwidth by the median
     heuristic on it; later fits keep both.
     """
@@ -119,7 +119,7 @@ class KernelSpace:
 
 
 def _gaussian_kernel(A: np.ndarray, B: np.ndarray, sigma: float) -> np.ndarray:
-    """``k(a, b)`` for all rows, by matrix products, and exactly 1 between identical rows.
+    """`k(a, b)` for all rows, by matrix products, and exactly 1 between identical rows.
 
     libsvm's own RBF gives identical rows distance 0 exactly; the matrix-product distance can
     leave ~1e-15 there, which would move a repeated training state off a level set's boundary
@@ -167,7 +167,7 @@ class _LevelSet:
 
 
 def check_bandwidths(where: str, sigma: float | None, sigma_r: float | None) -> None:
-    """``sigma_r`` alone has no units to live in: an explicit bandwidth is in raw units."""
+    """`sigma_r` alone has no units to live in: an explicit bandwidth is in raw units."""
     if sigma is None and sigma_r is not None:
         raise ValueError(
             f"{where}: field 'sigma_r' is {sigma_r!r} while 'sigma' is None; allowed: None, or "
@@ -177,11 +177,11 @@ def check_bandwidths(where: str, sigma: float | None, sigma_r: float | None) -> 
 
 
 class ShivSelector:
-    """SHIV's risk, Eq. 8: safe iff ``g_s(x) = 1`` (strictly inside) and ``g_r(x) = -1``.
+    """SHIV's risk, Eq. 8: safe iff `g_s(x) = 1` (strictly inside) and `g_r(x) = -1`.
 
-    Defaults are the source's (ch. 6): ``nu = 0.1``, ``nu_r = 1e-3``, ``epsilon`` = the median
-    training error for Box actions; ``sigma=None`` is the scale-aware bandwidth of
-    :class:`KernelSpace` and ``sigma_r=None`` equals ``sigma``.
+    Defaults are the source's (ch. 6): `nu = 0.1`, `nu_r = 1e-3`, `epsilon` = the median
+    training error for Box actions; `sigma=None` is the scale-aware bandwidth of
+    `KernelSpace` and `sigma_r=None` equals `sigma`.
     """
 
     def __init__(
@@ -328,8 +328,8 @@ class CommitteeSelector:
 class MMDSelector:
     """MMD of a single state against the training set, thresholded at a training quantile.
 
-    ``MMD^2(x, D) = k(x, x) - 2/n sum_i k(x, x_i) + 1/n^2 sum_ij k(x_i, x_j)``: with a Gaussian
-    kernel only the middle term depends on ``x``, so ranking by MMD is ranking by (minus) the
+    `MMD^2(x, D) = k(x, x) - 2/n sum_i k(x, x_i) + 1/n^2 sum_ij k(x_i, x_j)`: with a Gaussian
+    kernel only the middle term depends on `x`, so ranking by MMD is ranking by (minus) the
     kernel density estimate.
     """
 
@@ -341,7 +341,7 @@ class MMDSelector:
         self.threshold = np.inf
 
     def _density(self, X: np.ndarray) -> np.ndarray:
-        """``1/n sum_i k(x, x_i)`` per row of ``X``, in chunks to bound memory."""
+        """`1/n sum_i k(x, x_i)` per row of `X`, in chunks to bound memory."""
         chunks = [
             rbf_kernel(X[i : i + 1024], self.X, gamma=gamma_of(self.space.sigma)).mean(axis=1)
             for i in range(0, len(X), 1024)

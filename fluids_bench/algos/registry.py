@@ -47,7 +47,7 @@ def get_algorithm(name: str) -> Algorithm:
 def run_algorithm(
     name: str, progress: ProgressCallback | None = None, **settings: Any
 ) -> RunResult:
-    """Build ``name``'s config from its presets and ``settings``, then run it."""
+    """Build `name`'s config from its presets and `settings`, then run it."""
     algorithm = get_algorithm(name)
     config = algorithm.config_class(**{**algorithm.presets, **settings})
     return algorithm.run(config, progress)

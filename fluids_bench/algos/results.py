@@ -19,27 +19,27 @@ class IterationRecord:
 
     Data counters:
 
-    - ``demonstrations``: rollouts collected so far (the source's trajectory-level x-axis);
-    - ``training_labels``: state–label pairs in the training set (the source's state-level
+    - `demonstrations`: rollouts collected so far (the source's trajectory-level x-axis);
+    - `training_labels`: state–label pairs in the training set (the source's state-level
       x-axis: labelled examples used for training);
-    - ``estimation_labels``: labelled pairs kept out of training to estimate DART's noise;
-    - ``labels_requested``: every supervisor label the algorithm used, the sum of the two above
+    - `estimation_labels`: labelled pairs kept out of training to estimate DART's noise;
+    - `labels_requested`: every supervisor label the algorithm used, the sum of the two above
       (labels of states it chose not to query, or discarded by subsampling, do not count).
 
     Compute (seconds; evaluation is never counted):
 
-    - ``train_seconds``: fitting the learner (and SHIV's risk model, DART's noise estimate)
+    - `train_seconds`: fitting the learner (and SHIV's risk model, DART's noise estimate)
       to produce the policy evaluated here: every fit so far plus, when the algorithm had not
       just fitted on all its data, the fit of the evaluated policy;
-    - ``wall_seconds``: everything the algorithm did so far (collection, the supervisor's
+    - `wall_seconds`: everything the algorithm did so far (collection, the supervisor's
       labelling, fitting), the source's "total computation time", plus that same extra fit.
 
-    ``collection_return`` is the mean return of the policy that acted while collecting this
+    `collection_return` is the mean return of the policy that acted while collecting this
     iteration's data (the bottom rows of the source's Fig. 3.3). At an evaluation,
-    ``eval_return`` is the learner's mean return over the evaluation episodes and
-    ``eval_return_se`` its standard error; ``eval_success_rate`` (with its standard error) and
-    ``eval_collisions`` (mean collision events per episode) are filled for envs that report
-    ``info["is_success"]`` and ``info["collisions"]`` (e.g. FLUIDS), else None.
+    `eval_return` is the learner's mean return over the evaluation episodes and
+    `eval_return_se` its standard error; `eval_success_rate` (with its standard error) and
+    `eval_collisions` (mean collision events per episode) are filled for envs that report
+    `info["is_success"]` and `info["collisions"]` (e.g. FLUIDS), else None.
     """
 
     iteration: int
@@ -63,7 +63,7 @@ class IterationRecord:
 class RunResult:
     """A whole run: its config, the supervisor's reference return and one record per iteration.
 
-    ``policy`` (the learner fit on all training pairs) and ``dataset`` stay out of the JSON.
+    `policy` (the learner fit on all training pairs) and `dataset` stay out of the JSON.
     """
 
     algo: str
@@ -100,7 +100,7 @@ class RunResult:
 
 
 def write_bytes_atomic(path: str | os.PathLike[str], data: bytes) -> None:
-    """Write ``data`` to a temporary file next to ``path``, then rename it into place.
+    """Write `data` to a temporary file next to `path`, then rename it into place.
 
     A reader never sees a half-written file, and an interrupted run leaves the old one intact.
     """
@@ -124,6 +124,6 @@ def _umask() -> int:
 
 
 def write_json_atomic(path: str | os.PathLike[str], payload: Any) -> None:
-    """Atomically write ``payload`` as indented JSON (NaN/inf refused: not valid JSON)."""
+    """Atomically write `payload` as indented JSON (NaN/inf refused: not valid JSON)."""
     text = json.dumps(payload, indent=2, allow_nan=False) + "\n"
     write_bytes_atomic(path, text.encode("utf-8"))

@@ -1,6 +1,6 @@
 """The one rollout function every algorithm, evaluation and script uses.
 
-``rollout(env, actor, seed)`` resets the env with ``seed``, lets ``actor`` choose every action
+`rollout(env, actor, seed)` resets the env with `seed`, lets `actor` choose every action
 and records the trajectory with the supervisor's label of every visited state. The actor's own
 randomness comes from a generator derived from the same seed (a separate stream from the
 env's), so one seed fixes the whole episode. Everything about an episode is in its arguments,
@@ -23,7 +23,7 @@ ACTOR_STREAM = 0xAC7
 
 
 def actor_rng(seed: int) -> np.random.Generator:
-    """The generator an actor uses during the episode with ``seed``."""
+    """The generator an actor uses during the episode with `seed`."""
     return np.random.default_rng([seed, ACTOR_STREAM])
 
 
@@ -36,7 +36,7 @@ def _label(env: gym.Env[Any, Any], info: dict[str, Any]) -> Any:
 def rollout(
     env: gym.Env[Any, Any], actor: Actor, seed: int, max_steps: int | None = None
 ) -> Trajectory:
-    """Run one episode from ``env.reset(seed=seed)`` until it ends (or ``max_steps`` steps)."""
+    """Run one episode from `env.reset(seed=seed)` until it ends (or `max_steps` steps)."""
     observation, info = env.reset(seed=seed)
     rng = actor_rng(seed)
     observations, actions, labels, rewards, infos = [observation], [], [], [], [info]

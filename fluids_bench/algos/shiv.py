@@ -1,34 +1,34 @@
 """SHIV: SVM-based reduction in Human InterVention (ch. 6).
 
-DAgger with stream-based active learning. Before the loop, ``initial_demos`` supervisor
-demonstrations (subsampled by ``samples_per_demo`` like every demonstration) form ``D_0``.
+DAgger with stream-based active learning. Before the loop, `initial_demos` supervisor
+demonstrations (subsampled by `samples_per_demo` like every demonstration) form `D_0`.
 Each iteration:
 
-1. Step 1 (Eq. 9): fit ``theta_k = argmin_theta sum_n l(pi_theta(x_n), u_n)`` on the aggregate
-   data ``D_k`` (initially the supervisor's demonstrations);
-2. fit the risk model on ``D_k`` and ``theta_k`` (Eq. 7–8, :class:`~fluids_bench.algos.query.ShivSelector`);
-3. Step 2: roll out ``pi_theta_k`` (the learner always acts; the supervisor never takes over)
+1. Step 1 (Eq. 9): fit `theta_k = argmin_theta sum_n l(pi_theta(x_n), u_n)` on the aggregate
+   data `D_k` (initially the supervisor's demonstrations);
+2. fit the risk model on `D_k` and `theta_k` (Eq. 7–8, `ShivSelector`);
+3. Step 2: roll out `pi_theta_k` (the learner always acts; the supervisor never takes over)
    and ask the supervisor only about the risky visited states, every one of them (no
-   ``samples_per_demo`` cap: the number queried is SHIV's measure of supervisor burden):
-   ``D_{k+1} = D_k ∪ {(x_t, u*_t) : g(x_t) = -1}``.
+   `samples_per_demo` cap: the number queried is SHIV's measure of supervisor burden):
+   `D_{k+1} = D_k ∪ {(x_t, u*_t) : g(x_t) = -1}`.
 
-Defaults are the source's: ``nu = 0.1``, ``nu_r = 1e-3``, ``epsilon`` = the median L2 training
-error (Box actions; 0/1 loss with ``epsilon = 0`` for Discrete ones). The source tunes
-``sigma`` and ``sigma_r`` by a grid search (3 iterations of one trial); the default here,
-``sigma=None``, standardises the features and uses the median distance between distinct
-training states (:class:`~fluids_bench.algos.query.KernelSpace`), and ``sigma_r=None`` follows
-``sigma``. Explicit values are in raw observation units (the source's 200 for HOG features).
+Defaults are the source's: `nu = 0.1`, `nu_r = 1e-3`, `epsilon` = the median L2 training
+error (Box actions; 0/1 loss with `epsilon = 0` for Discrete ones). The source tunes
+`sigma` and `sigma_r` by a grid search (3 iterations of one trial); the default here,
+`sigma=None`, standardises the features and uses the median distance between distinct
+training states (`KernelSpace`), and `sigma_r=None` follows
+`sigma`. Explicit values are in raw observation units (the source's 200 for HOG features).
 A bandwidth far below the typical distance between states makes every new state novel and
 SHIV queries what DAgger queries. With a learner that predicts all its training states within
-``epsilon`` (a deep tree on Discrete labels) the mispredicted set is empty and SHIV reduces to
-novelty detection (``selector="novelty"``); the ``mispredicted`` extra reports ``|D_r|``.
+`epsilon` (a deep tree on Discrete labels) the mispredicted set is empty and SHIV reduces to
+novelty detection (`selector="novelty"`); the `mispredicted` extra reports `|D_r|`.
 
-:func:`grid_search_bandwidths` is the source's tuning procedure: one trial of SHIV for 3
-iterations per candidate ``(sigma, sigma_r)``, scored by the learner's surrogate loss on the
+`grid_search_bandwidths` is the source's tuning procedure: one trial of SHIV for 3
+iterations per candidate `(sigma, sigma_r)`, scored by the learner's surrogate loss on the
 states its own policy visits.
 
 The risk model stays fixed during a rollout, so deciding after the rollout is the same as
-deciding state by state. ``selector`` swaps in one of the ch. 6 baselines (novelty only,
+deciding state by state. `selector` swaps in one of the ch. 6 baselines (novelty only,
 confidence, query-by-committee, MMD) to compare query selection methods under one loop.
 """
 
@@ -62,8 +62,8 @@ from fluids_bench.core.validation import check_choice, check_float, check_int
 
 @dataclass(frozen=True, kw_only=True)
 class SHIVConfig(RunConfig):
-    """``(nu, sigma)``: the well-predicted level set; ``(nu_r, sigma_r)``: the mispredicted one
-    (``sigma=None``: scale-aware bandwidth; ``sigma_r=None``: same as ``sigma``); ``epsilon``:
+    """`(nu, sigma)`: the well-predicted level set; `(nu_r, sigma_r)`: the mispredicted one
+    (`sigma=None`: scale-aware bandwidth; `sigma_r=None`: same as `sigma`); `epsilon`:
     allowed L2 error for Box actions (None: the median training error)."""
 
     selector: str = "shiv"
@@ -153,14 +153,14 @@ def grid_search_bandwidths(
     iterations: int = 3,
     episodes: int = 5,
 ) -> tuple[SHIVConfig, list[BandwidthTrial]]:
-    """The source's choice of ``sigma`` and ``sigma_r`` (ch. 6): a grid search "on the surrogate
+    """The source's choice of `sigma` and `sigma_r` (ch. 6): a grid search "on the surrogate
     loss for a single trial of SHIV for 3 iterations".
 
-    Every pair of ``sigmas`` x ``sigma_rs`` (raw units; ``sigma_rs=None`` pairs each sigma with
-    itself) runs SHIV from ``config`` for ``iterations`` iterations (same seed, so the same
-    initial demonstrations); its final learner is rolled out for ``episodes`` episodes and
+    Every pair of `sigmas` x `sigma_rs` (raw units; `sigma_rs=None` pairs each sigma with
+    itself) runs SHIV from `config` for `iterations` iterations (same seed, so the same
+    initial demonstrations); its final learner is rolled out for `episodes` episodes and
     scored by its surrogate loss against the supervisor's labels of the states it visited.
-    Returns ``config`` with the lowest-loss pair (ties: fewer labels, then the larger sigma)
+    Returns `config` with the lowest-loss pair (ties: fewer labels, then the larger sigma)
     and every trial.
     """
     if not sigmas:

@@ -1,22 +1,22 @@
-"""``fluids-bench collect``: roll out an env's supervisor and write a Minari dataset.
+"""`fluids-bench collect`: roll out an env's supervisor and write a Minari dataset.
 
 Actions are the supervisor's labels; what was executed, and by whom, is in the infos (see
-:mod:`fluids_bench.data.minari_export`). Episode ``i`` uses seed ``--seed + i``, so the data do
-not depend on ``--workers`` or ``--backend``.
+`fluids_bench.data.minari_export`). Episode `i` uses seed `--seed + i`, so the data do
+not depend on `--workers` or `--backend`.
 
 Everything that can refuse does so before collecting: an existing id (without
-``--overwrite``), ``--data-format hdf5`` without h5py (the ``hdf5`` extra), and an id another
-run is writing right now (:mod:`fluids_bench.core.parallel`). Reference scores: given
-``--ref-min-score``/``--ref-max-score``, those; otherwise the id's measured ones where the
+`--overwrite`), `--data-format hdf5` without h5py (the `hdf5` extra), and an id another
+run is writing right now (`fluids_bench.core.parallel`). Reference scores: given
+`--ref-min-score`/`--ref-max-score`, those; otherwise the id's measured ones where the
 project has them (the mean return of random actions and of the default supervisor, today the
 locomotion ids with their default supervisor), else none.
 
 Nothing finished is lost when a run stops: each episode is written to disk as it finishes
-(:mod:`fluids_bench.data.partial`). After Ctrl-C or SIGTERM the finished episodes are exported
-as the dataset, marked incomplete (its description starts with ``INCOMPLETE`` and
-``fluids_bench_incomplete.json`` lists them), and the command exits with 130; after SIGKILL they
-stay on disk. Either way ``--resume`` with the same arguments collects the missing episodes and
-writes the complete dataset, identical to an uninterrupted run's. Example::
+(`fluids_bench.data.partial`). After Ctrl-C or SIGTERM the finished episodes are exported
+as the dataset, marked incomplete (its description starts with `INCOMPLETE` and
+`fluids_bench_incomplete.json` lists them), and the command exits with 130; after SIGKILL they
+stay on disk. Either way `--resume` with the same arguments collects the missing episodes and
+writes the complete dataset, identical to an uninterrupted run's. Example:
 
     fluids-bench collect --env FLUIDS-v0 --episodes 100 --dataset fluids/velocity-noisy-v0 \\
         --env-kwarg action_level=velocity --noise 0.5 --workers 2
@@ -42,7 +42,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "collect",
         help="collect supervisor-labelled episodes into a Minari dataset",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="registered env id, e.g. FLUIDS-v0")
@@ -111,9 +111,9 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def reference_scores(env) -> tuple[float | None, float | None]:
-    """``(ref_min_score, ref_max_score)`` where the project has measured them for this env
-    (``metadata["reference_scores"]``: the mean return of random actions and of the id's
-    default supervisor; today the locomotion ids), else ``(None, None)``: both or neither,
+    """`(ref_min_score, ref_max_score)` where the project has measured them for this env
+    (`metadata["reference_scores"]`: the mean return of random actions and of the id's
+    default supervisor; today the locomotion ids), else `(None, None)`: both or neither,
     since Minari given only one would run 100 random episodes to estimate the other."""
     refs = env.unwrapped.metadata.get("reference_scores") or {}
     low, high = refs.get("random"), refs.get("supervisor")
@@ -141,8 +141,8 @@ def _terminated(signum: int, frame: Any) -> None:
 
 
 def run_record(args: argparse.Namespace, env_kwargs: dict, actor) -> dict[str, Any]:
-    """What the data depend on: a resumed run must have the same (the ``run.json`` of
-    :mod:`fluids_bench.data.partial`)."""
+    """What the data depend on: a resumed run must have the same (the `run.json` of
+    `fluids_bench.data.partial`)."""
     return {
         "env": args.env,
         "env_kwarg": env_kwargs,
@@ -237,7 +237,7 @@ def _run(args: argparse.Namespace) -> int:
 
 
 def check_target(args: argparse.Namespace) -> None:
-    """Refuse a dataset id that exists, unless ``--overwrite``, or ``--resume`` of a dataset an
+    """Refuse a dataset id that exists, unless `--overwrite`, or `--resume` of a dataset an
     interrupted run left incomplete."""
     from fluids_bench.data.minari_export import check_new_dataset, dataset_path
 
@@ -252,7 +252,7 @@ def check_target(args: argparse.Namespace) -> None:
 
 
 def incomplete_record(folder: Path) -> dict[str, Any] | None:
-    """The ``fluids_bench_incomplete.json`` of the dataset at ``folder``, or None when the
+    """The `fluids_bench_incomplete.json` of the dataset at `folder`, or None when the
     dataset is complete or absent."""
     try:
         return json.loads((folder / INCOMPLETE_FILE).read_text())
@@ -302,7 +302,7 @@ def _collect_and_export(args: argparse.Namespace, env_kwargs: dict, actor, parti
 
 
 def _export(args: argparse.Namespace, env_kwargs: dict, actor, partial, complete: bool) -> int:
-    """Export the episodes on disk (all of them when ``complete``); returns how many."""
+    """Export the episodes on disk (all of them when `complete`); returns how many."""
     from fluids_bench.data.minari_export import dataset_path, export_buffers
 
     indices = partial.done()

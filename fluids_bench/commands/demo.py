@@ -1,27 +1,27 @@
-"""``fluids-bench demo``: one seeded episode of any registered id under its supervisor.
+"""`fluids-bench demo`: one seeded episode of any registered id under its supervisor.
 
-The controlled agent follows the supervisor's label (``info["supervisor_action"]``) every
+The controlled agent follows the supervisor's label (`info["supervisor_action"]`) every
 step; for the multi-agent ids (PettingZoo ParallelEnvs, built with
-``fluids_bench.registration.make_parallel_env``) every agent follows its own label. The command
-prints a summary and writes, under ``--out`` (default ``fluids_demo/<ID>/``, one folder per id):
+`fluids_bench.registration.make_parallel_env`) every agent follows its own label. The command
+prints a summary and writes, under `--out` (default `fluids_demo/<ID>/`, one folder per id):
 
-* ``episode.png``, a snapshot: for FLUIDS ids the first collision if there is one, else the ego
+* `episode.png`, a snapshot: for FLUIDS ids the first collision if there is one, else the ego
   nearest the junction's centre (candidates are drawn as the episode goes, about 2 ms each);
-  for the others the last frame, and with ``--no-video`` that one frame is all that is drawn;
-* ``episode.mp4`` (unless ``--no-video``): every ``--frame-every``-th step and the last, played
+  for the others the last frame, and with `--no-video` that one frame is all that is drawn;
+* `episode.mp4` (unless `--no-video`): every `--frame-every`-th step and the last, played
   in real time. By default the stride keeps drawing to about 15 s (MuJoCo's software renderer
   takes ~0.1 s a frame, so a 1,000-step locomotion episode is drawn every 7th step or so;
   FLUIDS, ~2 ms a frame, every step). The summary says which stride was used;
-* for an id whose actions are named decisions (``DAG-v0``), or one without pictures, also
-  ``episode.txt``: the episode as text, one line per step, also printed.
+* for an id whose actions are named decisions (`DAG-v0`), or one without pictures, also
+  `episode.txt`: the episode as text, one line per step, also printed.
 
-A progress bar counts steps on stderr (``--no-progress`` hides it). ``--steps N`` cuts the
-episode after N steps (the tests run every id that way). Steps per second time ``env.step``
+A progress bar counts steps on stderr (`--no-progress` hides it). `--steps N` cuts the
+episode after N steps (the tests run every id that way). Steps per second time `env.step`
 alone: drawing and encoding are not counted, and the env's compiled kernels (if any) are loaded
-in a throwaway env first. MuJoCo's compiler warnings go to Python's ``warnings``, not to a
-``MUJOCO_LOG.TXT`` in the working directory (:mod:`fluids_bench.tasks.locomotion.env`).
+in a throwaway env first. MuJoCo's compiler warnings go to Python's `warnings`, not to a
+`MUJOCO_LOG.TXT` in the working directory (`fluids_bench.tasks.locomotion.env`).
 
-Examples::
+Examples:
 
     fluids-bench demo --seed 3 --layout roundabout --steps 300
     fluids-bench demo --env Hopper-IL-v0 --no-video
@@ -91,7 +91,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def _registered(env_id: str) -> str:
-    """``"gym"`` or ``"pettingzoo"``: which registry holds ``env_id``; ValueError if neither."""
+    """`"gym"` or `"pettingzoo"`: which registry holds `env_id`; ValueError if neither."""
     import gymnasium as gym
 
     import fluids_bench  # noqa: F401  (registers the env ids)
@@ -108,7 +108,7 @@ def _registered(env_id: str) -> str:
 
 
 def _draws(env_id: str) -> bool:
-    """Whether ``env_id`` renders rgb_array frames (else the demo writes text)."""
+    """Whether `env_id` renders rgb_array frames (else the demo writes text)."""
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
 

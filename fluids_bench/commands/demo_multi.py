@@ -1,6 +1,6 @@
-"""``fluids-bench demo`` for the PettingZoo ids (``FLUIDS-MultiAgent-v*``): one seeded
+"""`fluids-bench demo` for the PettingZoo ids (`FLUIDS-MultiAgent-v*`): one seeded
 episode through PettingZoo's ParallelEnv API, every agent following its own supervisor label
-(``infos[agent]["supervisor_action"]``). The snapshot is the first collision of a controlled
+(`infos[agent]["supervisor_action"]`). The snapshot is the first collision of a controlled
 car if there is one, else the moment the live agents are nearest the junction's centre (on
 average); the summary counts arrivals, successes and collisions per agent."""
 

@@ -20,8 +20,8 @@ def write_png(path: Path, frame) -> None:
 
 
 class Recorder:
-    """The frames of one episode: every ``every``-th step and the last into the video (when
-    there is one), and the snapshot. ``render`` draws the current state."""
+    """The frames of one episode: every `every`-th step and the last into the video (when
+    there is one), and the snapshot. `render` draws the current state."""
 
     def __init__(self, render, out: Path, fps: float, video: bool, every: int | None, limit: int):
         self.render, self.out, self.writer = render, out, None
@@ -38,7 +38,7 @@ class Recorder:
             self.writer = open_video(out / VIDEO_NAME, max(fps / every, 1.0))
 
     def frame(self, step: int, last: bool) -> Any:
-        """Draw step ``step`` into the video when it is due (and always the last step);
+        """Draw step `step` into the video when it is due (and always the last step);
         returns the frame drawn, or None."""
         if self.writer is None or not (last or step % self.every == 0):
             return None
@@ -60,7 +60,7 @@ class Recorder:
 
 
 def _padded(frame):
-    """``frame`` padded (edge colour) to multiples of 16 pixels: H.264 wants them, and imageio
+    """`frame` padded (edge colour) to multiples of 16 pixels: H.264 wants them, and imageio
     would otherwise resize it, warning on every video (DrivingTrack's 500 x 500)."""
     import numpy as np
 

@@ -1,11 +1,11 @@
-"""``fluids-bench evaluate``: a policy on the benchmark's test and OOD sets, to a scorecard.
+"""`fluids-bench evaluate`: a policy on the benchmark's test and OOD sets, to a scorecard.
 
 The policy, the random policy and the supervisor run every episode of every set (the score is
 normalised on the same episodes); each finished episode is appended to OUT/episodes/, so
 Ctrl-C keeps it and the same command continues. The scorecard (JSON, written atomically) and
 its plot go to OUT/scorecard_<name>.json and .png (the JSON to --scorecard if given).
-``--episodes N`` and ``--tasks`` run a shortened evaluation, labelled so in the scorecard.
-Example::
+`--episodes N` and `--tasks` run a shortened evaluation, labelled so in the scorecard.
+Example:
 
     fluids-bench evaluate --policy supervisor --episodes 5 --tasks gridworld hopper \\
         --out out/evaluate --workers 2

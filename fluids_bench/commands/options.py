@@ -52,7 +52,7 @@ CLUSTER_WORKERS = 10_000  # Ray tasks in flight on a cluster (--ray-address)
 def check_workers_option(workers: Any, backend: str, address: str | None) -> int:
     """`--workers`: at least 1; on this machine (process pool, or a local Ray) at most 4 per
     CPU core, since more only compete for the cores (and `collect --workers 100000` started a
-    process per episode); on a Ray cluster at most :data:`CLUSTER_WORKERS`."""
+    process per episode); on a Ray cluster at most `CLUSTER_WORKERS`."""
     if backend == "ray" and address is not None:
         return check_int_option("--workers", workers, 1, CLUSTER_WORKERS)
     cores = os.cpu_count() or 1

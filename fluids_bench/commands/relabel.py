@@ -1,13 +1,13 @@
-"""``fluids-bench relabel DATASET``: label a dataset's states after the fact (retroactively).
+"""`fluids-bench relabel DATASET`: label a dataset's states after the fact (retroactively).
 
 Each state of the dataset's episodes is rebuilt from the env states stored with it (or
-replayed from the episode's seed when none are stored, e.g. a ``collect`` dataset), shown in a
+replayed from the episode's seed when none are stored, e.g. a `collect` dataset), shown in a
 window, and labelled with the task's teleop controls: a control key or a click labels it and
 moves on, Return labels it with the input held, Backspace goes back, Esc ends the session.
-The labels are written as a new dataset version (``NAME-vK`` -> ``NAME-v(K+1)``, or
-``--out``): ``actions`` are the new labels, ``infos["original_action"]`` the old ones,
-``infos["relabelled"]`` says which steps were labelled and ``infos["label_time"]`` how long each
-took; the rest is copied. The summary reports labels per minute. Example::
+The labels are written as a new dataset version (`NAME-vK` -> `NAME-v(K+1)`, or
+`--out`): `actions` are the new labels, `infos["original_action"]` the old ones,
+`infos["relabelled"]` says which steps were labelled and `infos["label_time"]` how long each
+took; the rest is copied. The summary reports labels per minute. Example:
 
     fluids-bench relabel learner/grid-v0
     fluids-bench relabel learner/grid-v0 --simulated-human epsilon=0.1 --out learner/grid-v2
@@ -20,6 +20,7 @@ import datetime
 import json
 import sys
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.teleop import add_human_options
 
 
@@ -27,7 +28,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "relabel",
         help="label a dataset's states retroactively; write a new dataset version",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("dataset", metavar="DATASET", help="Minari dataset id to relabel")

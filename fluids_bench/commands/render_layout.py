@@ -1,9 +1,9 @@
-"""``fluids-bench render-layout``: a PNG preview of a layout (builder name or layout file).
+"""`fluids-bench render-layout`: a PNG preview of a layout (builder name or layout file).
 
 Shows the drivable area, sidewalks, crosswalks, lane markings and terrain, every car route and
-pedestrian walk, and the lights in their state at ``--time``.
+pedestrian walk, and the lights in their state at `--time`.
 
-Example::
+Example:
 
     fluids-bench render-layout four_way --lanes 2 --out four_way.png
     fluids-bench render-layout my_layout.json --out my_layout.png
@@ -15,12 +15,14 @@ import argparse
 import inspect
 from pathlib import Path
 
+from fluids_bench.commands import plain_text
+
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     p = subparsers.add_parser(
         "render-layout",
         help="preview a layout (builder name or layout JSON file) as a PNG",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(
@@ -41,7 +43,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
 
 
 def load_spec(name: str, lanes: int | None = None, lights: bool = True):
-    """The :class:`LayoutSpec` named ``name`` (a builder) or stored at path ``name``."""
+    """The `LayoutSpec` named `name` (a builder) or stored at path `name`."""
     from fluids_bench.tasks.fluids.sim.layout.builders import BUILDERS
 
     options = {

@@ -1,30 +1,30 @@
-"""``fluids-bench sweep``: a sensitivity sweep of a policy over a grid of env configurations
+"""`fluids-bench sweep`: a sensitivity sweep of a policy over a grid of env configurations
 (for FLUIDS the analysis of ch. 7, Fig. 7.6).
 
 Evaluates a policy on every configuration of the grid (default: cars 2–5, pedestrians 0–4,
-quasi-LIDAR noise and omission, lights, car mass; 256 configurations) with ``--episodes``
+quasi-LIDAR noise and omission, lights, car mass; 256 configurations) with `--episodes`
 seeded episodes each of FLUIDS-Sensitivity-v0, and plots the success rate (every car reaches
 its goal) against each normalised parameter. Rows are stored as configurations finish: run the
-same command again after an interruption and it resumes. Example::
+same command again after an interruption and it resumes. Example:
 
     fluids-bench sweep --out out/sweep --episodes 20 --workers 2
     fluids-bench sweep --out out/small --values cars=2,5 --values pedestrians=0 --episodes 5
     fluids-bench sweep --env FLUIDS-Sensitivity-v1 --out out/sweep_v1 \
         --values car_mass=750,1500,3000 --check-episodes 100
 
-Any registered id: ``--env ID --values NAME=V1,V2`` (repeatable) sweeps those keyword
-arguments of the env (checked by the env itself before any work); without ``--values`` the id's
-default sensitivity grid (``fluids_bench.sweep.grid.SENSITIVITY``). ``--env-kwarg K=V`` fixes a
-kwarg for training and every test configuration; ``--train-kwarg K=V`` for training only::
+Any registered id: `--env ID --values NAME=V1,V2` (repeatable) sweeps those keyword
+arguments of the env (checked by the env itself before any work); without `--values` the id's
+default sensitivity grid (`fluids_bench.sweep.grid.SENSITIVITY`). `--env-kwarg K=V` fixes a
+kwarg for training and every test configuration; `--train-kwarg K=V` for training only:
 
     fluids-bench sweep --env Singulation-v0 --policy supervisor --out out/sing --episodes 10
     fluids-bench sweep --env DrivingTrack-v0 --env-kwarg obs_type=state --algo dagger \
         --iterations 3 --demos 5 --values edges=3,5,7 --values speed=7.5,10,12.5
 
-The default policy is ``--algo`` (Behavior Cloning unless told) trained on ``--demos``
+The default policy is `--algo` (Behavior Cloning unless told) trained on `--demos`
 supervisor demonstrations per iteration (trained once, cached in the output folder);
-``--policy PATH`` evaluates a pickled policy instead (anything with ``act(observation)``;
-pickles run code, load only your own), ``--policy supervisor`` the supervisor itself.
+`--policy PATH` evaluates a pickled policy instead (anything with `act(observation)`;
+pickles run code, load only your own), `--policy supervisor` the supervisor itself.
 Besides the sensitivity PNG, a kwarg grid writes heatmaps for every pair of factors
 (OUT/heatmaps.png) and a summary table (OUT/summary.md).
 """
@@ -55,7 +55,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "sweep",
         help="sensitivity sweep of a policy over scene parameters (resumable, PNG plot)",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--out", type=Path, default=Path("out/sweep"), help="output folder")
@@ -268,7 +268,7 @@ def _check_policy_option(policy: str | None) -> None:
 
 
 def _run_matrix(args, grid, env_id, fixed, max_steps, workers) -> int:
-    """Train one policy per configuration of the ``--train-values`` grid and sweep each over the
+    """Train one policy per configuration of the `--train-values` grid and sweep each over the
     test grid, in OUT/train_<k>/; then OUT/matrix.json and OUT/matrix.md."""
     import copy
     import json
@@ -349,11 +349,11 @@ def _kwargs_text(kwargs) -> str:
 
 
 def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
-    """Train (or load) the policy, sweep it over ``grid`` into ``args.out``, write the plots;
+    """Train (or load) the policy, sweep it over `grid` into `args.out`, write the plots;
     the rows."""
     from tqdm.auto import tqdm
 
-    from fluids_bench.sweep.plot import metric_for, plot_sensitivity, write_kwarg_outputs
+    from fluids_bench.sweep.plot import SUCCESS, metric_for, plot_sensitivity, write_kwarg_outputs
     from fluids_bench.sweep.run import (
         SUPERVISOR_POLICY,
         check_folder_for_new_policy,
@@ -448,9 +448,10 @@ def _run_one(args, grid, env_id, fixed, max_steps, workers) -> list:
         if grid.legacy
         else f", mean return {sum(r['mean_return'] for r in rows) / len(rows):.3f}"
     )
+    # an id without a success flag (metric "return") has no success rate to report
+    rate = f", success rate {successes / episodes:.3f}" if metric == SUCCESS else ""
     print(
-        f"{len(rows)} configurations, {episodes} episodes, success rate {successes / episodes:.3f}"
-        f"{returns}; "
+        f"{len(rows)} configurations, {episodes} episodes{rate}{returns}; "
         f"this run: {counts['episodes']} episodes in {seconds:.1f} s wall, "
         f"{counts['cpu']:.1f} s CPU in the workers ({workers} {args.backend} workers)"
     )

@@ -1,13 +1,13 @@
-"""``fluids-bench teleop``: drive an env yourself in a window and record a Minari dataset.
+"""`fluids-bench teleop`: drive an env yourself in a window and record a Minari dataset.
 
-The window (pygame, the ``human`` extra) shows the env and reads the task's controls: FLUIDS
-(arrow keys or a gamepad; at ``action_level=velocity`` the target speed), DrivingTrack (left /
-straight / right), Singulation and GraspingInClutter (mouse), GridWorld (arrow keys). ``p``
-pauses, ``s`` slows down, ``r`` restarts the episode, ``l`` shows the supervisor's label,
-Esc / ``q`` / closing the window ends the session. The dataset's ``actions`` are your actions,
+The window (pygame, the `human` extra) shows the env and reads the task's controls: FLUIDS
+(arrow keys or a gamepad; at `action_level=velocity` the target speed), DrivingTrack (left /
+straight / right), Singulation and GraspingInClutter (mouse), GridWorld (arrow keys). `p`
+pauses, `s` slows down, `r` restarts the episode, `l` shows the supervisor's label,
+Esc / `q` / closing the window ends the session. The dataset's `actions` are your actions,
 next to the supervisor's labels, time stamps, reaction times, seeds, the env spec and the env
-states (see :mod:`fluids_bench.human.recording`). Finished episodes are written atomically when
-the session ends (also after Ctrl-C); an unfinished episode is dropped. Example::
+states (see `fluids_bench.human.recording`). Finished episodes are written atomically when
+the session ends (also after Ctrl-C); an unfinished episode is dropped. Example:
 
     fluids-bench teleop --env GridWorld-v0 --episodes 3 --dataset teleop/grid-v0
     fluids-bench teleop --env Singulation-v0 --dataset teleop/sing-v0 --noise dart
@@ -57,7 +57,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "teleop",
         help="teleoperate an env in a window; record a Minari dataset",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="env id, e.g. GridWorld-v0, FLUIDS-v1")

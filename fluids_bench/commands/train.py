@@ -1,17 +1,17 @@
-"""``fluids-bench train``: run one imitation-learning algorithm on one env, save JSON and a PNG.
+"""`fluids-bench train`: run one imitation-learning algorithm on one env, save JSON and a PNG.
 
-The JSON is rewritten (atomically) as each iteration finishes, marked ``"complete": false``
+The JSON is rewritten (atomically) as each iteration finishes, marked `"complete": false`
 until the run ends: an interrupted run (Ctrl-C) keeps the records of its finished iterations
 and says where. Every finished rollout and evaluation is kept in OUT/<run>.checkpoint/ until
-the run completes; the same command with ``--resume`` continues from there (without it, a run
+the run completes; the same command with `--resume` continues from there (without it, a run
 starts again from the beginning).
 
-The rollouts of an iteration and the evaluation episodes run on ``--workers`` processes, or
-as Ray tasks with ``--backend ray``; the learner is fitted in this process. The records are
-the same whatever the workers and the backend. ``--policy module:factory`` trains any learner
-(an object with fit/predict; ``--policy-param`` are the factory's keyword arguments); a learner
-with a ``save`` method (the torch ones) is written to OUT/<run>.learner.npz at the end, which
-``fluids_bench.algos.learners.load_learner`` reads. Example::
+The rollouts of an iteration and the evaluation episodes run on `--workers` processes, or
+as Ray tasks with `--backend ray`; the learner is fitted in this process. The records are
+the same whatever the workers and the backend. `--policy module:factory` trains any learner
+(an object with fit/predict; `--policy-param` are the factory's keyword arguments); a learner
+with a `save` method (the torch ones) is written to OUT/<run>.learner.npz at the end, which
+`fluids_bench.algos.learners.load_learner` reads. Example:
 
     fluids-bench train --env GridWorld-v0 --algo dagger --policy linear_svm \\
         --env-kwarg world_seed=3 --iterations 20 --out out/train --workers 2
@@ -72,6 +72,17 @@ ALGO_OPTIONS: dict[str, tuple[str, Any, str]] = {
     "--steps-per-iteration": ("steps_per_iteration", int, "ogd: gradient steps per iteration"),
 }
 LIST_FIELDS = {"retrain_at", "update_at"}
+# `fluids_bench.algos.policies.FAMILIES`, spelled out so that building the parser does not
+# import scikit-learn (tests/algos/test_train_cli.py checks that the two agree)
+POLICY_FAMILIES = (
+    "kernel_ridge",
+    "knn",
+    "linear_svm",
+    "linear_svm_span",
+    "mlp",
+    "tree",
+    "constant",
+)
 
 
 def _samples(text: str) -> int | None:
@@ -82,7 +93,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "train",
         help="run an imitation-learning algorithm on an env; write JSON results and a PNG",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--env", required=True, help="env id, e.g. GridWorld-v0, DAG-v0")
@@ -231,7 +242,7 @@ def _config(algorithm, settings, args, env_kwargs, policy_params) -> Any:
 
 
 def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
-    """The JSON of a run stopped after ``records`` (``"complete": false``): the finished
+    """The JSON of a run stopped after `records` (`"complete": false`): the finished
     iterations' records and the config; the supervisor's reference return comes with the
     complete result only."""
     return {
@@ -243,8 +254,8 @@ def _payload(name: str, config: Any, records: list[Any]) -> dict[str, Any]:
 
 
 def _saved_run_is_complete(path: Path, name: str, config: Any) -> bool:
-    """Whether ``path`` holds the complete result of this run; a run with other settings there
-    is refused (``--resume`` continues a run, it does not replace one)."""
+    """Whether `path` holds the complete result of this run; a run with other settings there
+    is refused (`--resume` continues a run, it does not replace one)."""
     if not path.is_file():
         return False
     saved = json.loads(path.read_text())
@@ -352,7 +363,8 @@ def main(args: argparse.Namespace) -> int:
         f"{_number(final.normalised_performance)}, "
         f"{success}{final.training_labels} training labels "
         f"(+{final.estimation_labels} for noise estimation), "
-        f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s total"
+        f"{final.train_seconds:.3f} s fitting, {final.wall_seconds:.3f} s collecting, labelling "
+        "and fitting in all (evaluation and start-up not counted)"
     )
     print(f"wrote {json_path} and {png_path}")
     if saved_learner is not None:

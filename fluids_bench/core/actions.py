@@ -1,8 +1,8 @@
 """One action checker for every env of the suite.
 
-``check_action`` refuses, with a ``ValueError`` naming where, the action and the space, what an
+`check_action` refuses, with a `ValueError` naming where, the action and the space, what an
 env must not coerce: strings, bools, complex numbers and objects; NaN and infinities; a shape
-other than the space's (``(1, n)`` is not ``(n,)``); and, for a ``Discrete`` space, anything but
+other than the space's (`(1, n)` is not `(n,)`); and, for a `Discrete` space, anything but
 an integer (Python or numpy, not a bool) in range. Box values out of bounds are returned as
 given: each env clips (or not) as its card says.
 """
@@ -18,8 +18,8 @@ from gymnasium import spaces
 
 
 def check_discrete_action(where: str, space: spaces.Discrete, action: Any, name: str) -> int:
-    """``action`` as a Python int: an integer (``int``, ``np.int64``, a 0-d integer array; not a
-    bool, a float or ``np.float64(1.0)``) in ``[start, start + n)``."""
+    """`action` as a Python int: an integer (`int`, `np.int64`, a 0-d integer array; not a
+    bool, a float or `np.float64(1.0)`) in `[start, start + n)`."""
     start, n = int(space.start), int(space.n)
     if isinstance(action, np.ndarray) and action.shape == () and action.dtype.kind in "iu":
         action = action[()]
@@ -34,7 +34,7 @@ def check_discrete_action(where: str, space: spaces.Discrete, action: Any, name:
 
 
 def check_box_action(where: str, space: spaces.Box, action: Any, name: str) -> np.ndarray:
-    """``action`` as a float64 array of the space's shape: real numbers (ints or floats; strings,
+    """`action` as a float64 array of the space's shape: real numbers (ints or floats; strings,
     bools, complex numbers and objects are refused, never coerced), finite, of exactly the
     space's shape. Not clipped."""
     a = action if isinstance(action, np.ndarray) else np.asarray(action)
@@ -62,8 +62,8 @@ def check_box_action(where: str, space: spaces.Box, action: Any, name: str) -> n
 
 
 def check_action(where: str, space: spaces.Space, action: Any, name: str = "action") -> Any:
-    """``action`` as the env uses it (a Python int for ``Discrete``, a float64 array of the
-    space's shape for ``Box``), or a ``ValueError`` naming ``where``, ``name``, the value and the
+    """`action` as the env uses it (a Python int for `Discrete`, a float64 array of the
+    space's shape for `Box`), or a `ValueError` naming `where`, `name`, the value and the
     space."""
     if isinstance(space, spaces.Discrete):
         return check_discrete_action(where, space, action, name)

@@ -12,7 +12,7 @@ from typing import Any
 
 
 def read_rows(path: str | os.PathLike | None) -> list[dict[str, Any]]:
-    """The complete rows of the log at ``path`` (none if it is None or does not exist)."""
+    """The complete rows of the log at `path` (none if it is None or does not exist)."""
     if path is None or not os.path.exists(path):
         return []
     rows = []

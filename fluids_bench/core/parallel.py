@@ -105,7 +105,7 @@ ResultFn = Callable[[Any, Any], None]
 
 
 def pid_alive(pid: int) -> bool:
-    """Whether process ``pid`` is running (a zombie, killed but not yet reaped, is not)."""
+    """Whether process `pid` is running (a zombie, killed but not yet reaped, is not)."""
     try:
         os.kill(pid, 0)
     except ProcessLookupError:
@@ -120,7 +120,7 @@ def pid_alive(pid: int) -> bool:
 
 
 def descendants(pid: int) -> list[int]:
-    """Every process below ``pid`` (children, their children, ...), read from Linux's /proc
+    """Every process below `pid` (children, their children, ...), read from Linux's /proc
     (empty elsewhere): what a clean shutdown must leave behind none of."""
     parents: dict[int, list[int]] = {}
     entries = os.listdir("/proc") if os.path.isdir("/proc") else []
@@ -210,8 +210,8 @@ def process_pool(
     initializer: Callable[..., None] | None = None,
     initargs: tuple[Any, ...] = (),
 ) -> Iterator[ProcessPoolExecutor]:
-    """A pool of ``workers`` processes (see the module docstring). ``preload``: modules the
-    fork server imports once, before forking workers (``"forkserver"`` only)."""
+    """A pool of `workers` processes (see the module docstring). `preload`: modules the
+    fork server imports once, before forking workers (`"forkserver"` only)."""
     context = multiprocessing.get_context(start_method)
     if start_method == "forkserver" and preload:
         context.set_forkserver_preload(list(preload))
@@ -232,8 +232,8 @@ def process_pool(
 def as_finished(
     fn: Callable[..., Any], jobs: Sequence[tuple[Any, ...]], workers: int
 ) -> Iterator[tuple[int, Any]]:
-    """``(i, fn(*jobs[i]))`` as each job finishes, with one BLAS thread either way (so results
-    do not depend on the core count): in this process for one worker (``fn`` need not be
+    """`(i, fn(*jobs[i]))` as each job finishes, with one BLAS thread either way (so results
+    do not depend on the core count): in this process for one worker (`fn` need not be
     importable by a worker, e.g. a script loaded by path), else in a plain process pool."""
     if workers == 1:
         with threadpool_limits(1):
@@ -360,7 +360,7 @@ def run_tasks(
     address: str | None = None,
     start_method: str = "forkserver",
 ) -> None:
-    """Call ``fn(task, shared)`` for every task; ``on_result(task, result)`` as each finishes."""
+    """Call `fn(task, shared)` for every task; `on_result(task, result)` as each finishes."""
     check_choice("run_tasks", "backend", backend, BACKENDS)
     check_choice("run_tasks", "start_method", start_method, START_METHODS)
     check_int("run_tasks", "workers", workers, 1)
@@ -417,14 +417,14 @@ class TaskSession:
     `run_tasks` starts its workers for one batch and hands them one payload for good; an
     algorithm runs a batch of rollouts per iteration with a new policy each time, and starting
     a pool (and each worker's env, and its compiled kernels) per iteration would cost more than
-    the rollouts. Used as ``with TaskSession(backend, workers, address) as session:``, then
-    ``session.run(fn, tasks, shared, on_result)`` per batch, with `run_tasks`'s meaning:
+    the rollouts. Used as `with TaskSession(backend, workers, address) as session:`, then
+    `session.run(fn, tasks, shared, on_result)` per batch, with `run_tasks`'s meaning:
 
-    * ``"process"`` with ``workers == 1``: a plain loop in this process, nothing started;
-    * ``"process"``: one `process_pool` for the whole session (its
-      fork server imports ``preload`` once). A batch's payload is pickled once and travels
+    * `"process"` with `workers == 1`: a plain loop in this process, nothing started;
+    * `"process"`: one `process_pool` for the whole session (its
+      fork server imports `preload` once). A batch's payload is pickled once and travels
       with each of its tasks; a worker unpickles it once per batch;
-    * ``"ray"``: one `ray_session` for the whole session; a
+    * `"ray"`: one `ray_session` for the whole session; a
       batch's payload is put in the object store once.
 
     Leaving the block by an exception (Ctrl-C included) stops the workers at once (see
@@ -463,7 +463,7 @@ class TaskSession:
 
     @property
     def local(self) -> bool:
-        """Whether batches run in this process (``"process"`` with one worker)."""
+        """Whether batches run in this process (`"process"` with one worker)."""
         return self.backend == "process" and self.workers == 1
 
     def __exit__(self, *exc_info: Any) -> bool | None:
@@ -471,7 +471,7 @@ class TaskSession:
         return self._stack.__exit__(*exc_info)
 
     def run(self, fn: TaskFn, tasks: Iterable[Any], shared: Any, on_result: ResultFn) -> None:
-        """Call ``fn(task, shared)`` for every task; ``on_result(task, result)`` in this process
+        """Call `fn(task, shared)` for every task; `on_result(task, result)` in this process
         as each finishes (completion order)."""
         self._batches += 1
         if self._ray is not None:
@@ -511,12 +511,12 @@ def _call_with_batch_payload(fn: TaskFn, task: Any, batch: Any, payload: bytes) 
 
 
 def claim_path(root: Path, dataset_id: str) -> Path:
-    """The claim file of ``dataset_id`` under the datasets root (one flat name per id)."""
+    """The claim file of `dataset_id` under the datasets root (one flat name per id)."""
     return root / CLAIMS_DIR / quote(dataset_id, safe="")
 
 
 def _owner(path: Path) -> tuple[str, int] | None:
-    """``(host, pid)`` written in a claim, or None when unreadable (being written, or gone)."""
+    """`(host, pid)` written in a claim, or None when unreadable (being written, or gone)."""
     try:
         host, pid = path.read_text().split()
         return host, int(pid)
@@ -543,7 +543,7 @@ def _create(path: Path) -> bool:
 
 @contextlib.contextmanager
 def claim_dataset(root: Path, dataset_id: str) -> Iterator[Path]:
-    """Hold the claim on ``dataset_id`` for the block; ``FileExistsError`` naming the process
+    """Hold the claim on `dataset_id` for the block; `FileExistsError` naming the process
     that holds it when another live run does."""
     path = claim_path(root, dataset_id)
     if not _create(path):

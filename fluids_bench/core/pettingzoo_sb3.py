@@ -1,17 +1,17 @@
-"""A PettingZoo ``ParallelEnv`` as a stable-baselines3 ``VecEnv``: one policy shared by every agent.
+"""A PettingZoo `ParallelEnv` as a stable-baselines3 `VecEnv`: one policy shared by every agent.
 
-SuperSuit does the vectorising (``pettingzoo_env_to_vec_env_v1``: one sub-env per agent, which
-needs a fixed agent set, e.g. FLUIDS' ``black_death=True``; ``concat_vec_envs_v1``: several
+SuperSuit does the vectorising (`pettingzoo_env_to_vec_env_v1`: one sub-env per agent, which
+needs a fixed agent set, e.g. FLUIDS' `black_death=True`; `concat_vec_envs_v1`: several
 copies of the world). Two gaps of SuperSuit 3.11's stable-baselines3 path are filled here:
 
-* its ``ConcatVecEnv`` has no ``get_attr``, while stable-baselines3 asks every ``VecEnv`` for its
-  ``render_mode`` with ``get_attr`` whenever it is wrapped (``VecMonitor``, and PPO's own monitor
+* its `ConcatVecEnv` has no `get_attr`, while stable-baselines3 asks every `VecEnv` for its
+  `render_mode` with `get_attr` whenever it is wrapped (`VecMonitor`, and PPO's own monitor
   wrapper): on SuperSuit's own path each wrap warns "The `render_mode` attribute is not defined
   in your environment" and sets it to None;
-* it has no ``seed``, so there ``PPO(..., seed=s)`` raises ``AttributeError``. Here ``seed(s)`` seeds the
-  next reset as stable-baselines3 expects: copy ``i`` of the world is reset with seed ``s + i``.
+* it has no `seed`, so there `PPO(..., seed=s)` raises `AttributeError`. Here `seed(s)` seeds the
+  next reset as stable-baselines3 expects: copy `i` of the world is reset with seed `s + i`.
 
-Needs SuperSuit (the ``test`` extra) and stable-baselines3 (the ``train`` extra).
+Needs SuperSuit (the `test` extra) and stable-baselines3 (the `train` extra).
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ def _require(module: str, extra: str):
 
 
 class _ConcatVecEnvForSB3:
-    """Forwards everything to a SuperSuit ``ConcatVecEnv`` and adds ``get_attr`` and ``seed``."""
+    """Forwards everything to a SuperSuit `ConcatVecEnv` and adds `get_attr` and `seed`."""
 
     def __init__(self, venv: Any):
         self._venv = venv
@@ -54,10 +54,10 @@ class _ConcatVecEnvForSB3:
 
 
 def shared_policy_vec_env(parallel_env: Any, copies: int = 1):
-    """A stable-baselines3 ``VecEnv`` over ``copies`` copies of ``parallel_env`` (built afresh from
-    it by SuperSuit), one sub-env per agent and copy: ``num_envs = copies × len(possible_agents)``.
+    """A stable-baselines3 `VecEnv` over `copies` copies of `parallel_env` (built afresh from
+    it by SuperSuit), one sub-env per agent and copy: `num_envs = copies × len(possible_agents)`.
 
-    ``copies`` is an int >= 1. Wrap the result in ``VecMonitor`` for episode statistics.
+    `copies` is an int >= 1. Wrap the result in `VecMonitor` for episode statistics.
     """
     if isinstance(copies, bool) or not isinstance(copies, int) or copies < 1:
         raise ValueError(f"copies must be an int >= 1, got {copies!r}")

@@ -1,6 +1,6 @@
 """Where a result came from: the command line that produced it and the machine it ran on.
 
-Every script that writes a results file for the docs (``docs/results/*.json``) stores both, so a
+Every script that writes a results file for the docs (`docs/results/*.json`) stores both, so a
 number on a page carries its command, seeds and machine.
 """
 
@@ -14,7 +14,7 @@ from pathlib import Path
 
 
 def command_line() -> str:
-    """The running script's command line, its path shown from the repository's ``scripts/``."""
+    """The running script's command line, its path shown from the repository's `scripts/`."""
     script = Path(sys.argv[0]).resolve()
     parts = script.parts
     shown = (
@@ -22,7 +22,21 @@ def command_line() -> str:
         if "scripts" in parts
         else sys.argv[0]
     )
-    return " ".join(["python", shown, *map(shlex.quote, sys.argv[1:])])
+    return " ".join(["python", shown, *map(shlex.quote, relative_paths(sys.argv[1:]))])
+
+
+def relative_paths(args: list[str]) -> list[str]:
+    """`args` with every absolute path (`/a/b`, `--out=/a/b`) shown relative to the working
+    directory: a results file records no machine's folders, and the command reruns from a
+    checkout anywhere."""
+
+    def shown(arg: str) -> str:
+        option, eq, value = arg.partition("=") if arg.startswith("-") else ("", "", arg)
+        if not os.path.isabs(value):
+            return arg
+        return option + eq + os.path.relpath(value)
+
+    return [shown(a) for a in args]
 
 
 def machine() -> str:

@@ -1,9 +1,9 @@
 """Raster drawing shared by every task's pictures: world metres → OpenCV fixed-point pixels.
 
 OpenCV draws polygons and lines with sub-pixel accuracy when given integer coordinates with
-:data:`SHIFT` fractional bits; drawing straight at the observation size this way is far cheaper
-than drawing large and resizing. Pixel convention: pixel ``(row, col)`` is centred at ``u = col``,
-``v = row``, with ``u`` to the east and ``v`` to the south (world ``y`` points up the image).
+`SHIFT` fractional bits; drawing straight at the observation size this way is far cheaper
+than drawing large and resizing. Pixel convention: pixel `(row, col)` is centred at `u = col`,
+`v = row`, with `u` to the east and `v` to the south (world `y` points up the image).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ ONE = 1 << SHIFT
 
 
 def to_fixed(affine: np.ndarray, pts: np.ndarray) -> np.ndarray:
-    """World points (..., 2) through the 2×3 ``affine`` to OpenCV fixed-point pixels (int32)."""
+    """World points (..., 2) through the 2×3 `affine` to OpenCV fixed-point pixels (int32)."""
     flat = cv2.transform(
         np.ascontiguousarray(pts, dtype=np.float64).reshape(-1, 1, 2), affine * ONE
     )
@@ -37,9 +37,9 @@ CORNER_SIGNS = np.array([1 + 1j, 1 - 1j, -1 - 1j, -1 + 1j]) / 2  # (±length, ±
 
 
 def boxes_px(affine, x, y, th, length, width) -> np.ndarray:
-    """Fixed-point pixel corners (n, 4, 2) of rectangles centred at world (x, y), ``length`` m
-    along heading ``th``, ``width`` m across (all (n,) arrays). Complex arithmetic: a corner is
-    ``x + iy + e^{iθ}(±l ± iw)/2``, few numpy calls for any n."""
+    """Fixed-point pixel corners (n, 4, 2) of rectangles centred at world (x, y), `length` m
+    along heading `th`, `width` m across (all (n,) arrays). Complex arithmetic: a corner is
+    `x + iy + e^{iθ}(±l ± iw)/2`, few numpy calls for any n."""
     local = length[:, None] * CORNER_SIGNS.real + 1j * (width[:, None] * CORNER_SIGNS.imag)
     z = np.exp(1j * th)[:, None] * local
     z += (x + 1j * y)[:, None]

@@ -362,8 +362,8 @@ class SnapshotMixin:
 
 
 def _recording_kwargs(init):
-    """Wrap ``__init__`` so the instance records its construction kwargs (defaults applied,
-    as plain Python values) before anything else runs: the outermost ``__init__`` wins."""
+    """Wrap `__init__` so the instance records its construction kwargs (defaults applied,
+    as plain Python values) before anything else runs: the outermost `__init__` wins."""
     signature = inspect.signature(init)
 
     @functools.wraps(init)

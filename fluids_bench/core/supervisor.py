@@ -3,31 +3,31 @@
 An imitation learner needs, in any state it visits, the action the supervisor would take there.
 Every env therefore offers two equivalent ways to ask:
 
-* ``env.unwrapped.supervisor_action()``: the label for the controlled agent in the current
+* `env.unwrapped.supervisor_action()`: the label for the controlled agent in the current
   state, computed on demand, whoever acted before;
-* ``info["supervisor_action"]``: the same label, returned by ``reset`` and every ``step`` for the
+* `info["supervisor_action"]`: the same label, returned by `reset` and every `step` for the
   state the env is now in (the state the next action will be taken from).
 
 Labels live in the env's action space (at the level the user acts at). The supervisor reads the
-true state of the simulator, never the observation. A PettingZoo ``ParallelEnv`` of the suite
-answers per agent: ``env.supervisor_action(agent)`` and ``infos[agent]["supervisor_action"]``.
+true state of the simulator, never the observation. A PettingZoo `ParallelEnv` of the suite
+answers per agent: `env.supervisor_action(agent)` and `infos[agent]["supervisor_action"]`.
 
 Labels are reproducible from a snapshot. Every env of the suite also offers
-``env.unwrapped.snapshot()`` (an `EnvSnapshot` in the safe state format of
+`env.unwrapped.snapshot()` (an `EnvSnapshot` in the safe state format of
 `fluids_bench.core.snapshot`: arrays and JSON with a versioned header, never a pickle) and
-``env.unwrapped.restore(snapshot)`` (:class:`RestorableEnv`): restored into another env of
+`env.unwrapped.restore(snapshot)` (`RestorableEnv`): restored into another env of
 the same id and kwargs (reset with any seed, or never reset), the env continues bit-identically under the same
-actions (observations, rewards, terminated/truncated, infos) and ``supervisor_action()``
+actions (observations, rewards, terminated/truncated, infos) and `supervisor_action()`
 equals the label of the env that drove there. A supervisor's cache must be derivable from the
 state; memory a supervisor really has (FLUIDS' velocity planner holds its targets between
 replans, Singulation's supervisor its push plan) is part of the snapshot and documented in the
-env card ("Snapshots and labels"). :func:`fluids_bench.core.snapshot.snapshot` and
-:func:`~fluids_bench.core.snapshot.restore` do the same for a wrapped env, ``TimeLimit``'s step
+env card ("Snapshots and labels"). `fluids_bench.core.snapshot.snapshot` and
+`restore` do the same for a wrapped env, `TimeLimit`'s step
 count included.
 
-A supervisor does not have to live in the base env: :func:`supervisor_action` asks through the
-wrapper chain (outermost first, as Gymnasium's ``get_wrapper_attr`` does), and
-:class:`SupervisorWrapper` attaches any callable ``supervisor(env) -> action`` to any env, so
+A supervisor does not have to live in the base env: `supervisor_action` asks through the
+wrapper chain (outermost first, as Gymnasium's `get_wrapper_attr` does), and
+`SupervisorWrapper` attaches any callable `supervisor(env) -> action` to any env, so
 the algorithm layer runs on tasks and experts the suite does not own.
 """
 
@@ -57,21 +57,21 @@ class RestorableEnv(Protocol):
     def snapshot(self) -> Any:
         """A copy of the env's state in the safe state format (`to_bytes()` stores it):
         everything its future steps and labels depend on (the simulator, the supervisor's
-        memory, episode counters, ``np_random``)."""
+        memory, episode counters, `np_random`)."""
         ...
 
     def restore(self, snapshot: Any) -> None:
-        """Continue from ``snapshot`` (or its bytes), taken from an env of the same id and
-        kwargs; raises ``ValueError`` for a snapshot of another id, kwargs or version, or a
+        """Continue from `snapshot` (or its bytes), taken from an env of the same id and
+        kwargs; raises `ValueError` for a snapshot of another id, kwargs or version, or a
         damaged one."""
         ...
 
 
 def find_supervisor(env: gym.Env) -> Callable[[], Any] | None:
-    """The ``supervisor_action`` method nearest the outside of ``env``'s wrapper chain, or None.
+    """The `supervisor_action` method nearest the outside of `env`'s wrapper chain, or None.
 
-    A wrapper that defines ``supervisor_action`` answers before the envs it wraps (Gymnasium's
-    ``get_wrapper_attr`` order); the base env answers last.
+    A wrapper that defines `supervisor_action` answers before the envs it wraps (Gymnasium's
+    `get_wrapper_attr` order); the base env answers last.
     """
     try:
         method = env.get_wrapper_attr(SUPERVISOR_ACTION_KEY)
@@ -81,12 +81,12 @@ def find_supervisor(env: gym.Env) -> Callable[[], Any] | None:
 
 
 def has_supervisor(env: gym.Env) -> bool:
-    """Whether ``env`` or a wrapper around it implements ``supervisor_action()``."""
+    """Whether `env` or a wrapper around it implements `supervisor_action()`."""
     return find_supervisor(env) is not None
 
 
 def supervisor_action(env: gym.Env) -> Any:
-    """Ask ``env`` (wrapped or not) for its supervisor's label in the current state."""
+    """Ask `env` (wrapped or not) for its supervisor's label in the current state."""
     method = find_supervisor(env)
     if method is None:
         raise TypeError(
@@ -98,17 +98,17 @@ def supervisor_action(env: gym.Env) -> Any:
 
 
 class SupervisorWrapper(gym.Wrapper):
-    """Attach a supervisor to any env: ``supervisor(env) -> action`` for the current state.
+    """Attach a supervisor to any env: `supervisor(env) -> action` for the current state.
 
-    ``supervisor`` receives this wrapper (so it can read ``env.unwrapped``'s true state) and
+    `supervisor` receives this wrapper (so it can read `env.unwrapped`'s true state) and
     must return an action of the env's action space. The wrapper answers
-    ``supervisor_action()`` and puts the same label in ``info["supervisor_action"]`` after every
-    ``reset`` and ``step``, which is all the algorithm layer needs. Example, a hand-written
-    CartPole expert::
+    `supervisor_action()` and puts the same label in `info["supervisor_action"]` after every
+    `reset` and `step`, which is all the algorithm layer needs. Example, a hand-written
+    CartPole expert:
 
         env = SupervisorWrapper(gym.make("CartPole-v1"), lambda e: int(e.unwrapped.state[2] > 0))
 
-    To use it by id (``RunConfig(env_id=...)``), register an entry point that returns the
+    To use it by id (`RunConfig(env_id=...)`), register an entry point that returns the
     wrapped env (a module-level function, so worker processes can import it).
     """
 

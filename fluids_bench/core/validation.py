@@ -1,7 +1,7 @@
 """Small checks for typed configs and env kwargs.
 
-Every failure raises ``ValueError`` naming where it happened, the field, the value and what is
-allowed, in the same shape across the suite: ``"<where>: field 'x' is 3; allowed: [0, 1]"``.
+Every failure raises `ValueError` naming where it happened, the field, the value and what is
+allowed, in the same shape across the suite: `"<where>: field 'x' is 3; allowed: [0, 1]"`.
 """
 
 from __future__ import annotations
@@ -21,18 +21,18 @@ REWARD_LIMIT = 1e6
 
 
 def is_int(value: Any) -> bool:
-    """An integer, Python or numpy (``np.int64(3)``), but not a bool (``True``, ``np.True_``)."""
+    """An integer, Python or numpy (`np.int64(3)`), but not a bool (`True`, `np.True_`)."""
     return isinstance(value, numbers.Integral) and not isinstance(value, bool | np.bool_)
 
 
 def is_real(value: Any) -> bool:
-    """A real number, Python or numpy (``np.float32(0.1)``, ``np.int64(3)``), but not a bool."""
+    """A real number, Python or numpy (`np.float32(0.1)`, `np.int64(3)`), but not a bool."""
     return isinstance(value, numbers.Real) and not isinstance(value, bool | np.bool_)
 
 
 def finite_float(value: Any) -> float | None:
-    """``value`` as a finite Python float, or None when it is not a real number (a bool is
-    not), not finite, or an integer beyond a float's range (``10**400``)."""
+    """`value` as a finite Python float, or None when it is not a real number (a bool is
+    not), not finite, or an integer beyond a float's range (`10**400`)."""
     if not is_real(value):
         return None
     try:
@@ -48,7 +48,7 @@ def fail(where: str, name: str, value: Any, allowed: str) -> None:
 
 
 def check_int(where: str, name: str, value: Any, lo: int, hi: int | None = None) -> int:
-    """``value`` must be an integer (Python or numpy, not a bool) in ``[lo, hi]`` (``hi=None``:
+    """`value` must be an integer (Python or numpy, not a bool) in `[lo, hi]` (`hi=None`:
     no upper bound); returns it as a Python int."""
     allowed = f"an integer in [{lo}, {'inf' if hi is None else hi}]"
     if not is_int(value):
@@ -68,7 +68,7 @@ def check_float(
     lo_open: bool = False,
     hi_open: bool = False,
 ) -> float:
-    """``value`` must be a finite real number (Python or numpy, not a bool) in the given interval
+    """`value` must be a finite real number (Python or numpy, not a bool) in the given interval
     (open or closed ends); returns it as a Python float."""
     left = "(" if lo_open else "["
     right = ")" if hi_open else "]"
@@ -82,14 +82,14 @@ def check_float(
 
 
 def check_bool(where: str, name: str, value: Any) -> bool:
-    """``value`` must be a bool (Python or numpy ``np.bool_``); returns a Python bool."""
+    """`value` must be a bool (Python or numpy `np.bool_`); returns a Python bool."""
     if not isinstance(value, bool | np.bool_):
         fail(where, name, value, "true or false")
     return bool(value)
 
 
 def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> Any:
-    """``value`` must be one of ``choices``."""
+    """`value` must be one of `choices`."""
     options = list(choices)
     if value not in options:
         fail(where, name, value, f"one of {options}")
@@ -97,9 +97,9 @@ def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> A
 
 
 def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
-    """Decorate an env's ``__init__`` so a misspelled keyword argument (``action_levle=...``, as
-    ``gym.make`` passes them) raises ``ValueError`` naming it and listing the allowed ones, instead
-    of Python's bare ``TypeError``."""
+    """Decorate an env's `__init__` so a misspelled keyword argument (`action_levle=...`, as
+    `gym.make` passes them) raises `ValueError` naming it and listing the allowed ones, instead
+    of Python's bare `TypeError`."""
     params = inspect.signature(init).parameters.values()
     allowed = [
         p.name
@@ -121,9 +121,9 @@ def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
 
 
 def as_seed(seed: Any) -> Any:
-    """A numpy integer seed (``np.int64(5)``, as ``rng.integers`` gives) as the Python int
-    Gymnasium's ``reset`` requires; anything else unchanged, for Gymnasium's own check. Envs call
-    it before ``super().reset(seed=...)``: ``seed=np.int64(5)`` then seeds exactly as ``seed=5``."""
+    """A numpy integer seed (`np.int64(5)`, as `rng.integers` gives) as the Python int
+    Gymnasium's `reset` requires; anything else unchanged, for Gymnasium's own check. Envs call
+    it before `super().reset(seed=...)`: `seed=np.int64(5)` then seeds exactly as `seed=5`."""
     if isinstance(seed, np.integer):
         return int(seed)
     return seed

@@ -1,26 +1,26 @@
 """Supervisor-labelled episodes collected in parallel: a local process pool, or Ray.
 
-Every episode is :func:`fluids_bench.algos.rollout.rollout` (the suite's one rollout function)
-on ``gym.make(env_id, **env_kwargs)``, and returns its :class:`~fluids_bench.algos.dataset.Trajectory`:
+Every episode is `fluids_bench.algos.rollout.rollout` (the suite's one rollout function)
+on `gym.make(env_id, **env_kwargs)`, and returns its `Trajectory`:
 the observations, the executed actions, the supervisor's labels of the states they were taken
-from, rewards and infos. Who acts is an :class:`ActorSpec`:
+from, rewards and infos. Who acts is an `ActorSpec`:
 
-* ``"supervisor"``: the supervisor itself (the executed action is the label);
-* ``"noise"``: the supervisor with injected noise: ``label + N(0, noise_std² I)`` clipped to
-  the bounds for Box actions, another action with probability ``epsilon`` for Discrete ones
-  (:func:`fluids_bench.algos.noise.isotropic_actor`); the label stays the supervisor's;
-* ``"learner"``: a fitted policy acts and the supervisor labels what it visits.
+* `"supervisor"`: the supervisor itself (the executed action is the label);
+* `"noise"`: the supervisor with injected noise: `label + N(0, noise_std² I)` clipped to
+  the bounds for Box actions, another action with probability `epsilon` for Discrete ones
+  (`fluids_bench.algos.noise.isotropic_actor`); the label stays the supervisor's;
+* `"learner"`: a fitted policy acts and the supervisor labels what it visits.
 
-Reproducibility: episode ``i`` always runs from ``reset(seed=seed + i)`` and its actor draws
+Reproducibility: episode `i` always runs from `reset(seed=seed + i)` and its actor draws
 from a generator derived from that seed only, each worker keeps one env per (id, kwargs) and
 every episode starts from a full reset, and results come back ordered by episode index. So the
 same arguments give identical data whatever the backend and the number of workers.
 
-Backends: ``"process"`` (default) runs ``workers`` processes of a
-:func:`fluids_bench.core.parallel.process_pool` started with ``start_method`` (``"forkserver"``,
-whose server imports this module once, or ``"spawn"``; never ``fork``), or in this process when
-``workers == 1``; ``"ray"`` runs one Ray task per episode, at most ``workers`` at a time (Ray is
-the ``ray`` extra). Both are :func:`fluids_bench.core.parallel.run_tasks`; the actor is sent to
+Backends: `"process"` (default) runs `workers` processes of a
+`fluids_bench.core.parallel.process_pool` started with `start_method` (`"forkserver"`,
+whose server imports this module once, or `"spawn"`; never `fork`), or in this process when
+`workers == 1`; `"ray"` runs one Ray task per episode, at most `workers` at a time (Ray is
+the `ray` extra). Both are `fluids_bench.core.parallel.run_tasks`; the actor is sent to
 each worker once.
 """
 
@@ -48,7 +48,7 @@ PROVENANCES = ("supervisor", "noise", "learner")
 
 @dataclass(frozen=True)
 class ActorSpec:
-    """Who executes the actions (``kind``, one of :data:`PROVENANCES`) and with which noise."""
+    """Who executes the actions (`kind`, one of `PROVENANCES`) and with which noise."""
 
     kind: str = "supervisor"
     noise_std: float = 0.0  # "noise", Box actions: std of the Gaussian added to the label

@@ -1,10 +1,10 @@
 """Minari datasets of the locomotion supervisors, with their provenance and reference scores.
 
-``export_supervisor_dataset`` collects seeded episodes (optionally with isotropic noise on the
+`export_supervisor_dataset` collects seeded episodes (optionally with isotropic noise on the
 executed actions; the stored actions are always the supervisor's labels) and writes a Minari
-dataset whose ``description`` is a JSON record of the supervisor (kind, recipe, weights sha256)
-and whose ``ref_min_score`` / ``ref_max_score`` are the random policy's and the supervisor's
-measured mean 1,000-step returns (the D4RL normalisation), from ``metadata["reference_scores"]``
+dataset whose `description` is a JSON record of the supervisor (kind, recipe, weights sha256)
+and whose `ref_min_score` / `ref_max_score` are the random policy's and the supervisor's
+measured mean 1,000-step returns (the D4RL normalisation), from `metadata["reference_scores"]`
 (stored only for the id's default supervisor, the one whose return was measured).
 """
 
@@ -32,7 +32,7 @@ def export_supervisor_dataset(
     workers: int = 1,
     overwrite: bool = False,
 ) -> minari.MinariDataset:
-    """Collect ``episodes`` episodes of ``env_id`` (seeds ``seed, seed + 1, ...``) and export them."""
+    """Collect `episodes` episodes of `env_id` (seeds `seed, seed + 1, ...`) and export them."""
     env_kwargs = dict(env_kwargs or {})
     env = gym.make(env_id, **env_kwargs)
     meta = env.unwrapped.metadata

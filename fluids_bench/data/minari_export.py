@@ -2,28 +2,28 @@
 
 In an exported dataset:
 
-* ``actions`` are the supervisor's labels: ``actions[t]`` is what the supervisor does in the
-  state of ``observations[t]``, whoever acted there;
-* ``infos["executed_action"]`` and ``infos["provenance"]`` say what was actually executed and
-  who chose it (``"supervisor"``, ``"noise"`` or ``"learner"``). Infos follow Minari's layout,
-  ``T + 1`` rows with the reset's first, so the action executed at step ``t`` is row ``t + 1``
-  (``infos["executed_action"][1:]`` lines up with ``actions``); row 0 holds a zero action with
-  provenance ``"reset"``;
-* ``terminations`` / ``truncations``: the last step is terminated when the env said so and
-  truncated otherwise (time limit, or cut short by the collector's ``max_steps``);
+* `actions` are the supervisor's labels: `actions[t]` is what the supervisor does in the
+  state of `observations[t]`, whoever acted there;
+* `infos["executed_action"]` and `infos["provenance"]` say what was actually executed and
+  who chose it (`"supervisor"`, `"noise"` or `"learner"`). Infos follow Minari's layout,
+  `T + 1` rows with the reset's first, so the action executed at step `t` is row `t + 1`
+  (`infos["executed_action"][1:]` lines up with `actions`); row 0 holds a zero action with
+  provenance `"reset"`;
+* `terminations` / `truncations`: the last step is terminated when the env said so and
+  truncated otherwise (time limit, or cut short by the collector's `max_steps`);
 * the env spec (id, JSON-friendly kwargs, time limit) is stored, so
-  ``dataset.recover_environment()`` rebuilds the same env; each episode's seed is in its
+  `dataset.recover_environment()` rebuilds the same env; each episode's seed is in its
   metadata.
 
 Writing is atomic: the dataset is built under a hidden staging folder in the datasets root
-(``MINARI_DATASETS_PATH``), which Minari does not list, then renamed into place; an
+(`MINARI_DATASETS_PATH`), which Minari does not list, then renamed into place; an
 interrupted export leaves no dataset behind. A staging folder is named after its host and
 process; one whose process is gone (an export killed with SIGKILL, which runs no clean-up) is
-removed by the next export. An existing id is refused unless ``overwrite``
-(:func:`check_new_dataset` lets a caller refuse it before collecting anything).
+removed by the next export. An existing id is refused unless `overwrite`
+(`check_new_dataset` lets a caller refuse it before collecting anything).
 Dict observation spaces are stored as Minari's dict of arrays, and images losslessly (no JPEG).
-Everything works offline; the default storage is Arrow (``data_format="hdf5"`` needs h5py, the
-``hdf5`` extra: :func:`check_data_format` refuses it up front when h5py is missing).
+Everything works offline; the default storage is Arrow (`data_format="hdf5"` needs h5py, the
+`hdf5` extra: `check_data_format` refuses it up front when h5py is missing).
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ DATASET_ID_RE = re.compile(
 
 
 def check_dataset_id(dataset_id: str) -> tuple[str | None, str, int]:
-    """``(namespace, name, version)`` of a Minari id ``[NAMESPACE/]NAME-vK``, or ValueError."""
+    """`(namespace, name, version)` of a Minari id `[NAMESPACE/]NAME-vK`, or ValueError."""
     match = DATASET_ID_RE.fullmatch(dataset_id) if isinstance(dataset_id, str) else None
     if match is None or match.group("version") is None:
         raise ValueError(
@@ -93,18 +93,18 @@ def check_data_format(data_format: str) -> None:
 
 
 def datasets_root() -> Path:
-    """The datasets root Minari uses now (``MINARI_DATASETS_PATH``, else its default)."""
+    """The datasets root Minari uses now (`MINARI_DATASETS_PATH`, else its default)."""
     return Path(get_dataset_path())
 
 
 def dataset_path(dataset_id: str) -> Path:
-    """Where dataset ``dataset_id`` lives (or would) under the datasets root."""
+    """Where dataset `dataset_id` lives (or would) under the datasets root."""
     return Path(get_dataset_path()) / dataset_id
 
 
 def check_new_dataset(dataset_id: str, overwrite: bool = False) -> None:
-    """ValueError for a malformed id; ``FileExistsError`` when the dataset exists and
-    ``overwrite`` is False. Call it before collecting, not only before writing."""
+    """ValueError for a malformed id; `FileExistsError` when the dataset exists and
+    `overwrite` is False. Call it before collecting, not only before writing."""
     check_dataset_id(dataset_id)
     final = dataset_path(dataset_id)
     if final.exists() and not overwrite:
@@ -196,7 +196,7 @@ def episode_buffer(
 
 @contextlib.contextmanager
 def _datasets_root(path: Path) -> Iterator[None]:
-    """Point Minari at ``path`` for the duration (Minari reads the variable on every call)."""
+    """Point Minari at `path` for the duration (Minari reads the variable on every call)."""
     before = os.environ.get("MINARI_DATASETS_PATH")
     os.environ["MINARI_DATASETS_PATH"] = str(path)
     try:
@@ -217,13 +217,13 @@ def export_minari(
     provenance: str = "supervisor",
     **options: Any,
 ) -> minari.MinariDataset:
-    """Write ``trajectories`` of ``gym.make(env_id, **env_kwargs)`` as Minari dataset
-    ``dataset_id`` and return it loaded from disk; ``options`` are :func:`export_buffers`'s
-    (metadata, ``overwrite``, ``data_format``).
+    """Write `trajectories` of `gym.make(env_id, **env_kwargs)` as Minari dataset
+    `dataset_id` and return it loaded from disk; `options` are `export_buffers`'s
+    (metadata, `overwrite`, `data_format`).
 
     Reference scores are stored only when both are given (Minari would otherwise run 100
-    random episodes to estimate the missing minimum). Raises ``FileExistsError`` when the id
-    exists and ``overwrite`` is False, ``ValueError`` for a malformed id, an empty list, a
+    random episodes to estimate the missing minimum). Raises `FileExistsError` when the id
+    exists and `overwrite` is False, `ValueError` for a malformed id, an empty list, a
     half-given reference pair or env kwargs that are not JSON-friendly.
     """
     check_dataset_id(dataset_id)
@@ -240,7 +240,7 @@ def export_minari(
 def env_spaces(
     env_id: str, env_kwargs: dict[str, Any] | None = None
 ) -> tuple[gym.envs.registration.EnvSpec, spaces.Space, spaces.Space]:
-    """``(spec, observation space, action space)`` of ``gym.make(env_id, **env_kwargs)``;
+    """`(spec, observation space, action space)` of `gym.make(env_id, **env_kwargs)`;
     ValueError when the spec cannot be stored (kwargs that are not JSON-friendly)."""
     env = gym.make(env_id, **dict(env_kwargs or {}))
     spec, observation_space, action_space = env.spec, env.observation_space, env.action_space
@@ -272,8 +272,8 @@ def export_buffers(
     data_format: str = "arrow",
     add_files: Callable[[Path], None] | None = None,
 ) -> minari.MinariDataset:
-    """Write episode buffers (:func:`episode_buffer`) of ``gym.make(env_id, **env_kwargs)`` as
-    Minari dataset ``dataset_id`` (see :func:`export_minari`); ``add_files(folder)`` may put
+    """Write episode buffers (`episode_buffer`) of `gym.make(env_id, **env_kwargs)` as
+    Minari dataset `dataset_id` (see `export_minari`); `add_files(folder)` may put
     files of its own next to Minari's."""
     check_dataset_id(dataset_id)
     if not buffers:
@@ -311,10 +311,10 @@ def write_staged(
     add_files: Callable[[Path], None] | None = None,
     **metadata: Any,
 ) -> minari.MinariDataset:
-    """Build Minari dataset ``dataset_id`` from ``buffers`` in a staging folder, let
-    ``add_files(folder)`` put files of its own next to Minari's, then rename it into place
-    (see :func:`_move_into_place`) and return it loaded. ``metadata`` goes to
-    ``minari.create_dataset_from_buffers``; images are stored losslessly."""
+    """Build Minari dataset `dataset_id` from `buffers` in a staging folder, let
+    `add_files(folder)` put files of its own next to Minari's, then rename it into place
+    (see `_move_into_place`) and return it loaded. `metadata` goes to
+    `minari.create_dataset_from_buffers`; images are stored losslessly."""
     namespace, _, _ = check_dataset_id(dataset_id)
     root = Path(get_dataset_path())
     final = root / dataset_id
@@ -345,7 +345,7 @@ def write_staged(
 
 
 def _move_into_place(built: Path, final: Path, aside: Path, overwrite: bool) -> None:
-    """Rename ``built`` to ``final``. With ``overwrite`` an existing ``final`` is set aside
+    """Rename `built` to `final`. With `overwrite` an existing `final` is set aside
     first and removed after, or put back if the rename fails. Without it a dataset that
     appeared since the export began (another run's) is never replaced: the rename itself fails
     on a non-empty folder, so no check-then-act window is left."""

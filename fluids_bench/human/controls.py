@@ -1,13 +1,13 @@
 """Per-task controls: what a person's keys, mouse or gamepad mean as an action of the env.
 
 The mapping from input state to action is a set of small pure functions (tested without a
-window); a :class:`Scheme` ties one of them to an env and says which input completes a label
-in the relabelling tool. :func:`scheme_for` picks the scheme of an env, or raises ValueError
+window); a `Scheme` ties one of them to an env and says which input completes a label
+in the relabelling tool. `scheme_for` picks the scheme of an env, or raises ValueError
 for an env no person can act in here.
 
-Input state is an :class:`Inputs`: the key names held (``"left"``, ``"right"``, ``"up"``,
-``"down"``, ``"space"``, ``"shift"``), the mouse position in frame pixels ``(u, v)`` (``u``
-east, ``v`` south, as :mod:`fluids_bench.core.raster`), the mouse buttons held (left, middle,
+Input state is an `Inputs`: the key names held (`"left"`, `"right"`, `"up"`,
+`"down"`, `"space"`, `"shift"`), the mouse position in frame pixels `(u, v)` (`u`
+east, `v` south, as `fluids_bench.core.raster`), the mouse buttons held (left, middle,
 right) and the joystick's axes in [-1, 1] (axis 0 right positive, axis 1 down positive, as
 pygame reports them).
 
@@ -96,9 +96,9 @@ def _axis(axes: tuple[float, ...], i: int) -> float:
 
 
 def fluids_control_action(keys: frozenset[str], axes: tuple[float, ...] = ()) -> np.ndarray:
-    """FLUIDS' control-level ``[steer, force]`` in [-1, 1]: positive steer turns left.
+    """FLUIDS' control-level `[steer, force]` in [-1, 1]: positive steer turns left.
 
-    Keys: left / right steer by :data:`KEY_STEER` (1 with shift), up accelerates (+1), down
+    Keys: left / right steer by `KEY_STEER` (1 with shift), up accelerates (+1), down
     brakes (-1). A joystick's stick, when off its dead zone, adds to them: axis 0 steers
     (pushed right = steer right), axis 1 accelerates when pushed up and brakes when down."""
     steer = KEY_STEER * (1.0 + ("shift" in keys)) * (("left" in keys) - ("right" in keys))
@@ -112,8 +112,8 @@ SPEED_STEP = 1.0  # m/s per up / down press at the velocity level
 
 
 def fluids_velocity_target(target: float, key: str | None, v_max: float) -> float:
-    """The target speed after pressing ``key`` (up / down: ±1 m/s, a digit d: d / 9 of
-    ``v_max``; anything else leaves it), clipped to [0, v_max]."""
+    """The target speed after pressing `key` (up / down: ±1 m/s, a digit d: d / 9 of
+    `v_max`; anything else leaves it), clipped to [0, v_max]."""
     if key == "up":
         target += SPEED_STEP
     elif key == "down":
@@ -131,7 +131,7 @@ def fluids_velocity_from_stick(axes: tuple[float, ...], v_max: float) -> float |
 
 def pixel_to_world(u: float, v: float, ppm: float, x0: float, y1: float) -> tuple[float, float]:
     """World (x, y) in m at frame pixel (u, v): the inverse of
-    :func:`fluids_bench.core.raster.pixel_affine` (top-left corner at world (x0, y1))."""
+    `fluids_bench.core.raster.pixel_affine` (top-left corner at world (x0, y1))."""
     return x0 + (u + 0.5) / ppm, y1 - (v + 0.5) / ppm
 
 
@@ -142,8 +142,8 @@ def singulation_action(
     max_dtheta: float,
     max_dr: float,
 ) -> np.ndarray:
-    """``[a_rot, a_ext]`` moving the fingertip at pose (theta rad, r m) toward the world point
-    ``target`` (m) as far as one step allows; zeros when ``target`` is None (hold still)."""
+    """`[a_rot, a_ext]` moving the fingertip at pose (theta rad, r m) toward the world point
+    `target` (m) as far as one step allows; zeros when `target` is None (hold still)."""
     if target is None:
         return np.zeros(2, dtype=np.float32)
     x, y = target
@@ -159,8 +159,8 @@ def grasping_action(
     close: bool,
     step_length: float,
 ) -> np.ndarray:
-    """``[vx, vy, grip]``: toward the world point ``target`` at full speed, slowing within one
-    step (``step_length`` = max speed × dt, m) of it; zero velocity when ``target`` is None;
+    """`[vx, vy, grip]`: toward the world point `target` at full speed, slowing within one
+    step (`step_length` = max speed × dt, m) of it; zero velocity when `target` is None;
     grip 1 (close) or 0 (open)."""
     grip = 1.0 if close else 0.0
     if target is None:
@@ -178,10 +178,10 @@ def grasping_action(
 
 @dataclass
 class Scheme:
-    """How a person acts in one env: ``action(inputs)`` for the env's current state.
+    """How a person acts in one env: `action(inputs)` for the env's current state.
 
-    ``fps`` is the teleop step rate; ``help`` lists the controls (shown in the window);
-    ``confirm_keys`` / ``confirm_click`` say which key presses or mouse clicks complete a label
+    `fps` is the teleop step rate; `help` lists the controls (shown in the window);
+    `confirm_keys` / `confirm_click` say which key presses or mouse clicks complete a label
     in the relabelling tool (Return always does)."""
 
     name: str
@@ -271,7 +271,7 @@ ARROWS = frozenset({"left", "right", "up", "down"})
 
 
 def scheme_for(env: Any) -> Scheme:
-    """The control scheme of ``env`` (wrapped or not); ValueError for an env without one."""
+    """The control scheme of `env` (wrapped or not); ValueError for an env without one."""
     base = getattr(env, "unwrapped", env)
     cls = type(base).__name__
     env_id = base.spec.id if getattr(base, "spec", None) is not None else cls

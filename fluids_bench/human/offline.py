@@ -1,16 +1,16 @@
 """Learning from recorded datasets: BC on teleop data, DAgger with retroactive labels.
 
-:func:`load_pairs` reads the state–label pairs of Minari datasets (``observations[t]``,
-``actions[t]``: the person's actions for teleop data, the new labels for relabelled data).
-:func:`fit` fits a learner on them (:mod:`fluids_bench.algos.policies`) and :func:`evaluate`
+`load_pairs` reads the state–label pairs of Minari datasets (`observations[t]`,
+`actions[t]`: the person's actions for teleop data, the new labels for relabelled data).
+`fit` fits a learner on them (`fluids_bench.algos.policies`) and `evaluate`
 rolls it out.
 
-:func:`retroactive_dagger` is DAgger as the source ran it with people (ch. 5): start from
+`retroactive_dagger` is DAgger as the source ran it with people (ch. 5): start from
 teleoperated demonstrations, then each iteration collect the current learner's rollouts as a
-dataset (``fluids-bench collect``'s format), have them labelled offline (the relabelling tool,
-here with a :class:`~fluids_bench.human.simulated.SimulatedHuman`), aggregate the labelled
-pairs and refit. Every dataset it makes is written under ``namespace``, so each step can be
-inspected (or done by a person with ``fluids-bench relabel``).
+dataset (`fluids-bench collect`'s format), have them labelled offline (the relabelling tool,
+here with a `SimulatedHuman`), aggregate the labelled
+pairs and refit. Every dataset it makes is written under `namespace`, so each step can be
+inspected (or done by a person with `fluids-bench relabel`).
 """
 
 from __future__ import annotations
@@ -46,7 +46,7 @@ def load_pairs(dataset_ids: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
 def fit(
     dataset_ids: Sequence[str], env: gym.Env, policy: PolicySpec, seed: int = 0
 ) -> FittedPolicy:
-    """Behaviour cloning: ``policy`` fit on the pairs of ``dataset_ids``."""
+    """Behaviour cloning: `policy` fit on the pairs of `dataset_ids`."""
     x, y = load_pairs(dataset_ids)
     return fit_policy(policy, env.action_space, x, y, random_state=seed)
 
@@ -67,7 +67,7 @@ def supervisor_return(
 def evaluate(
     policy: FittedPolicy, env: gym.Env, episodes: int, seed: int, max_steps: int | None = None
 ) -> dict[str, float]:
-    """Mean return and success rate of ``policy`` over ``episodes`` seeded episodes."""
+    """Mean return and success rate of `policy` over `episodes` seeded episodes."""
     returns, successes = [], []
     for i in range(episodes):
         trajectory = rollout(env, LearnerActor(policy), seed + i, max_steps)
@@ -101,7 +101,7 @@ def retroactive_dagger(
     max_steps: int | None = None,
 ) -> list[DaggerIteration]:
     """DAgger with retroactive labels (see the module docstring); one record per iteration,
-    iteration 0 being BC on ``teleop_dataset``."""
+    iteration 0 being BC on `teleop_dataset`."""
     from fluids_bench.data.collect import ActorSpec, collect
     from fluids_bench.data.minari_export import export_minari
     from fluids_bench.human.recording import load_episodes, spec_of, write_dataset

@@ -1,43 +1,43 @@
 """Datasets people record (teleop) or label (relabel), and the env states stored with them.
 
-A recorded dataset is a Minari dataset laid out as :mod:`fluids_bench.data.minari_export`'s
-(``actions`` are the labels, infos have ``T + 1`` rows with the reset's first, so a per-step
-column's row ``t + 1`` belongs to step ``t``), with these infos columns:
+A recorded dataset is a Minari dataset laid out as `fluids_bench.data.minari_export`'s
+(`actions` are the labels, infos have `T + 1` rows with the reset's first, so a per-step
+column's row `t + 1` belongs to step `t`), with these infos columns:
 
-* ``executed_action``: what the env executed at step ``t`` (the person's action, plus the
-  injected noise under ``--noise``);
-* ``provenance``: ``"human"``, ``"human_noise"`` (a person acted, noise was added),
-  ``"simulated_human"`` / ``"simulated_human_noise"`` (a simulated person), or what the source
+* `executed_action`: what the env executed at step `t` (the person's action, plus the
+  injected noise under `--noise`);
+* `provenance`: `"human"`, `"human_noise"` (a person acted, noise was added),
+  `"simulated_human"` / `"simulated_human_noise"` (a simulated person), or what the source
   dataset said;
-* ``supervisor_action``: the algorithmic supervisor's label of the same state;
-* ``time``: seconds since the session started when the action was taken;
-* ``reaction_time``: seconds from showing the state to the person's first input after it
+* `supervisor_action`: the algorithmic supervisor's label of the same state;
+* `time`: seconds since the session started when the action was taken;
+* `reaction_time`: seconds from showing the state to the person's first input after it
   (NaN when nothing changed while the state was shown);
-* ``noise_level``: the trace of the injected covariance (Box) or the probability of another
+* `noise_level`: the trace of the injected covariance (Box) or the probability of another
   action (Discrete), 0 without noise;
-* ``state_stored``: whether the env state of ``observations[t]`` is stored (row ``t``).
+* `state_stored`: whether the env state of `observations[t]` is stored (row `t`).
 
-``actions[t]`` is the person's intended action (with noise injected, what they meant, not what
-was executed). A relabelled dataset keeps the source's columns and adds ``original_action``
-(the source dataset's ``actions``), ``relabelled`` (whether a person labelled the step; when
-not, the action is the original) and ``label_time`` (seconds the person took).
+`actions[t]` is the person's intended action (with noise injected, what they meant, not what
+was executed). A relabelled dataset keeps the source's columns and adds `original_action`
+(the source dataset's `actions`), `relabelled` (whether a person labelled the step; when
+not, the action is the original) and `label_time` (seconds the person took).
 
-The env states live next to Minari's ``data`` folder, in ``fluids_bench_states/``: one file per
-episode, ``episode_N.npz``, in the safe state format (`fluids_bench.core.state_format`: a
+The env states live next to Minari's `data` folder, in `fluids_bench_states/`: one file per
+episode, `episode_N.npz`, in the safe state format (`fluids_bench.core.state_format`: a
 JSON header listing the stored steps, and one entry per step holding that step's
 `fluids_bench.core.snapshot.snapshot`, the wrapped env's state including its time limit
-counter, as bytes; read with ``allow_pickle=False``, never unpickled) for the observations whose
-state was stored (every ``snapshot_every`` steps, and the first). Datasets written by older
-versions stored ``episode_N.pkl.gz`` pickles instead: loading a pickle can run any code its
-author put in it, so they are read only with ``trust_pickle=True`` (``--trust-pickle``), and
+counter, as bytes; read with `allow_pickle=False`, never unpickled) for the observations whose
+state was stored (every `snapshot_every` steps, and the first). Datasets written by older
+versions stored `episode_N.pkl.gz` pickles instead: loading a pickle can run any code its
+author put in it, so they are read only with `trust_pickle=True` (`--trust-pickle`), and
 converted to the safe format on the way in. Any other step's state is rebuilt by
 restoring the nearest stored state before it and re-executing the recorded actions (the envs
-continue bit-identically); a dataset without stored states (e.g. from ``fluids-bench
-collect``) is replayed from its episode seeds. :class:`StateRebuilder` does this and checks
+continue bit-identically); a dataset without stored states (e.g. from `fluids-bench
+collect`) is replayed from its episode seeds. `StateRebuilder` does this and checks
 every rebuilt observation against the recorded one.
 
 Writing is atomic (staged in a hidden folder of the datasets root, then renamed into place, as
-``export_minari``); appending to an existing id rewrites it with the old episodes first.
+`export_minari`); appending to an existing id rewrites it with the old episodes first.
 """
 
 from __future__ import annotations
@@ -71,14 +71,14 @@ TRUST_PICKLE_WHY = (
 
 def states_to_bytes(states: dict[int, snap.WrappedSnapshot]) -> bytes:
     """An episode's stored states (observation index -> wrapped snapshot) in the safe state
-    format (a compressed ``.npz``)."""
+    format (a compressed `.npz`)."""
     steps = sorted(states)
     arrays = [np.frombuffer(states[t].to_bytes(), dtype=np.uint8) for t in steps]
     return pack({"kind": STATES_KIND, "steps": steps}, arrays, compress=True)
 
 
 def states_from_bytes(data: bytes, what: str) -> dict[int, snap.WrappedSnapshot]:
-    """What `states_to_bytes` wrote, checked (``StateFormatError`` naming ``what``)."""
+    """What `states_to_bytes` wrote, checked (`StateFormatError` naming `what`)."""
     meta, arrays = unpack(data, what)
     steps = meta.get("steps")
     if (
@@ -101,7 +101,7 @@ def states_from_bytes(data: bytes, what: str) -> dict[int, snap.WrappedSnapshot]
 
 def _legacy_states(path: Path, env: gym.Env) -> dict[int, snap.WrappedSnapshot]:
     """The pickled states an older fluids-bench wrote (trusted by the caller), converted into
-    the safe format by restoring each into ``env`` the old way and snapshotting it again."""
+    the safe format by restoring each into `env` the old way and snapshotting it again."""
     with gzip.open(path, "rb") as f:
         states = pickle.load(f)
     if not isinstance(states, dict):
@@ -112,8 +112,8 @@ def _legacy_states(path: Path, env: gym.Env) -> dict[int, snap.WrappedSnapshot]:
 
 @dataclass
 class Episode:
-    """One recorded episode: ``observations`` has ``T + 1`` rows, ``actions`` / ``rewards``
-    ``T``; every ``infos`` column ``T + 1`` rows; ``states`` maps observation index to a
+    """One recorded episode: `observations` has `T + 1` rows, `actions` / `rewards`
+    `T`; every `infos` column `T + 1` rows; `states` maps observation index to a
     wrapped snapshot."""
 
     seed: int | None
@@ -182,7 +182,7 @@ def episode_buffer(index: int, ep: Episode, obs_space, act_space) -> EpisodeBuff
 
 
 def env_spec(env: gym.Env) -> gym.envs.registration.EnvSpec:
-    """The env's spec without ``render_mode`` (a dataset rebuilds its env headless)."""
+    """The env's spec without `render_mode` (a dataset rebuilds its env headless)."""
     spec = env.spec
     kwargs = {k: v for k, v in spec.kwargs.items() if k != "render_mode"}
     return gym.envs.registration.EnvSpec(
@@ -201,10 +201,10 @@ def spec_of(dataset: minari.MinariDataset) -> gym.envs.registration.EnvSpec:
 
 
 def load_episodes(dataset: minari.MinariDataset, *, trust_pickle: bool = False) -> list[Episode]:
-    """Every episode of ``dataset`` with its infos and stored states (for append / relabel).
+    """Every episode of `dataset` with its infos and stored states (for append / relabel).
 
     States are read in the safe format (never unpickled). A dataset whose states are pickles
-    (written by an older fluids-bench) raises ``ValueError`` unless ``trust_pickle``."""
+    (written by an older fluids-bench) raises `ValueError` unless `trust_pickle`."""
     root = Path(dataset.spec.data_path).parent / STATES_DIR
     legacy_env = None
     metadata = list(dataset.storage.get_episode_metadata(dataset.episode_indices))
@@ -259,8 +259,8 @@ def sessions(dataset_id: str) -> list[dict[str, Any]]:
 
 
 def check_writable(dataset_id: str, *, overwrite: bool = False, append: bool = False) -> bool:
-    """Whether ``dataset_id`` exists; FileExistsError when it does and neither ``overwrite``
-    nor ``append`` is set; ValueError for a malformed id or both flags."""
+    """Whether `dataset_id` exists; FileExistsError when it does and neither `overwrite`
+    nor `append` is set; ValueError for a malformed id or both flags."""
     check_dataset_id(dataset_id)
     if overwrite and append:
         raise ValueError("pass --append or --overwrite, not both")
@@ -287,8 +287,8 @@ def write_dataset(
     previous_sessions: list[dict[str, Any]] | None = None,
     trust_pickle: bool = False,
 ) -> minari.MinariDataset:
-    """Write ``episodes`` (after the existing ones when ``append``) atomically as
-    ``dataset_id``, with their states and the session record; returns the loaded dataset."""
+    """Write `episodes` (after the existing ones when `append`) atomically as
+    `dataset_id`, with their states and the session record; returns the loaded dataset."""
     check_dataset_id(dataset_id)
     exists = check_writable(dataset_id, overwrite=overwrite, append=append)
     if not episodes:
@@ -348,7 +348,7 @@ def write_dataset(
 
 
 def next_version(dataset_id: str) -> str:
-    """``NAME-vK`` → ``NAME-v(K+1)``, skipping versions that exist."""
+    """`NAME-vK` → `NAME-v(K+1)`, skipping versions that exist."""
     namespace, name, version = check_dataset_id(dataset_id)
     prefix = f"{namespace}/{name}" if namespace else name
     version += 1
@@ -366,10 +366,10 @@ def _same_observation(a: Any, b: Any) -> bool:
 class StateRebuilder:
     """Puts an env into the state of any recorded observation (see the module docstring).
 
-    ``env`` is built from the dataset's spec (``render_mode`` as given). ``go(episode, t)``
-    restores the nearest stored state at or before ``t`` (or resets with the episode's seed),
-    re-executes the recorded actions up to ``t`` and checks the observation; consecutive
-    ``t`` of one episode step the env once."""
+    `env` is built from the dataset's spec (`render_mode` as given). `go(episode, t)`
+    restores the nearest stored state at or before `t` (or resets with the episode's seed),
+    re-executes the recorded actions up to `t` and checks the observation; consecutive
+    `t` of one episode step the env once."""
 
     def __init__(self, spec, episodes: list[Episode], dataset_id: str, render_mode=None):
         self.episodes = episodes

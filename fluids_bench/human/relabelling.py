@@ -11,7 +11,7 @@ from gymnasium import spaces
 
 
 def relabelled_episodes(episodes, labels, space):
-    """Copies of ``episodes`` with ``labels`` ((e, t) -> (label, seconds)) as their actions and
+    """Copies of `episodes` with `labels` ((e, t) -> (label, seconds)) as their actions and
     the original actions, flags and label times in the infos."""
     out = []
     for e, ep in enumerate(episodes):

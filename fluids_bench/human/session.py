@@ -1,19 +1,19 @@
 """The teleop and relabel sessions: a person (in a window) or a simulated person acts or labels.
 
-:func:`teleop` runs episodes of an env, a person acting through its control scheme
-(:mod:`~fluids_bench.human.controls`) in a window, or a :class:`SimulatedHuman` without one,
-and returns the finished episodes (:class:`~fluids_bench.human.recording.Episode`). The
-window steps the env ``fps`` times a second (half that in slow motion); ``p`` pauses, ``r``
-restarts the episode (the unfinished one is dropped), ``l`` shows the supervisor's label. Esc,
-``q``, closing the window or Ctrl-C end the session: the finished episodes are kept, the
-unfinished one is dropped (:attr:`TeleopResult.ended` says how it ended).
+`teleop` runs episodes of an env, a person acting through its control scheme
+(`controls`) in a window, or a `SimulatedHuman` without one,
+and returns the finished episodes (`Episode`). The
+window steps the env `fps` times a second (half that in slow motion); `p` pauses, `r`
+restarts the episode (the unfinished one is dropped), `l` shows the supervisor's label. Esc,
+`q`, closing the window or Ctrl-C end the session: the finished episodes are kept, the
+unfinished one is dropped (`TeleopResult.ended` says how it ended).
 
-:func:`relabel` shows the states of a dataset's episodes one by one, rebuilt from the stored
-env states (:class:`~fluids_bench.human.recording.StateRebuilder`), and takes a label for each
+`relabel` shows the states of a dataset's episodes one by one, rebuilt from the stored
+env states (`StateRebuilder`), and takes a label for each
 with the same controls: a key of the scheme's (arrows, space, ...) or a click labels the state
 and moves on, Return labels it with the held input, Backspace goes back.
 
-``script`` (tests, screenshots) is called once per window frame with the session, before the
+`script` (tests, screenshots) is called once per window frame with the session, before the
 events are read: it can post pygame events or stop the session.
 """
 
@@ -61,7 +61,7 @@ class TeleopResult:
 
 
 class Teleop:
-    """One teleop session (see the module docstring); :meth:`run` returns a TeleopResult."""
+    """One teleop session (see the module docstring); `run` returns a TeleopResult."""
 
     def __init__(
         self,
@@ -275,7 +275,7 @@ class RelabelResult:
 
 
 class Relabel:
-    """One relabelling session over ``episodes`` (from :func:`recording.load_episodes`)."""
+    """One relabelling session over `episodes` (from `recording.load_episodes`)."""
 
     def __init__(
         self,

@@ -1,17 +1,17 @@
 """Simulated people, standing in for a person in tests and examples, and human-DART noise.
 
-:class:`SimulatedHuman` is a delayed, noisy copy of the supervisor: when teleoperating it
-executes the supervisor's label of the state ``delay`` steps back (the current one for the
-first steps of an episode: a reaction time of ``delay × dt``) plus Gaussian noise of standard
-deviation ``noise_std`` (Box actions, clipped to the bounds) or, with probability
-``epsilon``, another action (Discrete). When labelling retroactively there is no reaction to
+`SimulatedHuman` is a delayed, noisy copy of the supervisor: when teleoperating it
+executes the supervisor's label of the state `delay` steps back (the current one for the
+first steps of an episode: a reaction time of `delay × dt`) plus Gaussian noise of standard
+deviation `noise_std` (Box actions, clipped to the bounds) or, with probability
+`epsilon`, another action (Discrete). When labelling retroactively there is no reaction to
 wait for: its label is the supervisor's label of the shown state with the same noise.
 
-:class:`NoiseInjector` is ``--noise``: the executed action is the person's intended action
-with noise, fixed (``N(0, sigma² I)`` or probability ``epsilon`` of another action) or
+`NoiseInjector` is `--noise`: the executed action is the person's intended action
+with noise, fixed (`N(0, sigma² I)` or probability `epsilon` of another action) or
 estimated as DART does, from how far a learner fit on the session's earlier episodes is from
-the person's actions on the latest one (:func:`fluids_bench.algos.dart.disagreement_covariance`),
-optionally scaled to a target trace ``alpha``. The intended action is what is recorded as the
+the person's actions on the latest one (`fluids_bench.algos.dart.disagreement_covariance`),
+optionally scaled to a target trace `alpha`. The intended action is what is recorded as the
 label.
 """
 
@@ -38,7 +38,7 @@ def _noisy(space: spaces.Space, action: Any, noise_std: float, epsilon: float, r
 
 @dataclass
 class SimulatedHuman:
-    """A delayed (``delay`` steps), noisy (``noise_std`` / ``epsilon``) supervisor."""
+    """A delayed (`delay` steps), noisy (`noise_std` / `epsilon`) supervisor."""
 
     delay: int = 2
     noise_std: float = 0.1
@@ -52,7 +52,7 @@ class SimulatedHuman:
 
     @classmethod
     def parse(cls, text: str) -> SimulatedHuman:
-        """From ``"delay=2,noise_std=0.1,epsilon=0.05"`` (any subset; empty: the defaults)."""
+        """From `"delay=2,noise_std=0.1,epsilon=0.05"` (any subset; empty: the defaults)."""
         fields: dict[str, Any] = {}
         for part in filter(None, (p.strip() for p in text.split(","))):
             key, sep, value = part.partition("=")
@@ -68,14 +68,14 @@ class SimulatedHuman:
         self._labels.clear()
 
     def act(self, space: spaces.Space, label: Any, rng: np.random.Generator) -> Any:
-        """Teleoperation: the action for the state whose supervisor label is ``label``."""
+        """Teleoperation: the action for the state whose supervisor label is `label`."""
         self._labels.append(label)
         if len(self._labels) > self.delay + 1:
             self._labels.popleft()
         return _noisy(space, self._labels[0], self.noise_std, self.epsilon, rng)
 
     def label(self, space: spaces.Space, label: Any, rng: np.random.Generator) -> Any:
-        """Retroactive labelling: the label for a shown state whose supervisor label is ``label``."""
+        """Retroactive labelling: the label for a shown state whose supervisor label is `label`."""
         return _noisy(space, label, self.noise_std, self.epsilon, rng)
 
     def describe(self) -> str:
@@ -86,7 +86,7 @@ class SimulatedHuman:
 
 
 class NoiseInjector:
-    """``--noise``: ``level`` (sigma for Box, epsilon for Discrete) or ``"dart"``."""
+    """`--noise`: `level` (sigma for Box, epsilon for Discrete) or `"dart"`."""
 
     def __init__(
         self,
@@ -155,9 +155,9 @@ class NoiseInjector:
 
 
 def person(simulated: str | None, command: str = "this command") -> SimulatedHuman | None:
-    """The labeller a command was asked for: a simulated person (``--simulated-human SPEC``), or
-    ``None`` for a real one at a window, which needs pygame (``ValueError`` naming the extra)
-    and a real display (``ValueError`` unless ``FLUIDS_BENCH_HEADLESS=1``, see
+    """The labeller a command was asked for: a simulated person (`--simulated-human SPEC`), or
+    `None` for a real one at a window, which needs pygame (`ValueError` naming the extra)
+    and a real display (`ValueError` unless `FLUIDS_BENCH_HEADLESS=1`, see
     `fluids_bench.human.window.require_display`)."""
     if simulated is not None:
         return SimulatedHuman.parse(simulated)

@@ -1,17 +1,17 @@
-"""The pygame window of ``teleop`` and ``relabel``: a frame, a status bar, and the input state.
+"""The pygame window of `teleop` and `relabel`: a frame, a status bar, and the input state.
 
-pygame is the optional ``human`` extra. The window shows an env's ``rgb_array`` frame (small
+pygame is the optional `human` extra. The window shows an env's `rgb_array` frame (small
 frames are scaled up by a whole factor) above a status bar, and turns pygame events into an
-:class:`~fluids_bench.human.controls.Inputs` plus commands: ``p`` pause, ``s`` slow motion,
-``r`` restart the episode, ``l`` toggle the supervisor's label overlay, Backspace go back
-(relabel), Esc or ``q`` or closing the window quit. Input can be injected with
-``pygame.event.post`` (the tests do).
+`Inputs` plus commands: `p` pause, `s` slow motion,
+`r` restart the episode, `l` toggle the supervisor's label overlay, Backspace go back
+(relabel), Esc or `q` or closing the window quit. Input can be injected with
+`pygame.event.post` (the tests do).
 
-A window needs a real display: without one (on Linux, neither ``DISPLAY`` nor
-``WAYLAND_DISPLAY`` set, or SDL picking its ``offscreen`` or ``dummy`` video driver) no person
-can see it, so ``teleop`` and ``relabel`` refuse to start (`require_display`) rather
+A window needs a real display: without one (on Linux, neither `DISPLAY` nor
+`WAYLAND_DISPLAY` set, or SDL picking its `offscreen` or `dummy` video driver) no person
+can see it, so `teleop` and `relabel` refuse to start (`require_display`) rather
 than record a demonstration nobody gave. Tests that inject events under SDL's dummy driver or
-Xvfb opt in with the environment variable ``FLUIDS_BENCH_HEADLESS=1``.
+Xvfb opt in with the environment variable `FLUIDS_BENCH_HEADLESS=1`.
 """
 
 from __future__ import annotations
@@ -32,7 +32,7 @@ MIN_SIDE = 400  # frames smaller than this are scaled up by a whole factor
 
 
 def require_pygame():
-    """Import pygame, or raise ImportError naming the ``human`` extra."""
+    """Import pygame, or raise ImportError naming the `human` extra."""
     os.environ.setdefault("PYGAME_HIDE_SUPPORT_PROMPT", "1")
     try:
         import pygame
@@ -46,7 +46,7 @@ NO_SCREEN_DRIVERS = ("offscreen", "dummy")
 
 
 def headless_allowed() -> bool:
-    """Whether the headless opt-in (``FLUIDS_BENCH_HEADLESS=1``) is set."""
+    """Whether the headless opt-in (`FLUIDS_BENCH_HEADLESS=1`) is set."""
     return os.environ.get(HEADLESS_ENV) == "1"
 
 
@@ -65,8 +65,8 @@ def _no_display_reason(driver: str | None = None) -> str | None:
 
 
 def require_display(command: str, driver: str | None = None) -> None:
-    """Raise ``ValueError`` when no person could see a window (see the module docstring),
-    unless ``FLUIDS_BENCH_HEADLESS=1``; ``driver`` is SDL's video driver once initialised."""
+    """Raise `ValueError` when no person could see a window (see the module docstring),
+    unless `FLUIDS_BENCH_HEADLESS=1`; `driver` is SDL's video driver once initialised."""
     if headless_allowed():
         return
     reason = _no_display_reason(driver)
@@ -102,7 +102,7 @@ INPUT_KEYS = {
 
 
 class Window:
-    """One pygame window; :meth:`poll` reads events, :meth:`show` draws a frame and status."""
+    """One pygame window; `poll` reads events, `show` draws a frame and status."""
 
     def __init__(self, title: str, command: str = "the window") -> None:
         require_display(command)
@@ -126,8 +126,8 @@ class Window:
 
     # -- events ----------------------------------------------------------------------------
     def poll(self) -> tuple[list[str], list[tuple[str, Any]]]:
-        """Read pending events: update :attr:`inputs`; return the commands and the input
-        events (``("key", name)`` for a key press, ``("click", button)``)."""
+        """Read pending events: update `inputs`; return the commands and the input
+        events (`("key", name)` for a key press, `("click", button)`)."""
         pg = self.pg
         commands: list[str] = []
         pressed: list[tuple[str, Any]] = []

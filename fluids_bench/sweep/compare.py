@@ -27,7 +27,7 @@ from fluids_bench.sweep.plot import RETURN, SUCCESS, row_matches
 def level_stats(
     rows: Sequence[Mapping[str, Any]], grid: Any, metric: str
 ) -> dict[str, list[dict[str, Any]]]:
-    """``{factor: [{"value", "configurations", "episodes", "metric", "stderr"}, ...]}``: the
+    """`{factor: [{"value", "configurations", "episodes", "metric", "stderr"}, ...]}`: the
     success rate, or the mean return (not normalised), of each level with its standard error."""
     if metric not in (SUCCESS, RETURN):
         raise ValueError(f"level_stats: field 'metric' is {metric!r}; allowed: success, return")
@@ -63,7 +63,7 @@ def level_stats(
 def nominal_row(
     rows: Sequence[Mapping[str, Any]], nominal: Mapping[str, Any]
 ) -> Mapping[str, Any] | None:
-    """The row of the nominal configuration (every factor at its ``nominal`` value), if swept."""
+    """The row of the nominal configuration (every factor at its `nominal` value), if swept."""
     for row in rows:
         if all(row_matches(row, name, value) for name, value in nominal.items()):
             return row
@@ -79,7 +79,7 @@ def plot_policies(
     title: str | None = None,
 ) -> None:
     """One panel per factor: each policy's level estimate ± standard error against the
-    factor's values; returns are divided by ``reference`` (required for the return metric)."""
+    factor's values; returns are divided by `reference` (required for the return metric)."""
     if metric == RETURN and not reference:
         raise ValueError("plot_policies: field 'reference' is missing; allowed: a nonzero return")
     names = grid.names

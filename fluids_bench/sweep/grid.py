@@ -1,8 +1,8 @@
 """The parameter grid of a sensitivity sweep (ch. 7, "Testing Generalization in FLUIDS").
 
-A :class:`Grid` is the full factorial product of a few :class:`Parameter` value lists; its
+A `Grid` is the full factorial product of a few `Parameter` value lists; its
 configurations are numbered in row-major order of the parameters (the last parameter varies
-fastest), and configuration ``i`` maps to keyword arguments of ``FLUIDS-Sensitivity-v0``.
+fastest), and configuration `i` maps to keyword arguments of `FLUIDS-Sensitivity-v0`.
 
 The six parameters of the source, with the default values (4 × 4 × 2 × 2 × 2 × 2 = 256
 configurations, the source's count):
@@ -10,18 +10,18 @@ configurations, the source's count):
 ========================  ==================  =====================  ===========================
 parameter                 default values      env keyword            source range
 ========================  ==================  =====================  ===========================
-``cars``                  2, 3, 4, 5          ``num_cars = cars-1``  [2, 5] cars, ego included
-``pedestrians``           0, 1, 3, 4          ``num_pedestrians``    [0, 4]
-``lidar_noise``           0, 1                ``lidar_noise``        λ_l in [0, 1] (variance)
-``lidar_dropout``         0, 1                ``lidar_dropout``      omission probability [0, 1]
-``lights``                off, on             ``lights``             [0, 1]
-``car_mass``              750, 3000 kg        ``car_mass``           [0, 200] in its own units
+`cars`                  2, 3, 4, 5          `num_cars = cars-1`  [2, 5] cars, ego included
+`pedestrians`           0, 1, 3, 4          `num_pedestrians`    [0, 4]
+`lidar_noise`           0, 1                `lidar_noise`        λ_l in [0, 1] (variance)
+`lidar_dropout`         0, 1                `lidar_dropout`      omission probability [0, 1]
+`lights`                off, on             `lights`             [0, 1]
+`car_mass`              750, 3000 kg        `car_mass`           [0, 200] in its own units
 ========================  ==================  =====================  ===========================
 
-Pedestrians take ``round(linspace(0, 4, 4))``. Car mass: the source sweeps [0, 200] in
-unstated units around its nominal car; here source value ``s`` maps to ``750 + 11.25 s`` kg,
+Pedestrians take `round(linspace(0, 4, 4))`. Car mass: the source sweeps [0, 200] in
+unstated units around its nominal car; here source value `s` maps to `750 + 11.25 s` kg,
 so [0, 200] is 0.5× to 2× the 1500 kg nominal mass the supervisor's PID assumes (1500 kg is
-``s ≈ 66.7``); the two default values are the ends of that range, both a model mismatch.
+`s ≈ 66.7`); the two default values are the ends of that range, both a model mismatch.
 """
 
 from __future__ import annotations
@@ -87,7 +87,7 @@ def _coerce(name: str, value: Any) -> Any:
 
 @dataclass(frozen=True)
 class Grid:
-    """Value lists for every parameter of :data:`PARAMETERS` (strictly increasing, non-empty)."""
+    """Value lists for every parameter of `PARAMETERS` (strictly increasing, non-empty)."""
 
     values: Mapping[str, tuple[Any, ...]]
 
@@ -128,7 +128,7 @@ class Grid:
         return math.prod(self.shape)
 
     def configuration(self, index: int) -> dict[str, Any]:
-        """Parameter values of configuration ``index`` (row-major, last parameter fastest)."""
+        """Parameter values of configuration `index` (row-major, last parameter fastest)."""
         if isinstance(index, bool) or not isinstance(index, int) or not 0 <= index < len(self):
             fail("Grid", "index", index, f"an integer in [0, {len(self) - 1}]")
         out: dict[str, Any] = {}
@@ -142,7 +142,7 @@ class Grid:
             yield index, self.configuration(index)
 
     def normalise(self, name: str, value: Any) -> float:
-        """``value`` of parameter ``name`` mapped to [0, 1] by the grid's own range."""
+        """`value` of parameter `name` mapped to [0, 1] by the grid's own range."""
         values = self.values[name]
         lo, hi = float(values[0]), float(values[-1])
         return 0.0 if hi == lo else (float(value) - lo) / (hi - lo)
@@ -164,7 +164,7 @@ class Grid:
 
 
 def env_kwargs(configuration: Mapping[str, Any]) -> dict[str, Any]:
-    """``FLUIDS-Sensitivity-v0`` keyword arguments of one configuration."""
+    """`FLUIDS-Sensitivity-v0` keyword arguments of one configuration."""
     return {
         "num_cars": int(configuration["cars"]) - 1,  # background cars besides the ego
         "num_pedestrians": int(configuration["pedestrians"]),
@@ -176,7 +176,7 @@ def env_kwargs(configuration: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def parse_values(text: str) -> tuple[str, list[Any]]:
-    """``NAME=V1,V2,...`` (the CLI's ``--values``) as a name and a list of numbers."""
+    """`NAME=V1,V2,...` (the CLI's `--values`) as a name and a list of numbers."""
     name, sep, rest = text.partition("=")
     if not sep or not name.isidentifier():
         raise ValueError(
@@ -229,8 +229,8 @@ def _kind(name: str, raw: Sequence[Any]) -> str:
 class KwargGrid:
     """A full factorial grid over an env's keyword arguments, in the order given (the last one
     varies fastest). Values are checked here for shape (one kind per list, distinct, numbers
-    increasing) and by the env itself (:func:`fluids_bench.sweep.run.probe_env`); configuration
-    ``i`` is the env kwargs themselves. Normalised values: numbers map their grid range to
+    increasing) and by the env itself (`fluids_bench.sweep.run.probe_env`); configuration
+    `i` is the env kwargs themselves. Normalised values: numbers map their grid range to
     [0, 1], booleans false/true to 0/1, strings their position in the list to [0, 1]."""
 
     values: Mapping[str, tuple[Any, ...]]
@@ -367,7 +367,7 @@ for _task in ("Hopper", "Walker2d", "HalfCheetah", "Humanoid"):
 
 
 def default_grid(env_id: str) -> Grid | KwargGrid:
-    """The default sensitivity grid of ``env_id`` (ValueError if it has none)."""
+    """The default sensitivity grid of `env_id` (ValueError if it has none)."""
     if env_id in LEGACY_IDS:
         return Grid.default()
     if env_id not in SENSITIVITY:
@@ -385,10 +385,10 @@ LEGACY_IDS = ("FLUIDS-Sensitivity-v0", "FLUIDS-Sensitivity-v1")
 
 
 def make_grid(env_id: str, overrides: Sequence[tuple[str, Sequence[Any]]]) -> Grid | KwargGrid:
-    """The grid ``fluids-bench sweep`` runs. FLUIDS-Sensitivity ids: the source's six
-    parameters with ``overrides`` replacing some (as before), unless a name outside the six is
-    given: then, as for every other id, ``overrides`` are the whole grid (in the order given),
-    and no overrides mean the id's default grid (:data:`SENSITIVITY`). A name given twice
+    """The grid `fluids-bench sweep` runs. FLUIDS-Sensitivity ids: the source's six
+    parameters with `overrides` replacing some (as before), unless a name outside the six is
+    given: then, as for every other id, `overrides` are the whole grid (in the order given),
+    and no overrides mean the id's default grid (`SENSITIVITY`). A name given twice
     is refused (it kept its last values silently)."""
     names = [name for name, _ in overrides]
     twice = sorted({name for name in names if names.count(name) > 1})

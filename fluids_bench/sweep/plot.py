@@ -5,7 +5,7 @@ every parameter and each of its values, the metric over all episodes of all conf
 that value (the marginal over the other parameters); the x axis maps each parameter's grid range
 to [0, 1], one line per parameter.
 
-The metric is the success rate (``info["is_success"]``) on the FLUIDS-Sensitivity grid and on
+The metric is the success rate (`info["is_success"]`) on the FLUIDS-Sensitivity grid and on
 any env that reports success (FLUIDS on an episode's terminating step, the others on every step); elsewhere (MuJoCo locomotion, GridWorld, DAG) the normalised
 return: a configuration's mean return divided by the largest absolute mean return over the
 sweep's configurations (1 = the best configuration). A kwarg grid also gets heatmaps for every
@@ -32,8 +32,8 @@ SUCCESS_ON_TERMINATION = "success_on_termination"
 
 
 def reports_success(env_id: str, kwargs: Mapping[str, Any] | None = None) -> bool:
-    """Whether ``env_id`` reports ``info["is_success"]``: its env class says so in its metadata
-    (:data:`SUCCESS_ON_TERMINATION`), or the key is there after a reset or one labelled step."""
+    """Whether `env_id` reports `info["is_success"]`: its env class says so in its metadata
+    (`SUCCESS_ON_TERMINATION`), or the key is there after a reset or one labelled step."""
     import gymnasium as gym
     from gymnasium.envs.registration import load_env_creator
 
@@ -72,7 +72,7 @@ def row_matches(row: Mapping[str, Any], name: str, value: Any) -> bool:
 def marginals(
     rows: Sequence[Mapping[str, Any]], grid: Any, metric: str = SUCCESS
 ) -> dict[str, list[tuple[float, float]]]:
-    """``{parameter: [(normalised value, metric), ...]}`` over the rows given. Success rates
+    """`{parameter: [(normalised value, metric), ...]}` over the rows given. Success rates
     pool episodes; normalised returns average configurations (equal episodes each)."""
     out: dict[str, list[tuple[float, float]]] = {}
     per_row = _values(rows, metric)

@@ -1,14 +1,14 @@
-"""Evaluate one policy over every configuration of a :class:`~fluids_bench.sweep.grid.Grid`.
+"""Evaluate one policy over every configuration of a `Grid`.
 
-Configuration ``i`` runs ``episodes`` episodes of ``FLUIDS-Sensitivity-v0`` (velocity actions,
-quasi-LIDAR observations, ``done_when="all"``; ``env_id="FLUIDS-Sensitivity-v1"`` for the fair
+Configuration `i` runs `episodes` episodes of `FLUIDS-Sensitivity-v0` (velocity actions,
+quasi-LIDAR observations, `done_when="all"`; `env_id="FLUIDS-Sensitivity-v1"` for the fair
 benchmark's version: defensive background drivers, quasi-LIDAR v1, success also requires that
 the ego obeys red lights) with the grid's keyword arguments, each through
-:func:`fluids_bench.algos.rollout.rollout` with the learner acting. Success is the source's:
-every car reached its goal and nothing collided (``info["is_success"]``); a terminated episode
+`fluids_bench.algos.rollout.rollout` with the learner acting. Success is the source's:
+every car reached its goal and nothing collided (`info["is_success"]`); a terminated episode
 without success ended in a collision, a truncated one ran out of time.
 
-Episode seeds come from ``SeedSequence(seed, spawn_key=(i,))``: they depend on the sweep seed
+Episode seeds come from `SeedSequence(seed, spawn_key=(i,))`: they depend on the sweep seed
 and the configuration's index only, so results do not depend on the backend, the number of
 workers or on how often the sweep was interrupted and resumed.
 """
@@ -50,7 +50,7 @@ POLICY_FILE = "policy.pkl"
 
 @dataclass(frozen=True)
 class ConfigTask:
-    """Everything configuration ``index`` depends on (what a worker receives)."""
+    """Everything configuration `index` depends on (what a worker receives)."""
 
     index: int
     configuration: dict[str, Any]
@@ -62,13 +62,13 @@ class ConfigTask:
 
 
 def episode_seeds(seed: int, index: int, episodes: int) -> tuple[int, ...]:
-    """The reset seeds of configuration ``index``'s episodes."""
+    """The reset seeds of configuration `index`'s episodes."""
     state = np.random.SeedSequence(seed, spawn_key=(index,)).generate_state(episodes, np.uint32)
     return tuple(int(s) for s in state)
 
 
 def evaluate_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
-    """Run one configuration's episodes; its result row. ``cpu_seconds`` (this process's CPU
+    """Run one configuration's episodes; its result row. `cpu_seconds` (this process's CPU
     time for it) is reported but not stored: stored rows must reproduce exactly."""
     if task.kwargs is not None:
         return evaluate_kwarg_config(task, policy)
@@ -103,7 +103,7 @@ def evaluate_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
 
 
 def evaluate_kwarg_config(task: ConfigTask, policy: Any) -> dict[str, Any]:
-    """A KwargGrid configuration's row: successes (``info["is_success"]`` at the end, where the
+    """A KwargGrid configuration's row: successes (`info["is_success"]` at the end, where the
     env reports it), terminations, truncations and the episode returns."""
     cpu_start = time.process_time()
     assert task.kwargs is not None
@@ -157,7 +157,7 @@ def check_env_id(env_id: str, grid: Grid | KwargGrid | None = None) -> str:
 def configuration_kwargs(
     grid: Grid | KwargGrid, configuration: dict[str, Any], fixed: Mapping[str, Any] | None
 ) -> dict[str, Any]:
-    """The env kwargs of one configuration: ``fixed`` ones, then the grid's."""
+    """The env kwargs of one configuration: `fixed` ones, then the grid's."""
     return {**dict(fixed or {}), **grid.env_kwargs(configuration)}
 
 
@@ -198,7 +198,7 @@ def policy_digest(policy_bytes: bytes | None) -> str:
 
 
 def load_policy(path: str | Path) -> tuple[Any, bytes]:
-    """A pickled policy (anything with ``act(observation)``) and its bytes. Pickles run code:
+    """A pickled policy (anything with `act(observation)`) and its bytes. Pickles run code:
     load only files you made."""
     data = Path(path).read_bytes()
     policy = pickle.loads(data)
@@ -224,17 +224,17 @@ def train_default_policy(
     algo: str = "bc",
     iterations: int = 1,
 ) -> Path:
-    """Behavior Cloning on ``demos`` supervisor demonstrations of ``env_id`` (its defaults: 4
+    """Behavior Cloning on `demos` supervisor demonstrations of `env_id` (its defaults: 4
     cars, 2 pedestrians, lights on, no sensor noise, 1500 kg), quasi-LIDAR to target velocity,
-    every state–label pair kept. Cached in ``folder/policy.pkl`` with the training settings in
-    ``policy.json``; an existing cache made with the same settings is reused; one made with
-    other settings is replaced only when ``replace``. ``before_training`` is called only when
+    every state–label pair kept. Cached in `folder/policy.pkl` with the training settings in
+    `policy.json`; an existing cache made with the same settings is reused; one made with
+    other settings is replaced only when `replace`. `before_training` is called only when
     training is needed, before it starts (a place to refuse early).
 
-    ``check_episodes``: also run the trained policy on that many seeded episodes of the
-    training distribution itself (seeds ``CHECK_SEED + i``, never trained on) and record its
-    in-distribution success rate in ``policy.json`` (``in_distribution``). ``train_kwargs``:
-    env keyword arguments for the demonstrations (e.g. ``{"lidar_noise": 1.0}``, an ablation:
+    `check_episodes`: also run the trained policy on that many seeded episodes of the
+    training distribution itself (seeds `CHECK_SEED + i`, never trained on) and record its
+    in-distribution success rate in `policy.json` (`in_distribution`). `train_kwargs`:
+    env keyword arguments for the demonstrations (e.g. `{"lidar_noise": 1.0}`, an ablation:
     BC trained on what it will be tested on); the check then runs under them too."""
     from fluids_bench.algos.policies import PolicySpec
     from fluids_bench.algos.registry import get_algorithm
@@ -298,8 +298,8 @@ def train_default_policy(
 def in_distribution_check(
     env_id: str, policy: Any, episodes: int, env_kwargs: Mapping[str, Any] | None = None
 ) -> dict[str, Any]:
-    """Success of ``policy`` (None: the supervisor) on ``episodes`` seeded episodes of
-    ``env_id`` with its registered defaults and ``env_kwargs`` (the distribution BC trains on)."""
+    """Success of `policy` (None: the supervisor) on `episodes` seeded episodes of
+    `env_id` with its registered defaults and `env_kwargs` (the distribution BC trains on)."""
     limit = {"max_episode_steps": MAX_EPISODE_STEPS} if env_id in ENV_IDS else {}
     env = gym.make(env_id, **limit, **dict(env_kwargs or {}))
     actor: Actor = SUPERVISOR if policy is None else LearnerActor(policy)
@@ -336,7 +336,7 @@ def manifest(
 ) -> dict[str, Any]:
     """What a sweep's rows depend on (the store refuses to resume under another manifest).
     Format 1: the FLUIDS-Sensitivity six-parameter grid; format 2: a kwarg grid (its value
-    kinds, the fixed env kwargs; ``max_episode_steps`` None is the registered limit)."""
+    kinds, the fixed env kwargs; `max_episode_steps` None is the registered limit)."""
     if not grid.legacy:
         return {
             "format": 2,
@@ -371,7 +371,7 @@ def check_folder_for_new_policy(
 ) -> None:
     """Refuse, before a new policy is trained, a folder that already holds a sweep: its rows were
     made with another policy (a cached default policy would have been reused), and maybe with
-    other settings too. ``FileExistsError`` names what differs."""
+    other settings too. `FileExistsError` names what differs."""
     existing = ResultStore(folder).read_manifest()
     if existing is None:
         return
@@ -405,10 +405,10 @@ def run_sweep(
     env_id: str = ENV_ID,
     fixed: Mapping[str, Any] | None = None,
 ) -> list[dict[str, Any]]:
-    """Evaluate ``policy`` (None: the supervisor) on every configuration of ``env_id`` not yet
-    in ``folder``.
+    """Evaluate `policy` (None: the supervisor) on every configuration of `env_id` not yet
+    in `folder`.
 
-    ``on_start(done, total)`` is called once the finished rows are known, ``on_row(row)`` after
+    `on_start(done, total)` is called once the finished rows are known, `on_row(row)` after
     each new row is stored. Returns all rows, sorted by configuration index.
     """
     generic = not grid.legacy

@@ -2,15 +2,15 @@
 
 A sweep folder holds
 
-* ``manifest.json``: everything the rows depend on (grid, episodes, seed, env, episode limit,
+* `manifest.json`: everything the rows depend on (grid, episodes, seed, env, episode limit,
   the policy's SHA-256), written atomically before the first row. A resumed sweep must match
   it exactly, else the store refuses to mix results;
-* ``results.csv``: a header, then one row per configuration in the order they finished. Each
-  row is one ``write`` of a whole line to a file opened for appending, followed by ``fsync``.
+* `results.csv`: a header, then one row per configuration in the order they finished. Each
+  row is one `write` of a whole line to a file opened for appending, followed by `fsync`.
   A kill at any instant leaves every finished row intact and at most one partial last line
   (no newline yet); opening the store cuts that partial line off, so the configuration is
   simply run again;
-* ``.lock``: an advisory lock held while a sweep writes, so two sweeps cannot interleave rows.
+* `.lock`: an advisory lock held while a sweep writes, so two sweeps cannot interleave rows.
 
 Rows are read back sorted by configuration index: a resumed sweep and an uninterrupted one give
 the same rows whatever the order configurations finished in.
@@ -64,7 +64,7 @@ KWARG_INT_OUTCOMES = {"episodes", "successes", "terminations", "truncations"}
 
 class Layout:
     """The columns of a results file and how each cell is written and read: the FLUIDS
-    Sensitivity sweep's (``Layout()``, unchanged) or a kwarg grid's (``Layout.of(grid)``)."""
+    Sensitivity sweep's (`Layout()`, unchanged) or a kwarg grid's (`Layout.of(grid)`)."""
 
     def __init__(
         self,
@@ -122,7 +122,7 @@ class Layout:
 
 
 def format_row(row: Mapping[str, Any]) -> str:
-    """One CSV line (with its newline); floats as ``repr`` so they read back bit-identical."""
+    """One CSV line (with its newline); floats as `repr` so they read back bit-identical."""
     return Layout().format_row(row)
 
 
@@ -131,7 +131,7 @@ def _parse_row(cells: list[str], where: str) -> dict[str, Any]:
 
 
 class ResultStore:
-    """The rows of one sweep folder; :meth:`open` it before appending."""
+    """The rows of one sweep folder; `open` it before appending."""
 
     def __init__(self, folder: str | os.PathLike[str], layout: Layout | None = None) -> None:
         self.layout = layout or Layout()
@@ -164,10 +164,10 @@ class ResultStore:
         )
 
     def open(self, manifest: Mapping[str, Any], overwrite: bool = False) -> dict[int, dict]:
-        """Lock the folder, check or write ``manifest``, and return the finished rows.
+        """Lock the folder, check or write `manifest`, and return the finished rows.
 
-        An existing folder with another manifest is refused (``FileExistsError``) unless
-        ``overwrite``, which deletes its rows first.
+        An existing folder with another manifest is refused (`FileExistsError`) unless
+        `overwrite`, which deletes its rows first.
         """
         self.folder.mkdir(parents=True, exist_ok=True)
         self._lock()

@@ -44,6 +44,7 @@ from tqdm import tqdm
 
 import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import relative_paths
 
 EVAL_SEED = 100_000
 
@@ -241,20 +242,25 @@ def train_run(
     return model, curve
 
 
-def run_curves(args, command: str) -> None:
-    import torch
-
+def _torch_on_one_thread() -> None:
+    """Import torch (the `train` extra) once the arguments are checked; one thread per run."""
+    try:
+        import stable_baselines3  # noqa: F401
+        import torch
+    except ImportError as e:
+        raise ModuleNotFoundError(
+            f"{e.name} is missing: training needs the train extra (torch, stable-baselines3): "
+            'pip install torch==2.13.0 stable-baselines3  (or pip install "fluids-bench[train]")'
+        ) from e
     torch.set_num_threads(1)
+
+
+def configuration(args) -> dict:
+    """What a curves run is: the env, its kwargs, the seeds and the settings recorded in the
+    results file (tests check that a results file's command gives back its recorded ones)."""
     kwargs = json.loads(args.env_kwargs)
     algo_kwargs = _algo_kwargs(args.algo_kwargs)
-    space = gym.make(args.env, **kwargs).action_space
-    algos = args.algos or algos_for(space)
-    print(
-        f"expected run time: ~{len(algos) * len(args.seeds) * args.steps / 1000 * 1.2 / 60:.0f} min "
-        "of CPU (PPO on FLUIDS ~1,000 steps per CPU-second; SAC several times slower) on 2 cores"
-    )
-    result = {
-        "command": command,
+    return {
         "env_id": args.env,
         "env_kwargs": kwargs,
         "seeds": args.seeds,
@@ -269,8 +275,20 @@ def run_curves(args, command: str) -> None:
             + (f", except {json.dumps(algo_kwargs, sort_keys=True)}" if algo_kwargs else ""),
             "machine": "2-core CI-class machine, shared, torch CPU build on one thread",
         },
-        "runs": [],
     }
+
+
+def run_curves(args, command: str) -> None:
+    kwargs = json.loads(args.env_kwargs)
+    algo_kwargs = _algo_kwargs(args.algo_kwargs)
+    _torch_on_one_thread()
+    space = gym.make(args.env, **kwargs).action_space
+    algos = args.algos or algos_for(space)
+    print(
+        f"expected run time: ~{len(algos) * len(args.seeds) * args.steps / 1000 * 1.2 / 60:.0f} min "
+        "of CPU (PPO on FLUIDS ~1,000 steps per CPU-second; SAC several times slower) on 2 cores"
+    )
+    result = {"command": command, **configuration(args), "runs": []}
     env_work = Path(args.work) / args.env / json.dumps(kwargs, sort_keys=True)
     total = len(algos) * len(args.seeds) * args.steps
     with tqdm(total=total, unit="step", desc=args.env) as bar:
@@ -532,9 +550,7 @@ def diagnose(episodes: int, seed: int, n_envs: int) -> dict:
 
 
 def run_ablation(args, command: str) -> None:
-    import torch
-
-    torch.set_num_threads(1)
+    _torch_on_one_thread()
     env_id, base = ABLATION_BASE
     seed = args.seeds[0]
     print(
@@ -596,7 +612,7 @@ def run_ablation(args, command: str) -> None:
         print(f"{r['arm']:40s} success {r['success_rate']:.2f} timeouts {r.get('timeouts')}")
 
 
-def main(argv: list[str] | None = None) -> None:
+def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("--env", default="FLUIDS-v2", help="a registered Gymnasium id")
     parser.add_argument("--env-kwargs", default="{}", help="JSON kwargs for gym.make")
@@ -621,9 +637,13 @@ def main(argv: list[str] | None = None) -> None:
     parser.add_argument("--references-only", action="store_true",
                         help="train nothing: re-evaluate the random and supervisor rows of the "
                         "finished --out (after a new teacher is shipped) and redraw --image")  # fmt: skip
-    args = parser.parse_args(argv)
+    return parser
+
+
+def main(argv: list[str] | None = None) -> None:
+    args = build_parser().parse_args(argv)
     given = sys.argv[1:] if argv is None else argv
-    command = "python " + " ".join(shlex.quote(a) for a in [sys.argv[0], *given])
+    command = "python " + " ".join(shlex.quote(a) for a in [sys.argv[0], *relative_paths(given)])
     if args.references_only:
         return refresh_references(args, command)
     (run_ablation if args.ablation else run_curves)(args, command)

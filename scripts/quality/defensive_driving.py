@@ -200,7 +200,7 @@ def main() -> None:
             args.results,
             {
                 "command": "python scripts/quality/defensive_driving.py "
-                + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+                + " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:])),
                 "settings": {
                     "layouts": args.layouts,
                     "cars": list(args.cars),

@@ -83,7 +83,7 @@ def main() -> None:
             args.results,
             {
                 "command": "python scripts/quality/supervisor_quality.py "
-                + " ".join(shlex.quote(a) for a in sys.argv[1:]),
+                + " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:])),
                 "settings": {
                     "cars": list(args.cars),
                     "pedestrians": list(args.peds),

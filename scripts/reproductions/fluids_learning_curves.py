@@ -201,7 +201,9 @@ def main() -> None:
     args.out.mkdir(parents=True, exist_ok=True)
     summary = {
         "command": "python "
-        + " ".join(["scripts/reproductions/fluids_learning_curves.py", *sys.argv[1:]]),
+        + " ".join(
+            ["scripts/reproductions/fluids_learning_curves.py", *relative_paths(sys.argv[1:])]
+        ),
         "settings": {**common, "eval_at": list(args.eval_at), "seeds": args.seeds},
         "env_id": ENV_ID,
         "algorithms": json.loads(json.dumps(ALGOS)),

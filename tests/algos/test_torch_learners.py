@@ -9,13 +9,14 @@ import numpy as np
 import pytest
 from gymnasium import spaces
 from point_mass_env import ENV_ID as POINT_MASS
-from train_extra import require_torch
+from train_extra import TORCH_REASON
 
 import fluids_bench  # noqa: F401
 from fluids_bench.algos.learners import Learner, LearnerPolicy
 from fluids_bench.algos.registry import ALGORITHMS, run_algorithm
 
-torch = require_torch()
+pytestmark = pytest.mark.train_extra  # .ci/run's second phase runs it, with torch
+torch = pytest.importorskip("torch", reason=TORCH_REASON)
 
 from fluids_bench.algos.learners.torch_nets import (  # noqa: E402
     CNNLearner,

@@ -96,7 +96,10 @@ def test_train_accepts_the_protocol_knobs_and_reports_both_label_counts(
     final = payload["records"][-1]
     assert final["training_labels"] == final["estimation_labels"] == 60
     out = capsys.readouterr().out
-    assert "60 training labels (+60 for noise estimation)" in out and "s total" in out
+    assert (
+        "60 training labels (+60 for noise estimation)" in out
+        and "s collecting, labelling and fitting in all (evaluation" in out
+    )
 
 
 def test_summary_numbers_have_a_sensible_precision(
@@ -140,3 +143,14 @@ def test_interrupted_train_keeps_the_finished_iterations(
     assert payload["config"]["iterations"] == 5
     assert f"interrupted; the 2 finished iterations are in {path}" in capsys.readouterr().err
     assert not list(tmp_path.glob(".*.tmp"))
+
+
+def test_policy_help_lists_every_family() -> None:
+    from fluids_bench.algos.policies import FAMILIES
+    from fluids_bench.commands.train import POLICY_FAMILIES
+
+    assert POLICY_FAMILIES == FAMILIES
+    parser = cli.build_parser()
+    sub = next(a for a in parser._actions if a.dest == "command").choices["train"]  # noqa: SLF001
+    (policy,) = [a for a in sub._actions if a.dest == "policy"]  # noqa: SLF001
+    assert all(name in policy.help for name in FAMILIES)

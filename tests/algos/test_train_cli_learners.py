@@ -59,6 +59,7 @@ def test_factory_keywords_come_from_policy_param(
     assert "unexpected keyword argument 'depth'" in capsys.readouterr().err
 
 
+@pytest.mark.train_extra
 def test_the_mlp_from_the_command_line_writes_a_loadable_learner(tmp_path: Path) -> None:
     require_torch()
     from fluids_bench.algos.learners import load_learner

@@ -29,6 +29,7 @@ def _render_mode_warnings(build) -> list[str]:
     return [str(w.message) for w in caught if RENDER_MODE_WARNING in str(w.message)]
 
 
+@pytest.mark.train_extra
 def test_supersuits_own_sb3_path_warns_about_render_mode():
     # the defect the helper exists for; if SuperSuit fixes it, this fails and the helper can go
     sb3 = require_sb3()
@@ -38,6 +39,7 @@ def test_supersuits_own_sb3_path_warns_about_render_mode():
     assert _render_mode_warnings(lambda: sb3.common.vec_env.VecMonitor(vec))
 
 
+@pytest.mark.train_extra
 def test_recipe_with_the_helper_emits_no_render_mode_warning_and_trains():
     sb3 = require_sb3()
     from stable_baselines3.common.vec_env import VecMonitor
@@ -52,6 +54,7 @@ def test_recipe_with_the_helper_emits_no_render_mode_warning_and_trains():
     assert _render_mode_warnings(build) == []
 
 
+@pytest.mark.train_extra
 def test_seed_gives_the_same_first_observations_and_another_seed_others():
     require_sb3()
     a, b, c = (shared_policy_vec_env(_env(), copies=2) for _ in range(3))

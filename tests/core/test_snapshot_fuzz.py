@@ -5,9 +5,8 @@ extra field at the top or in any object; an array of another dtype or rank; anot
 kwargs, format or package version) must be refused with a `ValueError` that says what is wrong,
 and leave the target env as it was; garbled bytes that happen to hit nothing that matters
 (a zip timestamp) must restore the very same state. A sample of ids runs in every test run;
-all ids, with `-m slow`:
-
-    python3 -m pytest -q tests/core/test_snapshot_fuzz.py -m slow
+all ids with `FLUIDS_BENCH_FULL_FUZZ=1` (the `fuzz_full` marker; `tests/test_fuzz.py` gives the
+command)
 """
 
 from __future__ import annotations
@@ -77,7 +76,7 @@ def test_damaged_snapshots_are_refused_sample(env_id):
     _fuzz(env_id)
 
 
-@pytest.mark.slow
+@pytest.mark.fuzz_full
 @pytest.mark.parametrize("env_id", [i for i in ALL if i not in SAMPLE])
 def test_damaged_snapshots_are_refused_every_id(env_id):
     _fuzz(env_id)

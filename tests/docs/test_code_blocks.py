@@ -3,8 +3,10 @@
 ```python blocks run as scripts in a fresh interpreter; ```bash blocks run line by line; a block
 preceded by ``<!-- test: COMMAND -->`` runs COMMAND instead (the documented shortened variant
 of a long command); ``<!-- test: ci -->`` marks the set-up commands, which .ci/run runs
-literally. Other languages (text, json, ...) are output and are not run. Env cards' doctest
-examples run too.
+literally. A block that needs the `train` extra (torch, stable-baselines3) is preceded by
+``<!-- needs: train -->`` (above or below its test marker): it is marked ``train_extra``, so it
+skips without the extra and runs in .ci/run's second phase. Other languages (text, json, ...) are
+output and are not run. Env cards' doctest examples run too.
 """
 
 from __future__ import annotations
@@ -36,6 +38,7 @@ class Block:
     language: str
     code: str
     marker: str | None  # the <!-- test: ... --> before it
+    needs: tuple[str, ...] = ()  # the extras named by <!-- needs: ... --> before it
 
     @property
     def name(self) -> str:
@@ -44,6 +47,8 @@ class Block:
 
 FENCE = re.compile(r"^(\s*)```(\w*)[^\n]*$")
 MARKER = re.compile(r"^\s*<!--\s*test:\s*(.*?)\s*-->\s*$")
+NEEDS = re.compile(r"^\s*<!--\s*needs:\s*(.*?)\s*-->\s*$")
+EXTRAS = {"train": pytest.mark.train_extra}  # what a <!-- needs: ... --> may name
 
 
 def blocks_of(path: Path) -> list[Block]:
@@ -59,11 +64,17 @@ def blocks_of(path: Path) -> list[Block]:
         while j < len(lines) and lines[j].strip() != "```":
             j += 1
         code = textwrap.dedent("\n".join(lines[i + 1 : j]))
-        k = start - 1
-        while k >= 0 and not lines[k].strip():
+        marker, needs, k = None, [], start - 1
+        while k >= 0:  # the blank lines and the markers right above the fence
+            test, need = MARKER.match(lines[k]), NEEDS.match(lines[k])
+            if test and marker is None:
+                marker = test.group(1)
+            elif need:
+                needs += need.group(1).split()
+            elif lines[k].strip():
+                break
             k -= 1
-        marker = MARKER.match(lines[k]) if k >= 0 else None
-        out.append(Block(path, start + 1, language, code, marker.group(1) if marker else None))
+        out.append(Block(path, start + 1, language, code, marker, tuple(needs)))
         i = j + 1
     return out
 
@@ -84,6 +95,27 @@ def test_every_block_has_a_known_language():
         if b.language not in RUN_LANGUAGES | NOT_RUN
     ]
     assert not unknown, f"code blocks in a language the docs test does not know: {unknown}"
+
+
+def test_every_needs_marker_names_a_known_extra():
+    unknown = [f"{b.name} ({n!r})" for b in ALL_BLOCKS for n in b.needs if n not in EXTRAS]
+    assert not unknown, f"<!-- needs: ... --> names no known extra {sorted(EXTRAS)}: {unknown}"
+
+
+def test_the_set_up_commands_need_no_extra():
+    # the README's two commands are what a fresh install runs; they must pass without extras
+    assert not [b.name for b in ALL_BLOCKS if b.marker == "ci" and b.needs]
+
+
+def needs_torch(block: Block) -> bool:
+    return bool(NEEDS_TORCH.search(block.code) or NEEDS_TORCH.search(block.marker or ""))
+
+
+def _param(block: Block):
+    marks = [EXTRAS[n] for n in block.needs if n in EXTRAS]
+    if needs_torch(block) and pytest.mark.train_extra not in marks:
+        marks.append(pytest.mark.train_extra)  # run by .ci/run's second phase, with torch
+    return pytest.param(block, marks=marks, id=block.name)
 
 
 def test_the_set_up_commands_are_what_ci_runs():
@@ -109,10 +141,10 @@ def sandbox(tmp_path):
     return tmp_path, env
 
 
-@pytest.mark.parametrize("block", RUN_BLOCKS, ids=lambda b: b.name)
+@pytest.mark.parametrize("block", [_param(b) for b in RUN_BLOCKS])
 def test_code_block_runs(block, sandbox):
     folder, env = sandbox
-    if NEEDS_TORCH.search(block.code) or NEEDS_TORCH.search(block.marker or ""):
+    if needs_torch(block):
         from train_extra import require_torch
 
         require_torch()

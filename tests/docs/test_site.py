@@ -2,9 +2,7 @@
 
 from __future__ import annotations
 
-import os
 import re
-import shutil
 import subprocess
 from html.parser import HTMLParser
 from pathlib import Path
@@ -13,6 +11,7 @@ from urllib.parse import unquote, urlparse
 import numpy as np
 import pytest
 from PIL import Image
+from train_extra import chromium
 
 from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
 
@@ -95,21 +94,15 @@ def test_every_results_file_is_shown_on_a_page():
     )
 
 
-CHROMIUM = shutil.which("chromium") or shutil.which("chromium-browser")
-
-
+# skipped without Debian's chromium; CI installs it (.ci/run) and sets
+# FLUIDS_BENCH_BROWSER_TESTS=1, so there it must run (tests/train_extra.py)
+@pytest.mark.browser
 @pytest.mark.parametrize("page", ["index.html", "tasks/fluids/index.html"])
 def test_a_real_browser_renders_the_page(site, page, tmp_path):
-    if CHROMIUM is None:
-        # CI installs it (.ci/run) and sets FLUIDS_BENCH_BROWSER_TESTS=1, so there it must run
-        reason = "Debian's chromium is not installed (apt-get install -y chromium)"
-        if os.environ.get("FLUIDS_BENCH_BROWSER_TESTS") == "1":
-            pytest.fail(reason)
-        pytest.skip(reason)
     shot = tmp_path / "page.png"
     subprocess.run(
         [
-            CHROMIUM,
+            chromium(),
             "--headless",
             "--no-sandbox",
             "--disable-gpu",
@@ -166,3 +159,133 @@ def test_env_cards_hold_no_history():
         for env_id in f.ids + f.parallel_ids:
             found += [f"{env_id}: {m}" for m in HISTORY.findall(reference._card_text(env_id))]  # noqa: SLF001
     assert not found, found
+
+
+def _tables(page: Path) -> str:
+    return "\n".join(re.findall(r"<table>.*?</table>", page.read_text(encoding="utf-8"), re.S))
+
+
+@pytest.mark.parametrize("page", ["index.html", "tasks/index.html", "api/registration/index.html"])
+def test_every_registered_id_is_in_the_id_tables(site, page):
+    tables = _tables(site / page)
+    missing = [i for i in [*ENV_SPECS, *PARALLEL_ENV_SPECS] if f"<code>{i}</code>" not in tables]
+    assert not missing, f"{page}: ids in none of its tables: {missing}"
+
+
+def test_every_family_page_lists_its_registered_ids():
+    import sys
+
+    sys.path.insert(0, str(ROOT / "docs" / "_gen"))
+    import reference
+
+    missing = []
+    for f in reference.FAMILIES:
+        md = (ROOT / "docs" / "tasks" / f"{f.slug}.md").read_text(encoding="utf-8")
+        if f'ids_table("{f.slug}")' not in md:
+            missing.append(f.slug)
+    assert not missing, f"family pages without their generated ids table: {missing}"
+
+
+RST_ROLE = re.compile(r":(?:class|data|mod|func|meth|attr|obj|exc|const|ref):(?:<code>|`)")
+
+
+def test_no_page_shows_a_raw_rest_role(site):
+    found = []
+    for page in _pages(site):
+        hits = RST_ROLE.findall(page.read_text(encoding="utf-8"))
+        if hits:
+            found.append(f"{page.relative_to(site)}: {len(hits)}")
+    assert not found, f"raw reST roles (write Markdown code spans instead): {found}"
+
+
+def test_no_docstring_uses_rest_markup():
+    """Docstrings are Google style with Markdown: the API pages and env cards render them."""
+    import ast
+
+    role = re.compile(r":(?:class|data|mod|func|meth|attr|obj|exc|const|ref):`")
+    found = []
+    for path in sorted((ROOT / "fluids_bench").rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(encoding="utf-8"))):
+            if isinstance(node, ast.Expr) and isinstance(node.value, ast.Constant):
+                text = node.value.value if isinstance(node.value.value, str) else ""
+                rest = role.search(text) or re.search(r"\S::\n|(?<!`)``(?!`)", text)
+                if rest:
+                    found.append(f"{path.relative_to(ROOT)}:{node.lineno}")
+    assert not found, f"reST in docstrings: {found}"
+
+
+MACHINE_PATH = re.compile(r"(?<![\w.~-])/(?:work|tmp|home|root|Users|mnt|scratch)/[\w./-]*")
+
+
+def test_no_page_or_results_file_holds_a_machine_path():
+    """Provenance is relative: commands rerun from a checkout anywhere (absolute paths of the
+    machine that ran them tell a reader nothing)."""
+    found = []
+    for path in [*(ROOT / "docs").rglob("*.md"), *(ROOT / "docs" / "results").glob("*.json")]:
+        if path.name == "changelog.md":
+            continue
+        found += [f"{path.relative_to(ROOT)}: {m}" for m in MACHINE_PATH.findall(path.read_text())]
+    assert not found, found
+
+
+def test_no_built_page_holds_a_machine_path(site):
+    found = []
+    for page in _pages(site):
+        text = re.sub(r"<[^>]+>", " ", page.read_text(encoding="utf-8"))
+        found += [f"{page.relative_to(site)}: {m}" for m in MACHINE_PATH.findall(text)]
+    assert not [f for f in found if not f.startswith("changelog/")], found
+
+
+# the pages with the widest tables and the CLI help; measured at a laptop's 1280 px
+WIDE_PAGES = [
+    "reproductions/fig-3-3/index.html",
+    "tasks/fluids-rl/index.html",
+    "tasks/fluids-v1/index.html",
+    "tasks/locomotion/index.html",
+    "benchmarks/index.html",
+    "cli/index.html",
+]
+_MEASURE = """<script>
+window.addEventListener("load", () => {
+  const column = document.querySelector("article.md-content__inner");
+  const wide = [];
+  column.querySelectorAll("table").forEach((t) => {
+    if (t.scrollWidth > column.clientWidth + 1) wide.push(["table", t.scrollWidth]);
+  });
+  column.querySelectorAll(".wrap-code pre > code").forEach((c) => {
+    if (c.scrollWidth > c.clientWidth + 1) wide.push(["help text", c.scrollWidth]);
+  });
+  const bare = [...column.querySelectorAll("img")].filter((i) => !i.closest("a")).length;
+  const out = document.createElement("pre");
+  out.id = "measured";
+  out.textContent = JSON.stringify({column: column.clientWidth, wide: wide, bare: bare});
+  document.body.appendChild(out);
+});
+</script>"""
+
+
+@pytest.mark.browser
+@pytest.mark.parametrize("page", WIDE_PAGES)
+def test_tables_fit_their_column_and_figures_open_full_size(site, page, tmp_path):
+    import json
+
+    source = site / page
+    probe = source.with_name(f"_measure_{tmp_path.name}.html")  # beside it: relative assets load
+    probe.write_text(source.read_text(encoding="utf-8").replace("</body>", _MEASURE + "</body>"))
+    try:
+        run = subprocess.run(
+            [
+                chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
+                f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,900",
+                "--virtual-time-budget=5000", "--dump-dom", probe.as_uri(),
+            ],
+            capture_output=True, text=True, timeout=120, check=False,
+        )  # fmt: skip
+    finally:
+        probe.unlink()
+    found = re.search(r'<pre id="measured">(.*?)</pre>', run.stdout, re.S)
+    assert found, f"chromium measured nothing on {page}: {run.stderr[-500:]}"
+    measured = json.loads(found.group(1))
+    assert measured["column"] > 500, measured
+    assert not measured["wide"], f"{page}: wider than the {measured['column']} px column"
+    assert measured["bare"] == 0, f"{page}: {measured['bare']} figures link to no full image"

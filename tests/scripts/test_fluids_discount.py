@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import json
 
+import pytest
 from script_module import load_script
 from train_extra import require_sb3
 
@@ -24,6 +25,7 @@ def test_supervisor_returns_do_not_depend_on_the_failure_weight_and_discounting_
     assert full["discounted_return"] == full["return"]  # gamma 1: the plain sum
 
 
+@pytest.mark.train_extra
 def test_the_script_writes_every_policy_with_a_random_model(tmp_path):
     require_sb3()
     import gymnasium as gym

@@ -4,6 +4,7 @@ from SB3's defaults, and the shared evaluation of the fixed policies (tiny runs 
 from __future__ import annotations
 
 import json
+import sys
 
 import pytest
 from script_module import load_script
@@ -21,6 +22,7 @@ def _train(rl, work, steps, algo_kwargs=None):
         return rl.train_run("dqn", "DAG-v0", {}, 0, steps, 320, 2, 2, work, bar, algo_kwargs)
 
 
+@pytest.mark.train_extra
 def test_one_learn_call_spans_the_run_and_a_resumed_run_continues_it(rl, tmp_path):
     require_sb3()
     model, curve = _train(rl, tmp_path, 600, {"dqn": {"buffer_size": 1000}})
@@ -43,6 +45,7 @@ def _main(rl, tmp_path, steps, *extra):
     return json.loads((tmp_path / "out.json").read_text())
 
 
+@pytest.mark.train_extra
 def test_fixed_policies_are_evaluated_once_per_work_folder(rl, tmp_path):
     require_sb3()
     first = _main(rl, tmp_path, 200)
@@ -53,6 +56,7 @@ def test_fixed_policies_are_evaluated_once_per_work_folder(rl, tmp_path):
     assert _main(rl, tmp_path, 200)["random"]["mean_return"] == -99.0  # read back, not rerun
 
 
+@pytest.mark.train_extra
 def test_a_finished_shorter_run_is_refused_not_reused(rl, tmp_path):
     require_sb3()
     _main(rl, tmp_path, 200)
@@ -60,12 +64,26 @@ def test_a_finished_shorter_run_is_refused_not_reused(rl, tmp_path):
         _main(rl, tmp_path, 400)
 
 
+def _without_the_train_extra(monkeypatch):
+    # a None entry in sys.modules makes `import torch` raise ImportError, as on a fresh install
+    for name in ("torch", "stable_baselines3"):
+        monkeypatch.setitem(sys.modules, name, None)
+
+
 @pytest.mark.parametrize("text", ["[1]", '{"a2c": {}}', '{"dqn": 3}', "{nope"])
-def test_algo_kwargs_must_map_an_algorithm_to_keyword_arguments(rl, tmp_path, text):
+def test_algo_kwargs_must_map_an_algorithm_to_keyword_arguments(rl, tmp_path, text, monkeypatch):
+    _without_the_train_extra(monkeypatch)  # arguments are checked before torch is imported
     with pytest.raises(ValueError, match="--algo-kwargs must"):
         _main(rl, tmp_path, 200, "--algo-kwargs", text)
 
 
+def test_training_without_the_train_extra_names_it(rl, tmp_path, monkeypatch):
+    _without_the_train_extra(monkeypatch)
+    with pytest.raises(ModuleNotFoundError, match=r"train extra \(torch, stable-baselines3\)"):
+        _main(rl, tmp_path, 200)
+
+
+@pytest.mark.train_extra
 def test_references_only_re_evaluates_the_fixed_policies_and_keeps_the_runs(rl, tmp_path):
     require_sb3()
     first = _main(rl, tmp_path, 200)

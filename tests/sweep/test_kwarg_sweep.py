@@ -161,3 +161,11 @@ def test_train_on_grid_test_on_grid_matrix(tmp_path, capsys):
     # a plain sweep is not written into a matrix folder, nor the supervisor into a matrix
     assert main(["sweep", "--out", str(out), *GRIDWORLD]) == 2
     assert main([*args, "--policy", "supervisor"]) == 2
+
+
+def test_an_id_without_a_success_flag_reports_no_success_rate(tmp_path, capsys):
+    args = ["--env", "GridWorld-v0", "--policy", "supervisor", "--episodes", "1", "--no-progress"]
+    args += ["--values", "size=8", "--values", "slip_probability=0"]
+    assert main(["sweep", "--out", str(tmp_path / "s"), "--workers", "1", *args]) == 0
+    out = capsys.readouterr().out
+    assert "mean return" in out and "success rate" not in out

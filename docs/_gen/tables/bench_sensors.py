@@ -1,5 +1,5 @@
 """docs/results/bench_sensors.json (scripts/benchmarks/bench_sensors.py --results): S2 with each
-sensor (``part="env"``) and the cost of one sensor call (``part="calls"``)."""
+sensor (`part="env"`) and the cost of one sensor call (`part="calls"`)."""
 
 import sys
 from pathlib import Path

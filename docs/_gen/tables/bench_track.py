@@ -1,5 +1,5 @@
 """docs/results/bench_track.json (scripts/benchmarks/bench_track.py --results): DrivingTrack speed
-(``part="env"``) and the cost of its pieces (``part="pieces"``)."""
+(`part="env"`) and the cost of its pieces (`part="pieces"`)."""
 
 import sys
 from pathlib import Path

@@ -1,9 +1,9 @@
 """docs/results/bench_vector.json (scripts/benchmarks/bench_vector.py --results): batched FLUIDS.
 
-Parts: ``batch`` (default: env-steps per CPU-second by B), ``agents`` (scaling in agents),
-``processes`` (one process vs two on two cores), ``workers`` (one batch in one process vs over
-two with ``num_workers=2``), ``profile`` (where a vector step's time goes),
-``kernels`` (the time inside the step's compiled calls).
+Parts: `batch` (default: env-steps per CPU-second by B), `agents` (scaling in agents),
+`processes` (one process vs two on two cores), `workers` (one batch in one process vs over
+two with `num_workers=2`), `profile` (where a vector step's time goes),
+`kernels` (the time inside the step's compiled calls).
 """
 
 import sys

@@ -1,7 +1,7 @@
 """Renderer of docs/results/dart_mujoco_*.json (Fig. 3.3 and 3.4, every task and setting).
 
 The DART-on-MuJoCo files share one layout (written by scripts/reproductions/reproduce_dart_mujoco.py),
-so the other dart_mujoco_* renderers reuse this one's ``render``.
+so the other dart_mujoco_* renderers reuse this one's `render`.
 """
 
 from __future__ import annotations

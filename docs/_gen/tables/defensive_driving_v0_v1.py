@@ -1,5 +1,5 @@
 """docs/results/defensive_driving_v0_v1.json (scripts/quality/defensive_driving.py
-``--defensive both --yield-to-pedestrians``): v0's planner against v1's on the same seeds.
+`--defensive both --yield-to-pedestrians`): v0's planner against v1's on the same seeds.
 """
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")

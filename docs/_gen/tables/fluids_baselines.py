@@ -1,7 +1,7 @@
 """docs/results/fluids_baselines.json (scripts/baselines/fluids_baselines.py): one row per
 (env, method), 200 seeded evaluation episodes each.
 
-``part="full"``: every column; ``part="success"``: success rate per method, the envs side by side.
+`part="full"`: every column; `part="success"`: success rate per method, the envs side by side.
 """
 
 COMMAND = (

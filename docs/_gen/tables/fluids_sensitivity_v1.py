@@ -1,9 +1,9 @@
 """docs/results/fluids_sensitivity_v1.json (scripts/reproductions/fluids_sensitivity_v1.py's
-``summary.json``): Fig. 7.6 on FLUIDS-Sensitivity-v1, its slices and ablations.
+`summary.json`): Fig. 7.6 on FLUIDS-Sensitivity-v1, its slices and ablations.
 
-Parts: ``"overview"`` (in distribution and the full grid), ``"marginals"`` (the grid's marginal
-success per parameter value, all configurations and the sighted half), ``"slices"`` (the
-one-parameter slices around the training scene) and ``"ablations"``.
+Parts: `"overview"` (in distribution and the full grid), `"marginals"` (the grid's marginal
+success per parameter value, all configurations and the sighted half), `"slices"` (the
+one-parameter slices around the training scene) and `"ablations"`.
 """
 
 COMMAND = (

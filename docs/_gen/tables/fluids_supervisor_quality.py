@@ -1,6 +1,6 @@
 """docs/results/fluids_supervisor_quality.json (scripts/quality/supervisor_quality.py --results).
 
-``part="summary"``: one row per layout; ``part="grid"`` (with ``layout=``): cars × pedestrians.
+`part="summary"`: one row per layout; `part="grid"` (with `layout=`): cars × pedestrians.
 """
 
 NAMES = {"four_way": "four-way", "t_junction": "T-junction", "roundabout": "roundabout"}

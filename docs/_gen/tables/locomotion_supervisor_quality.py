@@ -1,9 +1,9 @@
 """Renderer of docs/results/locomotion_supervisor_quality.json.
 
-Parts: ``"supervisor"`` (default: the shipped supervisors' returns against the source's
-experts), ``"noise"`` (returns with noise injected into the executed action) and
-``"tolerance"`` (the share of the clean return kept under the noise targets' levels, falls) and
-``"training"`` (the shipped policies' training records, from the weights manifest).
+Parts: `"supervisor"` (default: the shipped supervisors' returns against the source's
+experts), `"noise"` (returns with noise injected into the executed action) and
+`"tolerance"` (the share of the clean return kept under the noise targets' levels, falls) and
+`"training"` (the shipped policies' training records, from the weights manifest).
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Renderer of docs/results/reproduce_dag.json (Theorem 1 on DAG-v0).
 
-Parts: ``"on_policy"`` (default: how often DAgger ends at R against m, with the bound) and
-``"off_policy"`` (how often Behavior Cloning ends at L against N).
+Parts: `"on_policy"` (default: how often DAgger ends at R against m, with the bound) and
+`"off_policy"` (how often Behavior Cloning ends at L against N).
 """
 
 from __future__ import annotations

@@ -1,5 +1,5 @@
 """Renderer of docs/results/reproduce_grasping_shiv.json (Fig. 6.4: SHIV vs DAgger vs Behavior
-Cloning on grasping in clutter). The ablations' files (``reproduce_grasping_shiv_<suffix>.json``)
+Cloning on grasping in clutter). The ablations' files (`reproduce_grasping_shiv_<suffix>.json`)
 have the same layout and share this renderer."""
 
 from __future__ import annotations

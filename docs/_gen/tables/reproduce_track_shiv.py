@@ -1,8 +1,8 @@
 """Renderer of docs/results/reproduce_track_shiv.json (the driving-track SHIV experiments).
 
-Parts: ``"fig63"`` (SHIV vs DAgger), ``"fig65"`` (false negatives of the query selectors) and
-``"table61"`` (SHIV's sensitivity to sigma, next to the source's Table 6.1). Values in the file
-are ``[mean, standard error]`` over tracks.
+Parts: `"fig63"` (SHIV vs DAgger), `"fig65"` (false negatives of the query selectors) and
+`"table61"` (SHIV's sensitivity to sigma, next to the source's Table 6.1). Values in the file
+are `[mean, standard error]` over tracks.
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
 """docs/results/rl_fluids_v2.json and rl_fluids_v2_2m.json (scripts/baselines/rl_baselines.py).
 
-``bc=True`` adds the imitation learners of docs/results/fluids_baselines.json (``FLUIDS-v1`` in
+`bc=True` adds the imitation learners of docs/results/fluids_baselines.json (`FLUIDS-v1` in
 physical units at the velocity level: the same scenes, success criterion and evaluation seeds)
 and, per RL algorithm, whether every seed reaches BC's success.
 """

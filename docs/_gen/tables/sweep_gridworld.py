@@ -7,7 +7,7 @@ from fluids_bench.sweep.grid import KwargGrid
 
 
 def render(data, at=None, **_):
-    """The levels of every factor; ``at="size"``: only the configurations with that factor at
+    """The levels of every factor; `at="size"`: only the configurations with that factor at
     its nominal value (the other factors' levels in the trained world)."""
     policies = data["policies"]
     names = list(policies)

@@ -1,7 +1,7 @@
 """The learner protocol: what an algorithm needs from a model it trains.
 
 A learner is any object with `fit(observations, labels)` and `predict(observations)`
-(:class:`Learner`). Every algorithm (BC, DAgger, DAgger-B, noise injection, DART, SHIV, OGD)
+(`Learner`). Every algorithm (BC, DAgger, DAgger-B, noise injection, DART, SHIV, OGD)
 accepts one in place of a scikit-learn `PolicySpec` through `RunConfig.policy`:
 
 - `observations` is the batch of the env's observations as the env returns them, shape
@@ -9,7 +9,7 @@ accepts one in place of a scikit-learn `PolicySpec` through `RunConfig.policy`:
 - `labels` are the supervisor's actions: int64 `(n,)` for a Discrete action space, float
   `(n, *action_space.shape)` for a Box one;
 - `predict` returns one action per row in the same layout; the algorithms cast Discrete
-  predictions to int64 and clip Box ones to the action bounds (:class:`LearnerPolicy`);
+  predictions to int64 and clip Box ones to the action bounds (`LearnerPolicy`);
 - `fit` is called on the whole aggregate dataset each time the algorithm refits (DAgger once an
   iteration): a learner may keep its weights between calls (warm start) or start afresh.
 

@@ -1,23 +1,23 @@
 """The scikit-learn learner families, for any Discrete or Box action space.
 
-A :class:`PolicySpec` names a model family and its parameters; :func:`fit_policy` turns it into
+A `PolicySpec` names a model family and its parameters; `fit_policy` turns it into
 a classifier (Discrete actions) or a regressor (Box actions), fits it on state–label pairs and
-returns a :class:`FittedPolicy`, which predicts actions in the env's action space.
+returns a `FittedPolicy`, which predicts actions in the env's action space.
 
-Model families (``PolicySpec.name``):
+Model families (`PolicySpec.name`):
 
-- ``linear_svm``: linear SVM (``LinearSVC`` / ``LinearSVR`` per output dimension), on
+- `linear_svm`: linear SVM (`LinearSVC` / `LinearSVR` per output dimension), on
   standardised features, as the source's low-expressiveness class (ch. 3, ch. 6);
-- ``linear_svm_span``: the same classifier problem as ``linear_svm`` solved in the span of the
-  distinct training states (:class:`SpanLinearSVC`), for features far wider than the data
-  (ch. 6's 20,736-dimensional HOG); Box actions fall back to ``linear_svm``'s regressor;
-- ``tree``: decision tree, ``max_depth`` as given (the source uses depth 100 as its
+- `linear_svm_span`: the same classifier problem as `linear_svm` solved in the span of the
+  distinct training states (`SpanLinearSVC`), for features far wider than the data
+  (ch. 6's 20,736-dimensional HOG); Box actions fall back to `linear_svm`'s regressor;
+- `tree`: decision tree, `max_depth` as given (the source uses depth 100 as its
   high-expressiveness class);
-- ``kernel_ridge``: RBF kernel ridge regression (ch. 6's grasping policy); for Discrete actions
+- `kernel_ridge`: RBF kernel ridge regression (ch. 6's grasping policy); for Discrete actions
   it regresses one-hot labels and takes the arg-max;
-- ``knn``: k nearest neighbours (k is capped at the number of training pairs);
-- ``mlp``: a small multi-layer perceptron;
-- ``constant``: the constant policy class of ch. 4 (majority label, or mean label for Box),
+- `knn`: k nearest neighbours (k is capped at the number of training pairs);
+- `mlp`: a small multi-layer perceptron;
+- `constant`: the constant policy class of ch. 4 (majority label, or mean label for Box),
   ties going to the lowest action index; computed directly, without an estimator.
 
 A classifier fit on a single label predicts that label everywhere: most scikit-learn
@@ -71,7 +71,7 @@ class KernelRidgeClassifier(ClassifierMixin, BaseEstimator):
 
 
 def distinct_rows(X: np.ndarray) -> np.ndarray:
-    """Index of the first occurrence of each distinct row of ``X`` (rows hashed as bytes)."""
+    """Index of the first occurrence of each distinct row of `X` (rows hashed as bytes)."""
     first: dict[bytes, int] = {}
     for i, row in enumerate(np.ascontiguousarray(X).reshape(len(X), -1)):
         first.setdefault(row.tobytes(), i)
@@ -81,7 +81,7 @@ def distinct_rows(X: np.ndarray) -> np.ndarray:
 def _distinct_pairs(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Index of the first occurrence of each distinct (row, label) pair, and its count.
 
-    By hashing rows: ``np.unique(axis=0)`` sorts wide rows and costs seconds at HOG width."""
+    By hashing rows: `np.unique(axis=0)` sorts wide rows and costs seconds at HOG width."""
     index: dict[tuple[bytes, Any], int] = {}
     first: list[int] = []
     counts: list[int] = []
@@ -95,18 +95,18 @@ def _distinct_pairs(X: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarra
 
 
 class SpanLinearSVC(ClassifierMixin, BaseEstimator):
-    """``make_pipeline(StandardScaler(), LinearSVC(C, ...))``'s problem, solved in ``n`` not ``d``
-    dimensions: for ``n`` distinct training states of ``d >> n`` features.
+    """`make_pipeline(StandardScaler(), LinearSVC(C, ...))`'s problem, solved in `n` not `d`
+    dimensions: for `n` distinct training states of `d >> n` features.
 
     LinearSVC (liblinear's dual coordinate descent, squared hinge, one-vs-rest, the intercept
     regularised as a constant feature 1) only ever sees the training vectors through their inner
-    products, and its weights lie in their span. So it is fit on ``Z = V Λ^½`` (``K = V Λ Vᵀ``,
-    ``K`` the Gram matrix of the standardised vectors with the constant 1 appended), which has the
+    products, and its weights lie in their span. So it is fit on `Z = V Λ^½` (`K = V Λ Vᵀ`,
+    `K` the Gram matrix of the standardised vectors with the constant 1 appended), which has the
     same Gram matrix: the same dual problem and, in exact arithmetic, the same iterates. The
-    weights are mapped back (``w = Xᵀ V Λ^-½ v``) and the standardisation folded into them.
-    Repeated (state, label) pairs are fit once with their count as ``sample_weight``, which is
+    weights are mapped back (`w = Xᵀ V Λ^-½ v`) and the standardisation folded into them.
+    Repeated (state, label) pairs are fit once with their count as `sample_weight`, which is
     the same primal objective (and standardisation) as the repeated rows. A pass of the solver
-    costs ``O(n²)`` instead of ``O(n d)``.
+    costs `O(n²)` instead of `O(n d)`.
     """
 
     def __init__(
@@ -146,7 +146,7 @@ class SpanLinearSVC(ClassifierMixin, BaseEstimator):
 
 
 def _scaled(estimator: BaseEstimator, standardize: bool) -> BaseEstimator:
-    """``estimator`` on standardised features, or on the raw ones (``PolicySpec.standardize``)."""
+    """`estimator` on standardised features, or on the raw ones (`PolicySpec.standardize`)."""
     return make_pipeline(StandardScaler(), estimator) if standardize else estimator
 
 
@@ -185,7 +185,7 @@ FAMILIES = (*sorted(MODELS), "constant")
 
 @dataclass(frozen=True)
 class PolicySpec:
-    """A model family from :data:`MODELS` and keyword parameters for its estimator."""
+    """A model family from `MODELS` and keyword parameters for its estimator."""
 
     name: str = "tree"
     params: Mapping[str, Any] = field(default_factory=dict)
@@ -216,11 +216,11 @@ class PolicySpec:
 
 
 def _predict(estimator: BaseEstimator, X: np.ndarray) -> np.ndarray:
-    """``estimator.predict(X)``; for fitted decision trees, straight through the tree.
+    """`estimator.predict(X)`; for fitted decision trees, straight through the tree.
 
-    scikit-learn's ``predict`` spends almost all of a one-row call validating its input
+    scikit-learn's `predict` spends almost all of a one-row call validating its input
     (~240 µs against ~7 µs for the tree itself), and policies are asked one row per env step.
-    The tree path gives bit-identical output: it is what ``predict`` runs after validating.
+    The tree path gives bit-identical output: it is what `predict` runs after validating.
     """
     if isinstance(estimator, DecisionTreeRegressor):
         out = estimator.tree_.predict(X.astype(np.float32))
@@ -232,7 +232,7 @@ def _predict(estimator: BaseEstimator, X: np.ndarray) -> np.ndarray:
 
 
 class FittedPolicy:
-    """A trained learner: maps observations to actions of ``action_space``."""
+    """A trained learner: maps observations to actions of `action_space`."""
 
     def __init__(
         self, estimator: BaseEstimator | None, action_space: spaces.Space[Any], constant: Any = None
@@ -244,7 +244,7 @@ class FittedPolicy:
         self._cache: dict[bytes, Any] = {}
 
     def predict(self, observations: np.ndarray) -> np.ndarray:
-        """Actions for a batch of observations (Discrete: int64 ``(n,)``; Box: ``(n, *shape)``)."""
+        """Actions for a batch of observations (Discrete: int64 `(n,)`; Box: `(n, *shape)`)."""
         X = features(observations)
         if self.estimator is None:
             return np.repeat(np.asarray(self.constant)[None], len(X), axis=0)
@@ -281,7 +281,7 @@ def fit_policy(
     labels: np.ndarray,
     random_state: int,
 ) -> FittedPolicy:
-    """Fit the model family of ``spec`` on state–label pairs."""
+    """Fit the model family of `spec` on state–label pairs."""
     discrete = check_action_space(action_space)
     if len(observations) == 0:
         raise ValueError("fit_policy: no training pairs; collect at least one labelled state")

@@ -15,14 +15,14 @@ BACKGROUND, INK, ROBOT, TAKEN = (255, 255, 255), (60, 60, 60), (220, 80, 40), (4
 
 
 def node_centre(level: int, index: int) -> tuple[int, int]:
-    """Pixel (x, y) of node ``(level, index)``: levels top to bottom, right moves to the right."""
+    """Pixel (x, y) of node `(level, index)`: levels top to bottom, right moves to the right."""
     step = (SIZE - 2 * MARGIN) / DEPTH
     x = SIZE / 2 + (index - level / 2) * step
     return int(round(x)), int(round(MARGIN + level * step))
 
 
 def draw_dag(level: int, index: int, last_edge: tuple[int, int, int] | None = None) -> np.ndarray:
-    """RGB image (SIZE, SIZE, 3) with the robot at ``(level, index)``; ``last_edge`` =
+    """RGB image (SIZE, SIZE, 3) with the robot at `(level, index)`; `last_edge` =
     (level, index, move) of the edge just taken, or None at the root."""
     image = np.full((SIZE, SIZE, 3), BACKGROUND, dtype=np.uint8)
     for lv in range(DEPTH):

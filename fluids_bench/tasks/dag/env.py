@@ -71,8 +71,8 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
     | `render_mode` | str   | None    | None or "rgb_array" (the graph, the robot's node filled)  |
 
-    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
-    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+    Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
+    is allowed, an unknown argument `ValueError` listing the allowed ones.
 
     ## Version History
 
@@ -127,8 +127,8 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
         return self._observation(), float(reward), terminated, False, self._info()
 
     def render(self) -> np.ndarray | None:
-        """``render_mode="rgb_array"``: the graph with the robot's node filled and the edge it
-        took drawn thick (:func:`fluids_bench.tasks.dag.draw.draw_dag`); otherwise None."""
+        """`render_mode="rgb_array"`: the graph with the robot's node filled and the edge it
+        took drawn thick (`fluids_bench.tasks.dag.draw.draw_dag`); otherwise None."""
         if self.render_mode != "rgb_array":
             return None
         return draw_dag(self._level, self._index, self._last_edge)

@@ -1,7 +1,7 @@
 """The decision DAG of the source's Theorem 1 (ch. 4, Fig. 4.1) as plain data. No gymnasium.
 
-Nodes are ``(level, index)`` with levels 0..3 and ``index <= level``; from ``(l, i)`` action L
-leads to ``(l + 1, i)`` and action R to ``(l + 1, i + 1)``, so middle nodes are shared (a DAG,
+Nodes are `(level, index)` with levels 0..3 and `index <= level`; from `(l, i)` action L
+leads to `(l + 1, i)` and action R to `(l + 1, i + 1)`, so middle nodes are shared (a DAG,
 not a tree). Every edge carries a reward. Only the root is stochastic: L there slips to the
 right child with probability mu.
 """
@@ -21,7 +21,7 @@ EDGE_REWARDS: tuple[tuple[tuple[float, float], ...], ...] = (
 
 
 def transition(level: int, index: int, move: int, slipped: bool) -> tuple[int, int, float]:
-    """``(level, index, reward)`` after taking ``move`` at node ``(level, index)``; ``slipped``
+    """`(level, index, reward)` after taking `move` at node `(level, index)`; `slipped`
     (drawn with probability mu) turns L at the root into R."""
     if level == 0 and move == L and slipped:
         move = R

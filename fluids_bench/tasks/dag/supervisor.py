@@ -1,6 +1,6 @@
 """The greedy supervisor of the decision DAG of the source's Theorem 1 (ch. 4, Fig. 4.1).
 
-The DAG itself is :mod:`fluids_bench.tasks.dag.model`. The supervisor is greedy: at each node it
+The DAG itself is `fluids_bench.tasks.dag.model`. The supervisor is greedy: at each node it
 takes the branch with the larger immediate reward (the source's "acts greedily according to the
 given rewards"). The model's edge rewards make the supervisor's labels
 
@@ -18,13 +18,13 @@ from fluids_bench.tasks.dag.model import ACTION_NAMES, DEPTH, EDGE_REWARDS, L, R
 
 
 def greedy_action(level: int, index: int) -> int:
-    """The supervisor's label at node ``(level, index)``: the branch with the larger reward."""
+    """The supervisor's label at node `(level, index)`: the branch with the larger reward."""
     reward_left, reward_right = EDGE_REWARDS[level][index]
     return L if reward_left > reward_right else R
 
 
 def expected_return(mu: float, policy: str) -> float:
-    """Exact expected return from the root of ``"supervisor"`` or a constant policy ``"L"``/``"R"``.
+    """Exact expected return from the root of `"supervisor"` or a constant policy `"L"`/`"R"`.
 
     Used to state the reference numbers of the DAG example (normalisation, plots).
     """

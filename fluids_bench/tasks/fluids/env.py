@@ -46,187 +46,187 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     labels every state the ego visits, at the level the learner acts at.
 
     ## Action Space
-    Set by ``action_level``; the supervisor fills the levels below it for the ego:
+    Set by `action_level`; the supervisor fills the levels below it for the ego:
 
-    * ``"behavior"``: ``Discrete(n)``: which movement (target lane) to take from the ego's entry
+    * `"behavior"`: `Discrete(n)`: which movement (target lane) to take from the ego's entry
       lane, in counter-clockwise order of the exits (right, straight, left on a four-way); taken
       modulo the lane's count; ignored once the ego has reached the junction.
-    * ``"trajectory"``: ``Box(-50, 50, (2K,))``: the next ``K = waypoints`` path points in the
+    * `"trajectory"`: `Box(-50, 50, (2K,))`: the next `K = waypoints` path points in the
       ego's frame (m, x forward, y left, flattened); the ego steers toward them.
-    * ``"velocity"``: ``Box(0, v_max, (1,))``: the ego's target speed (m/s).
-    * ``"control"``: ``Box(-1, 1, (2,))``: normalised [steering, force] (steering × max_steer
+    * `"velocity"`: `Box(0, v_max, (1,))`: the ego's target speed (m/s).
+    * `"control"`: `Box(-1, 1, (2,))`: normalised [steering, force] (steering × max_steer
       rad; force × max_force when ≥ 0, × max_brake_force when < 0).
 
-    ``action_scale="normalized"`` (the v2 ids): every Box level is ``Box(-1, 1)``: the
-    velocity level's ``a`` is the target speed ``(a + 1) / 2 · v_max`` m/s, the trajectory
-    level's waypoints are ``a · 50`` m; control is unchanged. The supervisor's label is given
-    in the same units (``info["supervisor_action"]`` lies in the normalised space).
+    `action_scale="normalized"` (the v2 ids): every Box level is `Box(-1, 1)`: the
+    velocity level's `a` is the target speed `(a + 1) / 2 · v_max` m/s, the trajectory
+    level's waypoints are `a · 50` m; control is unchanged. The supervisor's label is given
+    in the same units (`info["supervisor_action"]` lies in the normalised space).
 
     Box actions are arrays of real numbers (ints or floats): out of bounds they are clipped;
-    NaN or infinite values, strings (``"0.5"``), bools and complex numbers raise ``ValueError``
+    NaN or infinite values, strings (`"0.5"`), bools and complex numbers raise `ValueError`
     naming the level and the allowed form (they are never coerced).
 
     ## Observation Space
-    ``obs_type="explicit"``: ``Box(-1000, 1000, (13 + 7k,), float32)`` with ``k = k_nearest``: the
+    `obs_type="explicit"`: `Box(-1000, 1000, (13 + 7k,), float32)` with `k = k_nearest`: the
     ego's state and goal, the k nearest agents in the ego's frame with a presence mask, and the
-    ego's light (see :mod:`fluids_bench.tasks.fluids.sim.sensors.explicit`). ``obs_noise`` adds zero-mean
+    ego's light (see `fluids_bench.tasks.fluids.sim.sensors.explicit`). `obs_noise` adds zero-mean
     Gaussian noise of that variance.
 
-    ``obs_type="birdseye"``: ``Box(0, 255, (S, S, 3), uint8)`` with ``S = birdseye_size``: a
+    `obs_type="birdseye"`: `Box(0, 255, (S, S, 3), uint8)` with `S = birdseye_size`: a
     top-down RGB image of the lanes, sidewalks, crosswalks, terrain, the light colours (a bar at
     each signalised stop line and crosswalk end), cars (blue), pedestrians (orange), the ego
-    (magenta) and the ego's route (pink line). ``birdseye_frame="ego"`` centres a north-up square
-    of side ``birdseye_fov`` m on the ego, ``"ego_rotated"`` also turns it so the ego faces up,
-    ``"global"`` shows the whole layout (``birdseye_fov`` unused). ``pixel_noise`` (λ_p) adds
+    (magenta) and the ego's route (pink line). `birdseye_frame="ego"` centres a north-up square
+    of side `birdseye_fov` m on the ego, `"ego_rotated"` also turns it so the ego faces up,
+    `"global"` shows the whole layout (`birdseye_fov` unused). `pixel_noise` (λ_p) adds
     zero-mean Gaussian noise of that variance to every pixel value, clipped to [0, 255].
 
-    ``obs_type="qlidar"``: ``Box((m, 4), float32)`` with ``m = lidar_rays``: ray ``k`` leaves the
-    ego's centre at angle ``2πk/m`` from its heading (counter-clockwise) and reads
-    ``[d, label, ψ_r, v_r]``: the distance (m, ``lidar_range`` when nothing is hit), the label of
+    `obs_type="qlidar"`: `Box((m, 4), float32)` with `m = lidar_rays`: ray `k` leaves the
+    ego's centre at angle `2πk/m` from its heading (counter-clockwise) and reads
+    `[d, label, ψ_r, v_r]`: the distance (m, `lidar_range` when nothing is hit), the label of
     what it hit (0 nothing, 1 car, 2 pedestrian, 3 road edge), that object's heading relative to
     the ego's (rad, in [-π, π]; a road edge's direction, in [-π/2, π/2)) and its speed minus the
-    ego's (m/s, in ±2·v_max). ``lidar_noise`` (λ_l) adds zero-mean Gaussian noise of that
-    variance to d, ψ_r and v_r; with probability ``lidar_dropout`` (ε) a ray reads as empty
-    ``[lidar_range, 0, 0, 0]``. See :mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`.
+    ego's (m/s, in ±2·v_max). `lidar_noise` (λ_l) adds zero-mean Gaussian noise of that
+    variance to d, ψ_r and v_r; with probability `lidar_dropout` (ε) a ray reads as empty
+    `[lidar_range, 0, 0, 0]`. See `fluids_bench.tasks.fluids.sim.sensors.qlidar`.
 
-    ``lidar_version=1`` (the v1 ids): ``Box((m + 1, 4), float32)``; rays also stop at the stop
+    `lidar_version=1` (the v1 ids): `Box((m + 1, 4), float32)`; rays also stop at the stop
     line of a red (label 4) or yellow (label 5) traffic light and at the edges of a crosswalk
-    with a pedestrian on it (label 2), and row m is the goal row ``[d, 6, bearing, −v_ego]`` of
+    with a pedestrian on it (label 2), and row m is the goal row `[d, 6, bearing, −v_ego]` of
     the waypoint 5 m ahead on the ego's route (noise and dropout apply to the m rays only).
 
-    A list of types (e.g. ``["birdseye", "qlidar"]``) gives a ``Dict`` space keyed by type.
+    A list of types (e.g. `["birdseye", "qlidar"]`) gives a `Dict` space keyed by type.
 
-    ``obs_scale="normalized"`` (the v2 ids): the explicit and quasi-LIDAR observations become
-    flat float32 vectors in ``Box(-1, 1)`` that an MLP policy can take as they are. Explicit
+    `obs_scale="normalized"` (the v2 ids): the explicit and quasi-LIDAR observations become
+    flat float32 vectors in `Box(-1, 1)` that an MLP policy can take as they are. Explicit
     (same length, same order): the ego's position relative to the layout's centre over half
     the layout's extent (86 m on the four-way), the goal's offset and the path left over the
     extent, the other agents' offsets and the distance to the stop line over 30 m (farther
-    reads as ±1), speeds over the car's ``max_speed``, cosines, sines, masks and one-hots
-    unchanged, then clipped to ±1. Quasi-LIDAR: each row becomes ``[d / lidar_range, ψ_r / π, v_r / (2 v_max)]`` followed
+    reads as ±1), speeds over the car's `max_speed`, cosines, sines, masks and one-hots
+    unchanged, then clipped to ±1. Quasi-LIDAR: each row becomes `[d / lidar_range, ψ_r / π, v_r / (2 v_max)]` followed
     by a one-hot of its label (labels 1 … L−1; nothing hit is all zeros), rows concatenated:
-    ``(m + 1) · 9`` values with ``lidar_version=1`` (585 for 64 rays). Noise is added before
+    `(m + 1) · 9` values with `lidar_version=1` (585 for 64 rays). Noise is added before
     scaling. The bird's-eye image is unchanged (uint8, what image policies expect).
 
     ## Rewards
-    ``reward_version=0`` (v0, v1): progress
-    (:func:`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the multi-agent env):
+    `reward_version=0` (v0, v1): progress
+    (`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the multi-agent env):
     the metres of route gained this step divided by the route's length from the start (an
     episode that reaches the goal earns 1 in total), minus 1 in a step where the ego is in a
-    collision. Running a red light or failing to yield fails ``is_success`` but costs nothing.
+    collision. Running a red light or failing to yield fails `is_success` but costs nothing.
 
-    ``reward_version=1`` (the v2 and v3 ids; :func:`~fluids_bench.tasks.fluids.scenario.step_reward_v1`):
-    a reward that agrees with ``is_success``; every way to fail it costs, success pays. Per
+    `reward_version=1` (the v2 and v3 ids; `step_reward_v1`):
+    a reward that agrees with `is_success`; every way to fail it costs, success pays. Per
     step, the sum of
 
     | term | weight | when |
     |---|---|---|
     | progress | +1 over the route | the route's metres gained this step over its length |
-    | collision | −1 (v3: −3) | a step with a collision that fails the episode: the ego's with ``done_when="ego"``, any with ``"all"`` |
-    | red light | −1 (v3: −3) | the step the ego enters its junction against a red light (``obey_lights``) |
-    | failure to yield | −1 (v3: −3) | the step the ego drives onto an occupied crosswalk it could have stopped for (``yield_to_pedestrians``) |
-    | success | +1 | the step that ends the episode with ``info["is_success"]`` |
+    | collision | −1 (v3: −3) | a step with a collision that fails the episode: the ego's with `done_when="ego"`, any with `"all"` |
+    | red light | −1 (v3: −3) | the step the ego enters its junction against a red light (`obey_lights`) |
+    | failure to yield | −1 (v3: −3) | the step the ego drives onto an occupied crosswalk it could have stopped for (`yield_to_pedestrians`) |
+    | success | +1 | the step that ends the episode with `info["is_success"]` |
 
     So a successful episode returns 2 (plus the few centimetres driven past the goal over the
     route's length); a failed one at most the progress it made (under 1 for a timeout, about 0
     for an arrival after a red light, below 0 after a collision, or after a red light with
-    ``end_on_violation``): a return above 1.5 means success. A timeout costs the success bonus
-    (the env does not see ``TimeLimit``'s truncation). The failure terms' weight is
-    ``failure_penalty`` (1 in v2, 3 in v3).
+    `end_on_violation`): a return above 1.5 means success. A timeout costs the success bonus
+    (the env does not see `TimeLimit`'s truncation). The failure terms' weight is
+    `failure_penalty` (1 in v2, 3 in v3).
 
     ## Starting State
     Every car starts at rest on an entry lane, the lane uniform and the movement uniform over the
     other approaches (p(l_t | l_g) = 1/(K−1)); slots never overlap. Pedestrians start on their
     walks' first legs. The light cycle starts at t = 0. The layout's slots bound the cars:
-    ``num_cars`` above the layout's capacity less the ego raises ``ValueError`` at construction
+    `num_cars` above the layout's capacity less the ego raises `ValueError` at construction
     (15 on the one-lane four-way, 31 on the two-lane one, 11 / 23 on the T-junction, 15 on the
     roundabout).
 
     ## Episode End
-    ``done_when="ego"`` (default): terminated when the ego reaches its goal or is in a collision
-    (with a car, a pedestrian, or leaving the road). ``done_when="all"`` (the sensitivity
+    `done_when="ego"` (default): terminated when the ego reaches its goal or is in a collision
+    (with a car, a pedestrian, or leaving the road). `done_when="all"` (the sensitivity
     analysis' criterion): terminated when every car has arrived or on any collision (after the
-    ego arrives, actions are ignored and rewards are 0). With ``end_on_violation``, also
-    terminated in the step the ego breaks a rule that fails ``is_success`` (a red light with
-    ``obey_lights``, a failure to yield with ``yield_to_pedestrians``): the episode's outcome
+    ego arrives, actions are ignored and rewards are 0). With `end_on_violation`, also
+    terminated in the step the ego breaks a rule that fails `is_success` (a red light with
+    `obey_lights`, a failure to yield with `yield_to_pedestrians`): the episode's outcome
     is decided there, and an RL agent is not paid for the progress it would make after failing
-    (see Rewards). Truncated by ``TimeLimit`` (``FLUIDS-v0``: 400 steps =
-    40 s; ``FLUIDS-v1``: 600; the sensitivity ids: 600).
+    (see Rewards). Truncated by `TimeLimit` (`FLUIDS-v0`: 400 steps =
+    40 s; `FLUIDS-v1`: 600; the sensitivity ids: 600).
 
     ## Snapshots and labels
-    ``env.unwrapped.snapshot()`` returns an `EnvSnapshot` (arrays and JSON, never a pickle);
-    ``restore(snapshot)`` on another env built with the same kwargs (reset with any seed, or
+    `env.unwrapped.snapshot()` returns an `EnvSnapshot` (arrays and JSON, never a pickle);
+    `restore(snapshot)` on another env built with the same kwargs (reset with any seed, or
     never reset) continues bit-identically, labels included. The supervisor has memory, as the source's
-    does: the velocity planner runs every ``planner_period`` steps and holds its targets in
+    does: the velocity planner runs every `planner_period` steps and holds its targets in
     between, and the PID controllers integrate their errors. So the label is a function of
     the world and the planner's phase (the world's step count) and held targets (and, at the
     control level, the controllers' integrators), and all of these are in the snapshot: after
-    ``restore``, ``supervisor_action()`` equals the label of the env that drove there. A
+    `restore`, `supervisor_action()` equals the label of the env that drove there. A
     supervisor built afresh on the same world would replan at once and may differ between
     replans.
 
     ## Info
     Field meanings are shared with the multi-agent env (see
-    :mod:`fluids_bench.tasks.fluids.scenario`):
+    `fluids_bench.tasks.fluids.scenario`):
 
-    * ``supervisor_action``: the supervisor's label for the ego at ``action_level`` in the new
+    * `supervisor_action`: the supervisor's label for the ego at `action_level` in the new
       state.
-    * ``collisions``: every new collision of this step in the world, as dicts
-      ``{step, a, b, kind}`` (the ego's have 0 in ``a`` or ``b``; ``b = -1`` off the road), and
-      who was at fault: ``at_fault`` (a list of agents), the ``rule`` that decided it
-      (``offroad``, ``red_light``, ``rear_end``, ``moving_into_stationary``,
-      ``car_yields_to_pedestrian``, ``turn_yields``, ``entered_occupied``, ``shared``) and
-      ``cut_in`` (a rear-end whose leader came in front inside the follower's stopping
-      distance); see :mod:`fluids_bench.tasks.fluids.sim.fault`.
-    * ``is_success`` (on the terminating step): the cars the episode is about reached their goals
-      and none of them was ever in a collision: the ego with ``done_when="ego"`` (collisions
-      between other agents do not count), every car with ``done_when="all"``; with
-      ``obey_lights``, the ego also never entered its junction against a red light; with
-      ``yield_to_pedestrians``, it also never failed to yield (``ego_failed_to_yield``).
-    * ``ego_ran_red_light``: the ego entered its junction against a red light.
-    * ``ego_failed_to_yield``: the ego drove onto a crosswalk on its route with a pedestrian on
+    * `collisions`: every new collision of this step in the world, as dicts
+      `{step, a, b, kind}` (the ego's have 0 in `a` or `b`; `b = -1` off the road), and
+      who was at fault: `at_fault` (a list of agents), the `rule` that decided it
+      (`offroad`, `red_light`, `rear_end`, `moving_into_stationary`,
+      `car_yields_to_pedestrian`, `turn_yields`, `entered_occupied`, `shared`) and
+      `cut_in` (a rear-end whose leader came in front inside the follower's stopping
+      distance); see `fluids_bench.tasks.fluids.sim.fault`.
+    * `is_success` (on the terminating step): the cars the episode is about reached their goals
+      and none of them was ever in a collision: the ego with `done_when="ego"` (collisions
+      between other agents do not count), every car with `done_when="all"`; with
+      `obey_lights`, the ego also never entered its junction against a red light; with
+      `yield_to_pedestrians`, it also never failed to yield (`ego_failed_to_yield`).
+    * `ego_ran_red_light`: the ego entered its junction against a red light.
+    * `ego_failed_to_yield`: the ego drove onto a crosswalk on its route with a pedestrian on
       it that it could have stopped for (the pedestrian was on it since a moment at which the
-      ego was not yet committed to it); see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`.
-    * ``ego_arrived``: the ego reached its goal. ``route``: the ego's route's name. ``lights``:
+      ego was not yet committed to it); see `fluids_bench.tasks.fluids.sim.crosswalks`.
+    * `ego_arrived`: the ego reached its goal. `route`: the ego's route's name. `lights`:
       every light's state.
 
     ## Arguments
-    * ``layout``: ``"four_way"`` (default), ``"t_junction"`` or ``"roundabout"``.
-    * ``lanes``: 1 or 2 lanes per direction (four-way, T-junction).
-    * ``lights``: traffic and crosswalk lights on (default) or off.
-    * ``num_cars``: background cars besides the ego (default 3; at most the layout's capacity
+    * `layout`: `"four_way"` (default), `"t_junction"` or `"roundabout"`.
+    * `lanes`: 1 or 2 lanes per direction (four-way, T-junction).
+    * `lights`: traffic and crosswalk lights on (default) or off.
+    * `num_cars`: background cars besides the ego (default 3; at most the layout's capacity
       less one, see Starting State).
-    * ``num_pedestrians``: 0 to 32 and at most the layout's walk slots (default 2).
-    * ``action_level``: ``"behavior"``, ``"trajectory"``, ``"velocity"`` or ``"control"`` (default).
-    * ``obs_type``: ``"explicit"`` (default), ``"birdseye"``, ``"qlidar"`` or a list of them.
-    * ``obs_noise``: variance of the explicit observation's noise, 0 to 100 (default 0).
-    * ``k_nearest``: other agents in the explicit observation, 0 to 64 (default 8).
-    * ``birdseye_size``: image side in pixels, 64 to 512 (default 84).
-    * ``birdseye_fov``: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
-    * ``birdseye_frame``: ``"ego"`` (default), ``"ego_rotated"`` or ``"global"``.
-    * ``pixel_noise``: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
-    * ``lidar_rays``: m, 1 to 4096 (default 64).
-    * ``lidar_range``: metres, 1 to 1000 (default 30).
-    * ``lidar_noise``: λ_l, noise variance on distance, angle and velocity, 0 to 100 (default 0).
-    * ``lidar_dropout``: ε, per-ray dropout probability, 0 to 1 (default 0).
-    * ``render_mode``: ``None``, ``"rgb_array"`` (a global view: routes, light states, this
-      step's collisions outlined in red, time and step) or ``"human"`` (that view in a pygame
-      window; needs ``pip install "fluids-bench[human]"``: without it, asking for it raises an
+    * `num_pedestrians`: 0 to 32 and at most the layout's walk slots (default 2).
+    * `action_level`: `"behavior"`, `"trajectory"`, `"velocity"` or `"control"` (default).
+    * `obs_type`: `"explicit"` (default), `"birdseye"`, `"qlidar"` or a list of them.
+    * `obs_noise`: variance of the explicit observation's noise, 0 to 100 (default 0).
+    * `k_nearest`: other agents in the explicit observation, 0 to 64 (default 8).
+    * `birdseye_size`: image side in pixels, 64 to 512 (default 84).
+    * `birdseye_fov`: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
+    * `birdseye_frame`: `"ego"` (default), `"ego_rotated"` or `"global"`.
+    * `pixel_noise`: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
+    * `lidar_rays`: m, 1 to 4096 (default 64).
+    * `lidar_range`: metres, 1 to 1000 (default 30).
+    * `lidar_noise`: λ_l, noise variance on distance, angle and velocity, 0 to 100 (default 0).
+    * `lidar_dropout`: ε, per-ray dropout probability, 0 to 1 (default 0).
+    * `render_mode`: `None`, `"rgb_array"` (a global view: routes, light states, this
+      step's collisions outlined in red, time and step) or `"human"` (that view in a pygame
+      window; needs `pip install "fluids-bench[human]"`: without it, asking for it raises an
       ImportError that says so).
-    * ``waypoints``, ``waypoint_spacing``: trajectory-level size, 1 to 50 points, 0.5 to 20 m
+    * `waypoints`, `waypoint_spacing`: trajectory-level size, 1 to 50 points, 0.5 to 20 m
       apart (default 5 points, 2 m apart).
-    * ``car_mass``: the cars' true mass in kg, 500 to 5000 (default 1500); the supervisor's
+    * `car_mass`: the cars' true mass in kg, 500 to 5000 (default 1500); the supervisor's
       controller assumes 1500, and far from it (1 kg, 1e5 kg) it oscillates into collisions or
       never arrives, so the range stops at 1/3x and 10/3x of it.
-    * ``pedestrian_speed``: pedestrians' top walking speed in m/s, 0.1 to 5 (default 1.4).
-    * ``light_cycle_scale``: every traffic and crosswalk light phase lasts this many times its
+    * `pedestrian_speed`: pedestrians' top walking speed in m/s, 0.1 to 5 (default 1.4).
+    * `light_cycle_scale`: every traffic and crosswalk light phase lasts this many times its
       layout's duration (offsets too), 0.25 to 4 (default 1: the layout's timing).
-    * ``trajectory_planner``: ``"bezier"`` (default: de Casteljau curves through lane-end
-      waypoints) or ``"ompl"`` (every route's junction part planned as OMPL Dubins curves).
-    * ``done_when``: ``"ego"`` (default) or ``"all"`` (see Episode End).
-    * ``planner_period``: steps between velocity-planner runs, 1 to 50 (default 5: 0.5 s); the
+    * `trajectory_planner`: `"bezier"` (default: de Casteljau curves through lane-end
+      waypoints) or `"ompl"` (every route's junction part planned as OMPL Dubins curves).
+    * `done_when`: `"ego"` (default) or `"all"` (see Episode End).
+    * `planner_period`: steps between velocity-planner runs, 1 to 50 (default 5: 0.5 s); the
       plan, and the velocity-level label, is held in between.
-    * ``dt``: seconds per step, 0.01 to 0.5 (default 0.1).
-    * ``defensive``: background agents treat the ego as a driver that may brake as hard as it
+    * `dt`: seconds per step, 0.01 to 0.5 (default 0.1).
+    * `defensive`: background agents treat the ego as a driver that may brake as hard as it
       can at any time: they only take a target speed from which, holding it until their next
       plan and braking then, they stop short of wherever the ego can stop (default False;
       True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
@@ -235,55 +235,55 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       also give way to it driving on: they turn or enter only through a gap it cannot close,
       counting on slowing for the curves ahead, and do not enter a crossing they would have to
       stop in (a red light or an occupied crosswalk beyond it).
-    * ``lidar_version``: 0 (default) or 1 (the v1 ids): see Observation Space.
-    * ``obey_lights``: success also requires that the ego never entered its junction against
-      a red light (``info["ego_ran_red_light"]``; default False, True in the v1 ids).
-    * ``yield_to_pedestrians``: a pedestrian on a crosswalk has the right of way: supervised
+    * `lidar_version`: 0 (default) or 1 (the v1 ids): see Observation Space.
+    * `obey_lights`: success also requires that the ego never entered its junction against
+      a red light (`info["ego_ran_red_light"]`; default False, True in the v1 ids).
+    * `yield_to_pedestrians`: a pedestrian on a crosswalk has the right of way: supervised
       cars wait before a crosswalk with a pedestrian on it (unless they can no longer stop),
       and success also requires that the ego never drove onto one that it could have stopped
-      for (``info["ego_failed_to_yield"]``; default False, True in the v1 ids). Supervised
+      for (`info["ego_failed_to_yield"]`; default False, True in the v1 ids). Supervised
       walkers wait at the kerb while a car is committed to their crosswalk (too close to stop,
       or a background car turning left, inside the junction on its way out across it) and do
       not step out on a white light that turns red before they would reach the crosswalk.
-    * ``action_scale``: ``"physical"`` (default) or ``"normalized"`` (the v2 ids): see Action
+    * `action_scale`: `"physical"` (default) or `"normalized"` (the v2 ids): see Action
       Space.
-    * ``reward_version``: 0 (default) or 1 (the v2 ids): see Rewards.
-    * ``obs_scale``: ``"physical"`` (default) or ``"normalized"`` (the v2 ids): see Observation
+    * `reward_version`: 0 (default) or 1 (the v2 ids): see Rewards.
+    * `obs_scale`: `"physical"` (default) or `"normalized"` (the v2 ids): see Observation
       Space.
-    * ``end_on_violation``: end the episode when the ego breaks a rule that fails
-      ``is_success`` (default False): see Episode End.
-    * ``failure_penalty``: the weight of reward version 1's collision, red-light and
+    * `end_on_violation`: end the episode when the ego breaks a rule that fails
+      `is_success` (default False): see Episode End.
+    * `failure_penalty`: the weight of reward version 1's collision, red-light and
       failure-to-yield terms (default 1, 3 in the v3 and v4 ids; see Rewards).
-    * ``driving_score``: report the CARLA-style driving score in the info of every episode's
-      last step (default False, True in the v4 ids): ``info["driving_score"]`` (in [0, 1]),
-      ``info["route_completion"]`` (in [0, 1]) and ``info["infractions"]`` (counts by name);
-      the rule and its coefficients are in ``fluids_bench.tasks.fluids.driving_score``.
-    * ``time_limit``: the step at which an unfinished episode is scored as a timeout (0, the
-      default: never). The v4 ids set it to their ``max_episode_steps`` (600); give both when
-      you change one, so that the score lands on ``TimeLimit``'s truncating step.
-    Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
-    argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
+    * `driving_score`: report the CARLA-style driving score in the info of every episode's
+      last step (default False, True in the v4 ids): `info["driving_score"]` (in [0, 1]),
+      `info["route_completion"]` (in [0, 1]) and `info["infractions"]` (counts by name);
+      the rule and its coefficients are in `fluids_bench.tasks.fluids.driving_score`.
+    * `time_limit`: the step at which an unfinished episode is scored as a timeout (0, the
+      default: never). The v4 ids set it to their `max_episode_steps` (600); give both when
+      you change one, so that the score lands on `TimeLimit`'s truncating step.
+    Numbers may be Python or numpy scalars. A bad value raises `ValueError` naming the
+    argument, the value and what is allowed; an unknown argument raises `ValueError` listing
     the allowed ones.
 
     ## Version History
-    * v4: the benchmark id for imitation and RL alike (``FLUIDS-v4``,
-      ``FLUIDS-Sensitivity-v4``): v3's spaces and reward, the driving score in each episode's
-      last info (``driving_score=True``, ``time_limit=600``), the velocity planner at every
-      step (``planner_period=1``) so that the ego's label is what a supervisor built afresh
-      from the state gives, and (``FLUIDS-v4``) the learner acting at the trajectory level,
+    * v4: the benchmark id for imitation and RL alike (`FLUIDS-v4`,
+      `FLUIDS-Sensitivity-v4`): v3's spaces and reward, the driving score in each episode's
+      last info (`driving_score=True`, `time_limit=600`), the velocity planner at every
+      step (`planner_period=1`) so that the ego's label is what a supervisor built afresh
+      from the state gives, and (`FLUIDS-v4`) the learner acting at the trajectory level,
       where a random policy's driving score is a small fraction of the supervisor's. The
       older ids are legacy, unchanged bit for bit.
-    * v3: v2 with the reward's failure terms weighted 3 (``failure_penalty=3.0``;
-      ``FLUIDS-v3``, ``FLUIDS-Sensitivity-v3``): with PPO's default discount a policy that
+    * v3: v2 with the reward's failure terms weighted 3 (`failure_penalty=3.0`;
+      `FLUIDS-v3`, `FLUIDS-Sensitivity-v3`): with PPO's default discount a policy that
       waits its turn is then clearly worth more than one that rushes, and PPO with its
       defaults reaches BC's success (the docs' RL page). The ids to train RL agents on.
     * v2: v1's scenes, supervisor and success criterion, made RL-ready:
-      ``action_scale="normalized"``, ``reward_version=1``, ``obs_scale="normalized"``
-      (``FLUIDS-v2``, ``FLUIDS-Sensitivity-v2``). Off-the-shelf PPO learns it where it fails
+      `action_scale="normalized"`, `reward_version=1`, `obs_scale="normalized"`
+      (`FLUIDS-v2`, `FLUIDS-Sensitivity-v2`). Off-the-shelf PPO learns it where it fails
       on v1 (the docs' RL page has the ablation). v0 and v1 are unchanged, bit for bit.
-    * v1: ``defensive=True``, ``lidar_version=1``, ``obey_lights=True`` and
-      ``yield_to_pedestrians=True`` by default (``FLUIDS-v1``, ``FLUIDS-Sensitivity-v1``);
-      ``FLUIDS-v1`` also runs 8 pedestrians and 600 steps (60 s), the busier scene that
+    * v1: `defensive=True`, `lidar_version=1`, `obey_lights=True` and
+      `yield_to_pedestrians=True` by default (`FLUIDS-v1`, `FLUIDS-Sensitivity-v1`);
+      `FLUIDS-v1` also runs 8 pedestrians and 600 steps (60 s), the busier scene that
       separates a random policy from the supervisor; collisions carry fault labels (in every
       version).
     * v0: initial release.
@@ -450,8 +450,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return self._step_valid(action)
 
     def _step_valid(self, action):
-        """:meth:`step` with ``action`` as :func:`levels.validate` returns it (the vector env
-        checks a whole batch at once, then clips each world's with :func:`levels.clip`)."""
+        """`step` with `action` as `levels.validate` returns it (the vector env
+        checks a whole batch at once, then clips each world's with `levels.clip`)."""
         events = self.world.step(self._act(action))
         judged = self._judge(events)
         if not self._ended:
@@ -460,14 +460,14 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return self._observe(), reward, terminated, False, info
 
     def _act(self, action):
-        """The first part of :meth:`_step_valid`: every agent's controls (N, 2) with the ego's
-        ``action`` at its level, the supervisor's loops advanced as if they were executed. Then
+        """The first part of `_step_valid`: every agent's controls (N, 2) with the ego's
+        `action` at its level, the supervisor's loops advanced as if they were executed. Then
         the world steps under them (alone, or with others in a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), :meth:`_judge` takes the
+        `WorldBatch`), `_judge` takes the
         new collisions, the supervisor plans and proposes its next controls unless the episode
         ended (alone, or in a
-        :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`)
-        :meth:`_report` returns the step's reward, termination and info, and the world is
+        `SupervisorBatch`)
+        `_report` returns the step's reward, termination and info, and the world is
         observed (alone, or in one call for a batch)."""
         w, sup = self.world, self.supervisor
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
@@ -478,17 +478,17 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return sup.commit(controls, memory)
 
     def _judge(self, events) -> tuple[int, bool, float]:
-        """After the world stepped with ``events``: faults and termination (``_ended``).
-        Returns what :meth:`_report` needs: the rules the ego broke in this step, whether it
+        """After the world stepped with `events`: faults and termination (`_ended`).
+        Returns what `_report` needs: the rules the ego broke in this step, whether it
         was hit, and the progress it gained."""
         broken = self._violations()
         self.faults.update()
         return self._judge_recorded(events, self._violations() - broken)
 
     def _judge_recorded(self, events, broken: int) -> tuple[int, bool, float]:
-        """:meth:`_judge` once the fault tracker recorded the step (alone, or in a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`); ``broken``: the rules the
-        ego broke in it (:meth:`_violations` after the record less before)."""
+        """`_judge` once the fault tracker recorded the step (alone, or in a
+        `FaultBatch`); `broken`: the rules the
+        ego broke in it (`_violations` after the record less before)."""
         w = self.world
         ego_hit = any(e.a == 0 or e.b == 0 for e in events)
         arrived = bool(w.reached[0])
@@ -506,8 +506,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     def _report(self, events, judged: tuple[int, bool, float]) -> tuple[float, bool, dict]:
         """The step's reward, termination and info, once the supervisor proposed (a batch
-        computes the reward and ``is_success`` of all its worlds at once:
-        :mod:`~fluids_bench.tasks.fluids.vector.judge`)."""
+        computes the reward and `is_success` of all its worlds at once:
+        `judge`)."""
         w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
         info = self._info(events)
         if terminated:
@@ -531,9 +531,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return float(reward), terminated, info
 
     def _episode_score(self, events, terminated: bool) -> dict[str, Any]:
-        """With ``driving_score``, the driving score's info entries
-        (:func:`~fluids_bench.tasks.fluids.driving_score.episode_report`) when this step ends
-        the episode: it ``terminated``, or its world reached ``time_limit`` steps (a timeout);
+        """With `driving_score`, the driving score's info entries
+        (`episode_report`) when this step ends
+        the episode: it `terminated`, or its world reached `time_limit` steps (a timeout);
         else nothing. Every face (the vector env too) calls this."""
         if not self.report_score:
             return {}
@@ -545,8 +545,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         )
 
     def render(self):
-        """The current state seen from above (see ``render_mode``): an RGB array (H, W, 3) in
-        ``"rgb_array"`` mode; in ``"human"`` mode the frame goes to a window (returns None)."""
+        """The current state seen from above (see `render_mode`): an RGB array (H, W, 3) in
+        `"rgb_array"` mode; in `"human"` mode the frame goes to a window (returns None)."""
         if self.render_mode is None:
             gym.logger.warn(
                 "FluidsEnv.render() called without a render_mode; pass "
@@ -572,7 +572,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self):
-        """The supervisor's action for the ego at ``action_level`` in the current state."""
+        """The supervisor's action for the ego at `action_level` in the current state."""
         return levels.label(self.supervisor, self.world, self.action_level, 0, self.action_scale)
 
     # ------------------------------------------------------------------ snapshots
@@ -590,8 +590,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return self.observer.observe(self.world, self.np_random)
 
     def _violations(self) -> int:
-        """How many of the rules that fail ``is_success`` the ego has broken so far (a red
-        light with ``obey_lights``, yielding with ``yield_to_pedestrians``)."""
+        """How many of the rules that fail `is_success` the ego has broken so far (a red
+        light with `obey_lights`, yielding with `yield_to_pedestrians`)."""
         return int(self.obey_lights and bool(self.faults.ran_red[0])) + int(
             self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
         )

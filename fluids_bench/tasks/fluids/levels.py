@@ -24,8 +24,8 @@ WAYPOINT_BOUND = 50.0  # m: trajectory-level waypoints lie in ±this in the car'
 
 
 def action_space(level: str, world: World, waypoints: int, scale: str = "physical") -> spaces.Space:
-    """The action space of ``level``. ``scale="normalized"``: every Box level is ``[-1, 1]``
-    (see :func:`to_physical` for the map to physical units)."""
+    """The action space of `level`. `scale="normalized"`: every Box level is `[-1, 1]`
+    (see `to_physical` for the map to physical units)."""
     if level == "behavior":
         return spaces.Discrete(movement_count(world))
     normalized = scale == "normalized"
@@ -40,8 +40,8 @@ def action_space(level: str, world: World, waypoints: int, scale: str = "physica
 
 
 def to_physical(level: str, world: World, action: np.ndarray) -> np.ndarray:
-    """A normalised Box action (in ``[-1, 1]``) in the level's physical units: velocity
-    ``(a + 1) / 2 · v_max`` m/s, trajectory ``a · 50`` m; control is normalised already."""
+    """A normalised Box action (in `[-1, 1]`) in the level's physical units: velocity
+    `(a + 1) / 2 · v_max` m/s, trajectory `a · 50` m; control is normalised already."""
     if level == "velocity":
         return (action + 1.0) * (0.5 * world.scene.car.max_speed)
     if level == "trajectory":
@@ -50,7 +50,7 @@ def to_physical(level: str, world: World, action: np.ndarray) -> np.ndarray:
 
 
 def to_normalized(level: str, world: World, value: np.ndarray) -> np.ndarray:
-    """The inverse of :func:`to_physical`, clipped to ``[-1, 1]``: the label in action units."""
+    """The inverse of `to_physical`, clipped to `[-1, 1]`: the label in action units."""
     if level == "velocity":
         value = value * (2.0 / world.scene.car.max_speed) - 1.0
     elif level == "trajectory":
@@ -66,12 +66,12 @@ def validate(
     world: World | None = None,
     scale: str = "physical",
 ):
-    """``action`` as the env uses it; ValueError naming the level, what is wrong and what is
-    allowed (the suite's shared check, :func:`fluids_bench.core.actions.check_action`). Box
+    """`action` as the env uses it; ValueError naming the level, what is wrong and what is
+    allowed (the suite's shared check, `fluids_bench.core.actions.check_action`). Box
     actions must be real numbers of exactly the space's shape (strings, bools and complex
-    numbers are refused, never coerced; ``(1, n)`` is not ``(n,)``); out of bounds they are
-    clipped; NaN and infinities are refused. ``scale="normalized"``: the clipped action is
-    returned in physical units (:func:`to_physical`; needs ``world``)."""
+    numbers are refused, never coerced; `(1, n)` is not `(n,)`); out of bounds they are
+    clipped; NaN and infinities are refused. `scale="normalized"`: the clipped action is
+    returned in physical units (`to_physical`; needs `world`)."""
     if level == "behavior":
         return check_discrete_action(where, space, action, "behavior action")
     values = check_box_action(where, space, action, f"{level} action").tolist()
@@ -80,8 +80,8 @@ def validate(
 
 
 def clip(level: str, values: list[float], bounds: tuple[list, list], world=None, scale="physical"):
-    """A checked Box action (its values as a flat list of floats) clipped to ``bounds`` (the
-    space's low and high as flat lists), as :func:`validate` returns it."""
+    """A checked Box action (its values as a flat list of floats) clipped to `bounds` (the
+    space's low and high as flat lists), as `validate` returns it."""
     low, high = bounds
     out = np.array([min(max(v, lo), hi) for v, lo, hi in zip(values, low, high, strict=True)])
     return to_physical(level, world, out) if scale == "normalized" else out
@@ -90,8 +90,8 @@ def clip(level: str, values: list[float], bounds: tuple[list, list], world=None,
 def label(
     supervisor: DrivingSupervisor, world: World, level: str, agent: int, scale: str = "physical"
 ):
-    """The supervisor's label for ``agent`` at ``level``, typed like an action of that level
-    (with ``scale="normalized"``, in the normalised action's units)."""
+    """The supervisor's label for `agent` at `level`, typed like an action of that level
+    (with `scale="normalized"`, in the normalised action's units)."""
     value = supervisor.label(world, level, agent)
     if level == "behavior":
         return int(value)
@@ -106,7 +106,7 @@ def label(
 def waypoints_aim(
     world: World, supervisor: DrivingSupervisor, agent: int, waypoints: np.ndarray
 ) -> np.ndarray:
-    """The world-frame point car ``agent`` steers to for trajectory-level ``waypoints`` (its
+    """The world-frame point car `agent` steers to for trajectory-level `waypoints` (its
     frame, flattened): the first one at least the PID look-ahead away, else the last."""
     pts = waypoints.reshape(-1, 2)
     pid = supervisor.config.pid
@@ -122,7 +122,7 @@ def waypoints_aim(
 def controls(
     level: str, world: World, supervisor: DrivingSupervisor, chosen: dict[int, Any]
 ) -> tuple[np.ndarray, tuple | None, list[int]]:
-    """Every agent's controls with the ``chosen`` agents' (validated) actions at ``level``, the
+    """Every agent's controls with the `chosen` agents' (validated) actions at `level`, the
     PID memory to commit (None: the supervisor's own), and the agents whose route changed."""
     w, sup = world, supervisor
     if not chosen:

@@ -1,7 +1,7 @@
-"""FLUIDS as a PettingZoo ``ParallelEnv``: several controlled cars at once, everyone else supervised.
+"""FLUIDS as a PettingZoo `ParallelEnv`: several controlled cars at once, everyone else supervised.
 
-Build it with :func:`parallel_env` (the PettingZoo convention), e.g.
-``fluids_bench.tasks.fluids.multi_agent.parallel_env(controlled_cars=6, num_cars=2)``.
+Build it with `parallel_env` (the PettingZoo convention), e.g.
+`fluids_bench.tasks.fluids.multi_agent.parallel_env(controlled_cars=6, num_cars=2)`.
 """
 
 from __future__ import annotations
@@ -62,7 +62,7 @@ def _takes_ego(fn: Callable[..., Any]) -> bool:
 
 
 class _PartObserves:
-    """The family observes for any agent itself: ``part.observe(world, rng, ego=agent)``."""
+    """The family observes for any agent itself: `part.observe(world, rng, ego=agent)`."""
 
     def __init__(self, part: Any) -> None:
         self.part = part
@@ -72,7 +72,7 @@ class _PartObserves:
 
 
 class _SensorObserves:
-    """The family's sensor takes ``ego``: observe through it, clipped into the family's Box."""
+    """The family's sensor takes `ego`: observe through it, clipped into the family's Box."""
 
     def __init__(self, sensor: Any, space: spaces.Box) -> None:
         self.sensor, self.space = sensor, space
@@ -83,7 +83,7 @@ class _SensorObserves:
 
 
 class _Scaled:
-    """An agent observer followed by the family's ``obs_scale="normalized"`` map."""
+    """An agent observer followed by the family's `obs_scale="normalized"` map."""
 
     def __init__(self, observe: AgentObserver, scale: Callable[[np.ndarray], np.ndarray]) -> None:
         self.observe, self.scale = observe, scale
@@ -103,11 +103,11 @@ class _EgoOnly:
 
 
 def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[str]]:
-    """For each family of ``observer``, a picklable function ``(world, rng, agent) ->
-    observation`` that observes from car ``agent``'s point of view, and the families that cannot.
+    """For each family of `observer`, a picklable function `(world, rng, agent) ->
+    observation` that observes from car `agent`'s point of view, and the families that cannot.
 
-    Uses the family's ``observe(world, rng, ego=...)`` when it takes ``ego``, otherwise its
-    sensor's ``observe(..., ego=...)`` clipped into the family's Box. A family offering neither
+    Uses the family's `observe(world, rng, ego=...)` when it takes `ego`, otherwise its
+    sensor's `observe(..., ego=...)` clipped into the family's Box. A family offering neither
     is listed second; its function observes for agent 0 whatever agent it is asked for."""
     out: dict[str, AgentObserver] = {}
     ego_only: list[str] = []
@@ -132,122 +132,122 @@ def agent_observers(observer: Observer) -> tuple[dict[str, AgentObserver], list[
 class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     """
     ## Description
-    FLUIDS (ch. 7 of the source dissertation) with ``controlled_cars`` learner-controlled cars,
-    the agents ``car_0 … car_{n-1}``, acting simultaneously at one signalised intersection.
-    ``num_cars`` background cars and ``num_pedestrians`` pedestrians are driven by the same
-    four-level supervisor as in ``FLUIDS-v0``, which also labels every state each agent visits
-    at the level the agents act at (``infos[agent]["supervisor_action"]``,
-    :meth:`supervisor_action`). The supervisor plans for all agents jointly, controlled or not.
+    FLUIDS (ch. 7 of the source dissertation) with `controlled_cars` learner-controlled cars,
+    the agents `car_0 … car_{n-1}`, acting simultaneously at one signalised intersection.
+    `num_cars` background cars and `num_pedestrians` pedestrians are driven by the same
+    four-level supervisor as in `FLUIDS-v0`, which also labels every state each agent visits
+    at the level the agents act at (`infos[agent]["supervisor_action"]`,
+    `supervisor_action`). The supervisor plans for all agents jointly, controlled or not.
 
     ## Action Space
-    Per agent, as ``FLUIDS-v0``'s ``action_level``: ``"behavior"`` ``Discrete(n)`` (movement
-    from the car's entry lane), ``"trajectory"`` ``Box(-50, 50, (2K,))`` (next ``K`` path points
-    in the car's frame, m), ``"velocity"`` ``Box(0, v_max, (1,))`` (target speed, m/s) or
-    ``"control"`` ``Box(-1, 1, (2,))`` (normalised [steering, force]); with
-    ``action_scale="normalized"`` (``FLUIDS-MultiAgent-v2``) every Box level is ``[-1, 1]``,
-    labels included, as ``FLUIDS-v2``'s. The supervisor fills the
+    Per agent, as `FLUIDS-v0`'s `action_level`: `"behavior"` `Discrete(n)` (movement
+    from the car's entry lane), `"trajectory"` `Box(-50, 50, (2K,))` (next `K` path points
+    in the car's frame, m), `"velocity"` `Box(0, v_max, (1,))` (target speed, m/s) or
+    `"control"` `Box(-1, 1, (2,))` (normalised [steering, force]); with
+    `action_scale="normalized"` (`FLUIDS-MultiAgent-v2`) every Box level is `[-1, 1]`,
+    labels included, as `FLUIDS-v2`'s. The supervisor fills the
     levels below for each car. A live agent missing from the action dict follows its
-    supervisor this step; actions for agents that already left are ignored. ``actions`` must
-    be a dict (``None`` or a list raise ``ValueError``); unknown names raise ``ValueError``
+    supervisor this step; actions for agents that already left are ignored. `actions` must
+    be a dict (`None` or a list raise `ValueError`); unknown names raise `ValueError`
     listing the agents; a malformed action (wrong shape, not finite, strings, bools, complex
-    numbers) raises ``ValueError`` naming the agent, the level and the allowed form. Box
+    numbers) raises `ValueError` naming the agent, the level and the allowed form. Box
     actions are clipped to bounds.
 
     ## Observation Space
-    Per agent, the ``FLUIDS-v0`` observation (``obs_type`` and the same sensor options) taken
-    from that car's point of view (``obs_scale="normalized"``: ``FLUIDS-v2``'s flat vectors in
+    Per agent, the `FLUIDS-v0` observation (`obs_type` and the same sensor options) taken
+    from that car's point of view (`obs_scale="normalized"`: `FLUIDS-v2`'s flat vectors in
     [-1, 1]). A family whose sensor cannot observe for another car than
-    agent 0 raises ``NotImplementedError`` at construction when ``controlled_cars > 1``.
+    agent 0 raises `NotImplementedError` at construction when `controlled_cars > 1`.
 
     ## State
-    :meth:`state` is a global view for centralised training: ``Box(float32)`` of
-    ``6 * N + 3 * L`` values, for each of the ``N`` agents of the world (controlled cars,
-    background cars, pedestrians, in that order) ``[x, y, cos θ, sin θ, v, active]`` (m, m/s;
-    positions clipped to ±1000 m), then for each of the ``L`` lights a one-hot of go / caution /
-    stop. The space is :attr:`state_space`.
+    `state` is a global view for centralised training: `Box(float32)` of
+    `6 * N + 3 * L` values, for each of the `N` agents of the world (controlled cars,
+    background cars, pedestrians, in that order) `[x, y, cos θ, sin θ, v, active]` (m, m/s;
+    positions clipped to ±1000 m), then for each of the `L` lights a one-hot of go / caution /
+    stop. The space is `state_space`.
 
     ## Rewards
-    Per agent, as ``FLUIDS-v0`` (:func:`fluids_bench.tasks.fluids.scenario.step_reward`): the
+    Per agent, as `FLUIDS-v0` (`fluids_bench.tasks.fluids.scenario.step_reward`): the
     metres of route gained this step divided by the route's length from the start, minus 1 in a
-    step where that car is in a collision. ``reward_version=1`` (``FLUIDS-MultiAgent-v2``): also
-    +1 on the step the car arrives without a collision (its ``is_success``), so a successful
-    agent returns 2 and a failed one less than 1 (see ``FLUIDS-v2``'s Rewards).
+    step where that car is in a collision. `reward_version=1` (`FLUIDS-MultiAgent-v2`): also
+    +1 on the step the car arrives without a collision (its `is_success`), so a successful
+    agent returns 2 and a failed one less than 1 (see `FLUIDS-v2`'s Rewards).
 
     ## Starting State
     Every car starts at rest in its own entry-lane slot (slots never overlap), the lane uniform
     and the movement uniform over the other approaches; pedestrians start on their walks. The
-    layout's slots bound the cars: ``controlled_cars + num_cars`` above the layout's capacity
-    raises ``ValueError`` at construction naming the maximum (16 cars on the one-lane four-way,
+    layout's slots bound the cars: `controlled_cars + num_cars` above the layout's capacity
+    raises `ValueError` at construction naming the maximum (16 cars on the one-lane four-way,
     32 on the two-lane one, 12 / 24 on the T-junction, 16 on the roundabout).
 
     ## Episode End
     An agent terminates when it reaches its goal or is in a collision (with any car, a
-    pedestrian, or leaving the road). With ``black_death=True`` a finished agent instead stays
-    in ``agents``, neither terminated nor truncated, with an all-zero observation (after its
+    pedestrian, or leaving the road). With `black_death=True` a finished agent instead stays
+    in `agents`, neither terminated nor truncated, with an all-zero observation (after its
     last real one), reward 0 and its actions ignored, until every agent has finished or
-    ``max_cycles`` is reached; then all end in the same step (terminated if it finished,
+    `max_cycles` is reached; then all end in the same step (terminated if it finished,
     truncated otherwise). That keeps the agent set fixed, as SuperSuit's
-    ``pettingzoo_env_to_vec_env_v1`` needs (see the README's multi-agent recipe). A car in a collision leaves the road: it is removed from
+    `pettingzoo_env_to_vec_env_v1` needs (see the README's multi-agent recipe). A car in a collision leaves the road: it is removed from
     the world, so the others neither see it nor collide with its wreck. The episode goes on for
-    the remaining agents. All live agents are truncated after ``max_cycles`` steps. The episode
-    is over when ``agents`` is empty.
+    the remaining agents. All live agents are truncated after `max_cycles` steps. The episode
+    is over when `agents` is empty.
 
     ## Info
-    Per agent; field meanings are shared with ``FLUIDS-v0`` (see
-    :mod:`fluids_bench.tasks.fluids.scenario`):
+    Per agent; field meanings are shared with `FLUIDS-v0` (see
+    `fluids_bench.tasks.fluids.scenario`):
 
-    * ``supervisor_action``: its label at ``action_level`` in the new state.
-    * ``collisions``: this step's new collisions the agent is part of, as dicts
-      ``{step, a, b, kind}`` (``b = -1`` off the road), with who was at fault (``at_fault``,
-      ``rule``, ``cut_in``: see :mod:`fluids_bench.tasks.fluids.sim.fault`).
-    * ``is_success`` (in a terminated or truncated agent's last info): the car reached its goal
+    * `supervisor_action`: its label at `action_level` in the new state.
+    * `collisions`: this step's new collisions the agent is part of, as dicts
+      `{step, a, b, kind}` (`b = -1` off the road), with who was at fault (`at_fault`,
+      `rule`, `cut_in`: see `fluids_bench.tasks.fluids.sim.fault`).
+    * `is_success` (in a terminated or truncated agent's last info): the car reached its goal
       and was never in a collision (collisions between other agents do not count), as
-      ``FLUIDS-v0``'s with ``done_when="ego"``.
-    * ``arrived``: the car reached its goal. ``route``: its route's name.
+      `FLUIDS-v0`'s with `done_when="ego"`.
+    * `arrived`: the car reached its goal. `route`: its route's name.
 
     ## Snapshots and labels
-    ``env.snapshot()`` returns a picklable state (the world, the supervisor's memory, the live
-    and dead agents, the cycle count, ``np_random``); ``env.restore(snapshot)`` on another env
+    `env.snapshot()` returns a picklable state (the world, the supervisor's memory, the live
+    and dead agents, the cycle count, `np_random`); `env.restore(snapshot)` on another env
     built with the same kwargs (reset with any seed) continues bit-identically, labels
-    included. As in ``FLUIDS-v0``, the label is a function of the world and the velocity
+    included. As in `FLUIDS-v0`, the label is a function of the world and the velocity
     planner's phase and held targets (and the PID controllers' integrators), all in the
     snapshot.
 
     ## Arguments
-    * ``controlled_cars``: learner-controlled cars (agents), default 4.
-    * ``num_cars``: supervised background cars besides them (default 0).
-    * ``max_cycles``: steps before truncation (default 400 = 40 s).
-    * ``layout``, ``lanes``, ``lights``, ``num_pedestrians``, ``action_level``, ``obs_type``,
-      the sensor options (``obs_noise``, ``k_nearest``, ``birdseye_*``, ``pixel_noise``,
-      ``lidar_*``), ``waypoints``, ``waypoint_spacing``, ``car_mass``, ``planner_period``,
-      ``trajectory_planner``, ``dt``: as ``FLUIDS-v0`` (same ranges).
-    * ``defensive``: background agents treat every controlled car (the agents) as one that may
+    * `controlled_cars`: learner-controlled cars (agents), default 4.
+    * `num_cars`: supervised background cars besides them (default 0).
+    * `max_cycles`: steps before truncation (default 400 = 40 s).
+    * `layout`, `lanes`, `lights`, `num_pedestrians`, `action_level`, `obs_type`,
+      the sensor options (`obs_noise`, `k_nearest`, `birdseye_*`, `pixel_noise`,
+      `lidar_*`), `waypoints`, `waypoint_spacing`, `car_mass`, `planner_period`,
+      `trajectory_planner`, `dt`: as `FLUIDS-v0` (same ranges).
+    * `defensive`: background agents treat every controlled car (the agents) as one that may
       brake at its limit at any time and keep the distance to stop for it, and give way to
-      one with the right of way driving on (default False; True in ``FLUIDS-MultiAgent-v1``);
-      see ``FLUIDS-v1``.
-    * ``yield_to_pedestrians``: background cars wait before a crosswalk with a pedestrian on it
-      (default False; True in ``FLUIDS-MultiAgent-v1``); the agents' success does not depend
+      one with the right of way driving on (default False; True in `FLUIDS-MultiAgent-v1`);
+      see `FLUIDS-v1`.
+    * `yield_to_pedestrians`: background cars wait before a crosswalk with a pedestrian on it
+      (default False; True in `FLUIDS-MultiAgent-v1`); the agents' success does not depend
       on it.
-    * ``black_death``: keep finished agents in the episode (see Episode End; default False).
-    * ``action_scale``, ``reward_version``, ``obs_scale``: as ``FLUIDS-v0`` (``"physical"``, 0,
-      ``"physical"`` by default; ``"normalized"``, 1, ``"normalized"`` in
-      ``FLUIDS-MultiAgent-v2``); ``failure_penalty``: as ``FLUIDS-v0`` (the weight of
+    * `black_death`: keep finished agents in the episode (see Episode End; default False).
+    * `action_scale`, `reward_version`, `obs_scale`: as `FLUIDS-v0` (`"physical"`, 0,
+      `"physical"` by default; `"normalized"`, 1, `"normalized"` in
+      `FLUIDS-MultiAgent-v2`); `failure_penalty`: as `FLUIDS-v0` (the weight of
       reward version 1's collision term, default 1).
-    * ``render_mode``: ``None`` or ``"rgb_array"`` (``FLUIDS-v0``'s global view, the first live
+    * `render_mode`: `None` or `"rgb_array"` (`FLUIDS-v0`'s global view, the first live
       agent highlighted).
 
-    * ``driving_score``: report the driving score in each agent's last info, as
-      ``FLUIDS-v4`` does for the ego (a truncation at ``max_cycles`` is its timeout; default
-      False, True in ``FLUIDS-MultiAgent-v4``).
+    * `driving_score`: report the driving score in each agent's last info, as
+      `FLUIDS-v4` does for the ego (a truncation at `max_cycles` is its timeout; default
+      False, True in `FLUIDS-MultiAgent-v4`).
 
     ## Version History
     * v4: v3 with the driving score, the velocity planner at every step (Markov labels) and
-      the agents acting at the trajectory level, as ``FLUIDS-v4``.
-    * v3: v2 with the collision term weighted 3 (``failure_penalty=3.0``), as ``FLUIDS-v3``.
+      the agents acting at the trajectory level, as `FLUIDS-v4`.
+    * v3: v2 with the collision term weighted 3 (`failure_penalty=3.0`), as `FLUIDS-v3`.
     * v2: v1 made RL-ready: normalised actions and labels, a reward that pays success, flat
-      observations in [-1, 1] (``action_scale``, ``reward_version``, ``obs_scale``).
+      observations in [-1, 1] (`action_scale`, `reward_version`, `obs_scale`).
     * v1: defensive, pedestrian-yielding background drivers by default; fault labels in
-      ``collisions``.
+      `collisions`.
     * v0: initial release.
     """
 
@@ -518,7 +518,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     def _black_death(self, everyone, live, rewards, terminations, truncations) -> None:
         """Keep finished agents in the episode (zero observation, reward 0, action ignored,
-        neither terminated nor truncated) until every agent has finished or ``max_cycles``
+        neither terminated nor truncated) until every agent has finished or `max_cycles`
         is reached; then end the episode for all of them at once."""
         self._just_died = {
             i for i in live if terminations[agent_name(i)] or truncations[agent_name(i)]
@@ -554,7 +554,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return np.clip(flat, self.state_space.low, self.state_space.high)
 
     def render(self) -> np.ndarray | None:
-        """``"rgb_array"``: the global view (H, W, 3) uint8, the first live agent highlighted."""
+        """`"rgb_array"`: the global view (H, W, 3) uint8, the first live agent highlighted."""
         if self.render_mode is None:
             gym.logger.warn(
                 f'{WHERE}.render() called without a render_mode; pass render_mode="rgb_array"'
@@ -572,7 +572,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self, agent: str):
-        """The supervisor's action for ``agent`` at ``action_level`` in the current state."""
+        """The supervisor's action for `agent` at `action_level` in the current state."""
         return self._label(self._index[agent])
 
     def _label(self, i: int):
@@ -580,7 +580,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     # ------------------------------------------------------------------ helpers
     def _controls(self, chosen: dict[int, Any]) -> tuple[np.ndarray, tuple | None]:
-        """Every agent's controls with the chosen agents' actions at ``action_level``, the rest
+        """Every agent's controls with the chosen agents' actions at `action_level`, the rest
         supervised, and the PID memory to commit (None: the supervisor's own)."""
         controls, memory, changed = levels.controls(
             self.action_level, self.world, self.supervisor, chosen
@@ -618,12 +618,12 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
 
 def _zeros(space: spaces.Space):
-    """An all-zero observation of ``space`` (clipped into a Box's bounds)."""
+    """An all-zero observation of `space` (clipped into a Box's bounds)."""
     if isinstance(space, spaces.Dict):
         return {k: _zeros(sub) for k, sub in space.spaces.items()}
     return np.clip(np.zeros(space.shape, space.dtype), space.low, space.high).astype(space.dtype)
 
 
 def parallel_env(**kwargs: Any) -> FluidsParallelEnv:
-    """Build the multi-agent FLUIDS env (see :class:`FluidsParallelEnv` for the arguments)."""
+    """Build the multi-agent FLUIDS env (see `FluidsParallelEnv` for the arguments)."""
     return FluidsParallelEnv(**kwargs)

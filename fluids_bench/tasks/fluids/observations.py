@@ -1,15 +1,15 @@
-"""Observation families of FLUIDS-v0, chosen by ``obs_type`` and combinable as a Dict.
+"""Observation families of FLUIDS-v0, chosen by `obs_type` and combinable as a Dict.
 
-Each family is a sensor with a fixed space (built once in the env's ``__init__``) and an
-``observe(world, rng)`` that reads the world and draws any noise from ``rng`` (the env's
-``np_random``), so seeded episodes stay bit-identical with noise on.
+Each family is a sensor with a fixed space (built once in the env's `__init__`) and an
+`observe(world, rng)` that reads the world and draws any noise from `rng` (the env's
+`np_random`), so seeded episodes stay bit-identical with noise on.
 
 Families (ch. 7 of the source):
 
-* ``"explicit"``: the true state, a flat float32 vector (:mod:`fluids_bench.tasks.fluids.sim.sensors.explicit`).
-* ``"birdseye"``: a top-down RGB image, uint8 (H, W, 3) (:mod:`fluids_bench.tasks.fluids.sim.sensors.birdseye`).
-* ``"qlidar"``: quasi-LIDAR, float32 (m, 4) rows [d, label, ψ_r, v_r], one per ray
-  (:mod:`fluids_bench.tasks.fluids.sim.sensors.qlidar`).
+* `"explicit"`: the true state, a flat float32 vector (`fluids_bench.tasks.fluids.sim.sensors.explicit`).
+* `"birdseye"`: a top-down RGB image, uint8 (H, W, 3) (`fluids_bench.tasks.fluids.sim.sensors.birdseye`).
+* `"qlidar"`: quasi-LIDAR, float32 (m, 4) rows [d, label, ψ_r, v_r], one per ray
+  (`fluids_bench.tasks.fluids.sim.sensors.qlidar`).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ OBS_BOUND = 1000.0  # explicit observations are clipped to ±this (noise could l
 
 
 def _obs_type(where: str, obs_type) -> str | tuple[str, ...]:
-    """``obs_type`` checked: a family name, or a tuple of distinct ones (from any sequence)."""
+    """`obs_type` checked: a family name, or a tuple of distinct ones (from any sequence)."""
     kinds = (obs_type,) if isinstance(obs_type, str) else obs_type
     try:
         kinds = tuple(kinds)
@@ -69,7 +69,7 @@ SENSOR_RANGES: dict[str, tuple[bool, float, float]] = {
 @dataclass(frozen=True)
 class ObservationConfig:
     """Every sensor option the env accepts (all JSON-friendly). Units: metres, variances in the
-    observation's own units squared (pixel values² for ``pixel_noise``)."""
+    observation's own units squared (pixel values² for `pixel_noise`)."""
 
     obs_type: str | tuple[str, ...] = "explicit"
     obs_noise: float = 0.0  # explicit: variance of the Gaussian noise
@@ -94,8 +94,8 @@ class ObservationConfig:
 
     @classmethod
     def from_kwargs(cls, where: str, obs_type, options: dict) -> ObservationConfig:
-        """The config of an env's ``obs_type`` and sensor options, checked with errors naming
-        ``where``; numpy scalars become the Python numbers they hold."""
+        """The config of an env's `obs_type` and sensor options, checked with errors naming
+        `where`; numpy scalars become the Python numbers they hold."""
         values = {}
         for name, value in options.items():
             if name in SENSOR_RANGES:
@@ -114,8 +114,8 @@ class ObservationConfig:
 
 
 class _Normalizer:
-    """``obs_scale="normalized"``: a physical observation mapped affinely, entry by entry, onto
-    a flat float32 vector clipped to ``[-1, 1]``: ``(x - offset) * gain``, then an optional
+    """`obs_scale="normalized"`: a physical observation mapped affinely, entry by entry, onto
+    a flat float32 vector clipped to `[-1, 1]`: `(x - offset) * gain`, then an optional
     one-hot expansion of the quasi-LIDAR labels. Picklable, stateless."""
 
     def __init__(self, offset: np.ndarray, gain: np.ndarray, labels: int = 0) -> None:
@@ -136,9 +136,9 @@ NEAR = 30.0  # m: the scale of the explicit vector's nearby lengths (the quasi-L
 def explicit_normalizer(k_nearest: int, world: World) -> _Normalizer:
     """The explicit vector's scales: the ego's world position relative to the layout's centre
     over half its extent; the goal's offset and the path left over the layout's extent; the
-    other agents' offsets and the distance to the stop line over :data:`NEAR` (30 m: what the
+    other agents' offsets and the distance to the stop line over `NEAR` (30 m: what the
     ego must react to keeps its resolution; farther reads as ±1); speeds over the car's
-    ``max_speed``; cosines, sines, masks and one-hots as they are."""
+    `max_speed`; cosines, sines, masks and one-hots as they are."""
     x0, y0, x1, y1 = world.layout.bounds
     extent = max(x1 - x0, y1 - y0)
     v_max = world.scene.car.max_speed
@@ -178,8 +178,8 @@ class _Explicit:
         return obs if self.scale is None else self.scale(obs)
 
     def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
-        """:meth:`observe` of each world of ``worlds`` (a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) where ``stepping``, as rows
+        """`observe` of each world of `worlds` (a
+        `WorldBatch`) where `stepping`, as rows
         (noiseless only: a noisy observation draws from each world's own generator)."""
         if self._raw is None or len(self._raw) != len(stepping):
             self._raw = np.zeros((len(stepping), self.sensor.size))
@@ -239,8 +239,8 @@ class _QLidar:
         return obs if self.scale is None else self.scale(obs)
 
     def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
-        """:meth:`observe` of each world of ``worlds`` where ``stepping``, as rows (noiseless
-        only, see :attr:`batchable`)."""
+        """`observe` of each world of `worlds` where `stepping`, as rows (noiseless
+        only, see `batchable`)."""
         obs = self.sensor.cast_worlds(stepping, worlds, lights)[stepping].astype(np.float32)
         if self.scale is None:
             return obs
@@ -270,11 +270,11 @@ class Observer:
 
     @property
     def batchable(self) -> bool:
-        """Whether :meth:`observe_worlds` can observe a batch of worlds in one call (a single
+        """Whether `observe_worlds` can observe a batch of worlds in one call (a single
         noiseless explicit or quasi-LIDAR observation)."""
         return self.single and getattr(next(iter(self.parts.values())), "batchable", False)
 
     def observe_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
-        """:meth:`observe` of every world where ``stepping`` (bool, (B,)), as rows, when
-        :attr:`batchable`; ``lights``: each world's light states (B, L)."""
+        """`observe` of every world where `stepping` (bool, (B,)), as rows, when
+        `batchable`; `lights`: each world's light states (B, L)."""
         return next(iter(self.parts.values())).observe_worlds(stepping, worlds, lights)

@@ -1,26 +1,26 @@
-"""A FLUIDS scenario, shared by ``FLUIDS-v0`` and the multi-agent env: the env kwargs checked and
+"""A FLUIDS scenario, shared by `FLUIDS-v0` and the multi-agent env: the env kwargs checked and
 turned into the scene, supervisor and observation configs and the compiled layout, and the
 per-step rules both envs apply to each controlled car (progress reward, collision penalty,
 termination, success).
 
-Argument errors name the user's argument (``car_mass``, ``planner_period``, ``num_cars``), never
+Argument errors name the user's argument (`car_mass`, `planner_period`, `num_cars`), never
 an internal config field, and are raised at construction, counts included.
 
 Info fields, one meaning each (both env cards point here):
 
-* ``supervisor_action``: the supervisor's label for the info's car at ``action_level`` in the
+* `supervisor_action`: the supervisor's label for the info's car at `action_level` in the
   new state (what it would do there; never an echo of the learner's action).
-* ``collisions``: this step's new collisions as dicts ``{step, a, b, kind}`` (agent indices,
-  ``b = -1`` off the road) that concern the info: in ``FLUIDS-v0`` every collision of the
-  world (with ``done_when="all"`` any of them ends the episode; the ego's have 0 in ``a`` or
-  ``b``), in the multi-agent env those the agent is part of.
-* ``is_success`` (only in the info of an agent's last step): the cars the episode is about
+* `collisions`: this step's new collisions as dicts `{step, a, b, kind}` (agent indices,
+  `b = -1` off the road) that concern the info: in `FLUIDS-v0` every collision of the
+  world (with `done_when="all"` any of them ends the episode; the ego's have 0 in `a` or
+  `b`), in the multi-agent env those the agent is part of.
+* `is_success` (only in the info of an agent's last step): the cars the episode is about
   reached their goals and none of them was ever in a collision. Those cars are the ego in
-  ``FLUIDS-v0`` with ``done_when="ego"``, every car with ``done_when="all"`` (every collision
+  `FLUIDS-v0` with `done_when="ego"`, every car with `done_when="all"` (every collision
   involves a car, so this is also "no collision at all"), and the agent itself in the
   multi-agent env.
-* ``ego_arrived`` (``FLUIDS-v0``) / ``arrived`` (multi-agent): the info's car reached its goal.
-* ``route``: the name of the info's car's route.
+* `ego_arrived` (`FLUIDS-v0`) / `arrived` (multi-agent): the info's car reached its goal.
+* `route`: the name of the info's car's route.
 """
 
 from __future__ import annotations
@@ -108,14 +108,14 @@ def build_scenario(
     pedestrian_speed: Any = 1.4,
     light_cycle_scale: Any = 1.0,
 ) -> Scenario:
-    """Check the env's arguments (``where`` names the env in errors) and build its scenario.
+    """Check the env's arguments (`where` names the env in errors) and build its scenario.
 
-    ``controlled_cars=None`` is ``FLUIDS-v0``: one ego car, not a user argument. numpy scalars
-    are accepted like the Python numbers they hold. ``defensive``: the supervised agents treat
-    the controlled cars (agents ``0 .. controlled - 1``) as drivers that may brake at their limit
-    at any time (see :class:`~fluids_bench.tasks.fluids.supervisor.stack.SupervisorConfig`).
-    ``yield_to_pedestrians``: supervised cars wait before a crosswalk with a pedestrian on it
-    (:meth:`~fluids_bench.tasks.fluids.supervisor.velocity.VelocityPlanner.domains`)."""
+    `controlled_cars=None` is `FLUIDS-v0`: one ego car, not a user argument. numpy scalars
+    are accepted like the Python numbers they hold. `defensive`: the supervised agents treat
+    the controlled cars (agents `0 .. controlled - 1`) as drivers that may brake at their limit
+    at any time (see `SupervisorConfig`).
+    `yield_to_pedestrians`: supervised cars wait before a crosswalk with a pedestrian on it
+    (`domains`)."""
     check_choice(where, "action_level", action_level, LEVELS)
     check_choice(where, "layout", layout, LAYOUTS)
     check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
@@ -198,7 +198,7 @@ def _check_capacity(
 
 # ---------------------------------------------------------------------- per-step rules
 def progress(world: World, agent: int) -> float:
-    """Metres of its route ``agent`` has covered (past the end once it arrived)."""
+    """Metres of its route `agent` has covered (past the end once it arrived)."""
     if world.reached[agent]:
         return float(world.path_len[agent]) + float(world.offset[agent])
     return float(world.s[agent] + world.offset[agent])  # route_s[agent], without the array
@@ -211,7 +211,7 @@ def step_reward(gained: float, route_length: float, collided: bool) -> float:
 
 
 def check_failure_penalty(where: str, value: Any, reward_version: int) -> float:
-    """``failure_penalty``: a finite weight in [0, 100] of reward version 1's failure terms
+    """`failure_penalty`: a finite weight in [0, 100] of reward version 1's failure terms
     (collision, red light, failure to yield); with reward version 0 only its default, 1."""
     penalty = check_float(where, "failure_penalty", value, 0.0, 100.0)
     if reward_version == 0 and penalty != 1.0:
@@ -228,11 +228,11 @@ def step_reward_v1(
     succeeded: bool,
     failure_penalty: float = 1.0,
 ) -> float:
-    """``reward_version=1``: the progress reward of :func:`step_reward` (1 in total on
-    arrival), minus ``failure_penalty`` times ``COLLISION_PENALTY`` in a step with a collision
-    that fails the episode and times ``VIOLATION_PENALTY`` for each rule the step broke that
-    fails ``is_success`` (a red light run, a failure to yield), plus ``SUCCESS_BONUS`` on the
-    step that ends the episode with ``is_success``. A successful episode returns at least 2
+    """`reward_version=1`: the progress reward of `step_reward` (1 in total on
+    arrival), minus `failure_penalty` times `COLLISION_PENALTY` in a step with a collision
+    that fails the episode and times `VIOLATION_PENALTY` for each rule the step broke that
+    fails `is_success` (a red light run, a failure to yield), plus `SUCCESS_BONUS` on the
+    step that ends the episode with `is_success`. A successful episode returns at least 2
     (1 + the overshoot past the goal, + 1); a failed one at most the progress made (1 plus that
     overshoot)."""
     collision = failure_penalty * COLLISION_PENALTY if collided else 0.0
@@ -245,6 +245,6 @@ def step_reward_v1(
 
 
 def is_success(world: World, cars: np.ndarray | list[int] | int) -> bool:
-    """``is_success``: every one of ``cars`` reached its goal and none was ever in a collision."""
+    """`is_success`: every one of `cars` reached its goal and none was ever in a collision."""
     idx = np.atleast_1d(np.asarray(cars))
     return bool(world.reached[idx].all() and not world.collided[idx].any())

@@ -1,9 +1,9 @@
 """The arm controller compiled (numba): it runs on every step of the env and of the supervisor's
 foresight, where its few hundred scalar operations cost ~40 µs in Python.
 
-The arithmetic is that of the plain-Python reference in ``tests/tasks/grasping/arm_reference.py``
-(which the tests compare with this kernel), in float64 with no fast-math. ``params`` is
-:attr:`fluids_bench.tasks.grasping.sim.GraspConfig.kernel_params`: link lengths l1, l2, l3, the
+The arithmetic is that of the plain-Python reference in `tests/tasks/grasping/arm_reference.py`
+(which the tests compare with this kernel), in float64 with no fast-math. `params` is
+`fluids_bench.tasks.grasping.sim.GraspConfig.kernel_params`: link lengths l1, l2, l3, the
 grasp offset, the joint limits (lo, hi) ×3, joint speed, max speed, turn rate, caster length,
 dt and the number of Jacobian-transpose iterations.
 """
@@ -41,7 +41,7 @@ def _grasp_centre(p: np.ndarray, q0: float, q1: float, q2: float):
 def inverse_kernel(
     p: np.ndarray, x: float, y: float, heading: float, elbow: float, out: np.ndarray
 ):
-    """Inverse kinematics into ``out``; False if the wrist point is out of reach."""
+    """Inverse kinematics into `out`; False if the wrist point is out of reach."""
     l1, l2, l3 = p[0], p[1], p[2]
     back = l3 + p[3]
     wx, wy = x - back * math.cos(heading), y - back * math.sin(heading)
@@ -73,7 +73,7 @@ def _clip_into(p: np.ndarray, q: np.ndarray, dq: np.ndarray, out: np.ndarray) ->
 
 @njit(cache=True, nogil=True)
 def arm_step_kernel(p: np.ndarray, q: np.ndarray, vx: float, vy: float) -> np.ndarray:
-    """Joint angles after one step of end-effector velocity (vx, vy); see ``sim.arm_step``."""
+    """Joint angles after one step of end-effector velocity (vx, vy); see `sim.arm_step`."""
     joint_speed, max_speed, turn_rate, caster, dt = p[10], p[11], p[12], p[13], p[14]
     iterations = int(p[15])
     xe0, ye0, x1, y1, x2, y2, heading = _grasp_centre(p, q[0], q[1], q[2])

@@ -23,7 +23,7 @@ MARGIN = 0.05  # m of floor around the table
 
 
 def view(cfg: GraspConfig, size: int) -> tuple[np.ndarray, float]:
-    """World → pixel affine map of a ``size``² picture of the table, and pixels per metre."""
+    """World → pixel affine map of a `size`² picture of the table, and pixels per metre."""
     span = max(cfg.table_width, cfg.table_depth + 0.08) + 2 * MARGIN
     ppm = size / span
     cx = 0.0
@@ -32,7 +32,7 @@ def view(cfg: GraspConfig, size: int) -> tuple[np.ndarray, float]:
 
 
 def draw(cfg: GraspConfig, st: WorldState, size: int) -> np.ndarray:
-    """An RGB ``(size, size, 3)`` uint8 overhead picture of the state."""
+    """An RGB `(size, size, 3)` uint8 overhead picture of the state."""
     affine, ppm = view(cfg, size)
     image = np.empty((size, size, 3), dtype=np.uint8)
     image[:] = FLOOR

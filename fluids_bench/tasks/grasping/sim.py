@@ -1,12 +1,12 @@
 """The grasping-in-clutter world (source ch. 6, a Box2D arm there), on pymunk 7.
 
 A top-down table in metres, x to the right and y away from the arm; the table spans
-``[-width/2, width/2] × [0, depth]`` and the arm's base sits on its near edge at (0, 0). The arm
-has three revolute joints (relative angles ``q``, link lengths ``links``) and a parallel-jaw
-gripper whose opening is ``g`` in [0, 1] (0 open, 1 closed). The controlled point, the *end
-effector*, is the grasp centre: ``grasp_offset`` metres ahead of the palm, between the fingers.
+`[-width/2, width/2] × [0, depth]` and the arm's base sits on its near edge at (0, 0). The arm
+has three revolute joints (relative angles `q`, link lengths `links`) and a parallel-jaw
+gripper whose opening is `g` in [0, 1] (0 open, 1 closed). The controlled point, the *end
+effector*, is the grasp centre: `grasp_offset` metres ahead of the palm, between the fingers.
 
-Physics: objects are dynamic boxes in a space with no gravity and ``damping = 0``, so they move
+Physics: objects are dynamic boxes in a space with no gravity and `damping = 0`, so they move
 only while pushed (quasi-static pushing, as in gym-pusht). Links, palm and fingers are kinematic
 bodies: each substep they are given the velocity that carries them exactly onto the arm's
 forward kinematics at the end of the substep, so they push objects and are never pushed back.
@@ -14,17 +14,17 @@ An object whose centre leaves the table is knocked off: it is removed from the s
 counted once.
 
 The state that matters is the poses (objects' velocities are zeroed every substep), so
-:meth:`GraspWorld.from_state` rebuilds a world from them; it continues like the live one up to
+`GraspWorld.from_state` rebuilds a world from them; it continues like the live one up to
 pymunk's contact cache (warm starting), i.e. to ~1e-5 m, which is what the supervisor's
 foresight needs. Exact copies come from replay: a world remembers its initial state and the
 commands it executed, and pickling stores those and replays them (fresh builds replay
 bit-identically), so an unpickled world continues exactly as the original.
 
 Controller (the source's "Jacobian transpose controller for the 3 main joints"): a commanded
-end-effector velocity ``v`` moves the joints by a few Jacobian-transpose steps ``Δq = α Jᵀ e``
-toward ``p + v dt``; the arm's redundant degree of freedom (the null space of ``J``) makes
-the gripper trail its motion like a caster (see :func:`arm_step`); joint speeds are scaled down
-to ``joint_speed`` and joint angles clipped to ``joint_limits``.
+end-effector velocity `v` moves the joints by a few Jacobian-transpose steps `Δq = α Jᵀ e`
+toward `p + v dt`; the arm's redundant degree of freedom (the null space of `J`) makes
+the gripper trail its motion like a caster (see `arm_step`); joint speeds are scaled down
+to `joint_speed` and joint angles clipped to `joint_limits`.
 
 This module imports neither gymnasium nor another task.
 """
@@ -138,7 +138,7 @@ class GraspConfig:
 
 
 def forward(cfg: GraspConfig, q) -> tuple[list[tuple[float, float]], float]:
-    """Joint points ``[base, elbow, wrist, palm, grasp centre]`` and the gripper heading."""
+    """Joint points `[base, elbow, wrist, palm, grasp centre]` and the gripper heading."""
     l1, l2, l3 = cfg.links
     t1 = q[0]
     t2 = t1 + q[1]
@@ -163,9 +163,9 @@ def jacobian(points: list[tuple[float, float]]) -> tuple[list[float], list[float
 def inverse(cfg: GraspConfig, x: float, y: float, heading: float, elbow: float = -1.0):
     """Joint angles putting the grasp centre at (x, y) with the given heading, or None.
 
-    ``elbow`` picks the elbow branch (the sign of q2). Joint limits are not checked. The
-    arithmetic is the compiled controller's (:func:`~fluids_bench.tasks.grasping.kernels.
-    inverse_kernel`), so planner and controller agree on every reachable pose."""
+    `elbow` picks the elbow branch (the sign of q2). Joint limits are not checked. The
+    arithmetic is the compiled controller's (`inverse_kernel` in
+    `fluids_bench.tasks.grasping.kernels`), so planner and controller agree on every reachable pose."""
     out = np.empty(3)
     if not inverse_kernel(cfg.kernel_params, float(x), float(y), float(heading), float(elbow), out):
         return None
@@ -181,20 +181,20 @@ def wrap(angle: float) -> float:
 
 
 def arm_step(cfg: GraspConfig, q, velocity) -> list[float]:
-    """Joint angles after one env step of commanded end-effector ``velocity`` (m/s).
+    """Joint angles after one env step of commanded end-effector `velocity` (m/s).
 
-    1. Jacobian transpose: ``JT_ITERATIONS`` steps ``Δq = α Jᵀ e`` toward the displaced end
-       effector ``p + v dt`` (``e`` the remaining error, ``α`` the optimal step along ``J Jᵀ e``;
+    1. Jacobian transpose: `JT_ITERATIONS` steps `Δq = α Jᵀ e` toward the displaced end
+       effector `p + v dt` (`e` the remaining error, `α` the optimal step along `J Jᵀ e`;
        a joint that reaches a limit drops out); this gives its new position.
-    2. The arm's one redundant degree of freedom (the null space of ``J``) sets the gripper's
+    2. The arm's one redundant degree of freedom (the null space of `J`) sets the gripper's
        heading, resolved exactly by inverse kinematics at that position: the gripper trails
        its motion like a caster, turning toward the direction of motion by the fraction
-       ``1 - exp(-distance / caster_length)`` of the error (at most ``turn_rate`` per second),
+       `1 - exp(-distance / caster_length)` of the error (at most `turn_rate` per second),
        and holds its heading when the motion points backwards (more than 120° off).
-    3. Joint speeds are scaled down to ``joint_speed``, then angles clipped to ``joint_limits``,
-       and the whole step scaled down if the end effector would move faster than ``max_speed``.
+    3. Joint speeds are scaled down to `joint_speed`, then angles clipped to `joint_limits`,
+       and the whole step scaled down if the end effector would move faster than `max_speed`.
 
-    Compiled (:mod:`fluids_bench.tasks.grasping.kernels`): it runs every step of the env and of
+    Compiled (`fluids_bench.tasks.grasping.kernels`): it runs every step of the env and of
     the supervisor's foresight.
     """
     out = arm_step_kernel(
@@ -243,12 +243,12 @@ def sample_scene(
     """Target around its nominal pose (isotropic Gaussian), five obstacles around the target.
 
     Obstacles are placed by rejection: a uniform bearing and a distance in
-    ``obstacle_radius`` from the target, no overlap (bounding circles), on the table by
-    ``edge_margin``. Everything is drawn from ``rng``.
+    `obstacle_radius` from the target, no overlap (bounding circles), on the table by
+    `edge_margin`. Everything is drawn from `rng`.
 
-    With ``layout_seed``, the obstacles and the target's rotation are a fixed layout drawn
+    With `layout_seed`, the obstacles and the target's rotation are a fixed layout drawn
     from that seed around the nominal pose, and only the target's position offset comes from
-    ``rng`` (redrawn while the target would overlap an obstacle): the source's protocol, which
+    `rng` (redrawn while the target would overlap an obstacle): the source's protocol, which
     resampled the target's pose in one scene.
     """
     std = cfg.target_std_frac * cfg.table_width
@@ -338,7 +338,7 @@ class StepEvents:
 
 @dataclass
 class GraspWorld:
-    """A pymunk space with the table's objects and the arm, built from a :class:`WorldState`."""
+    """A pymunk space with the table's objects and the arm, built from a `WorldState`."""
 
     cfg: GraspConfig
     state: WorldState
@@ -442,7 +442,7 @@ class GraspWorld:
     # -- queries -----------------------------------------------------------------------------
 
     def sync(self) -> None:
-        """Copy the objects' poses from the bodies into :attr:`state`."""
+        """Copy the objects' poses from the bodies into `state`."""
         poses = self.state.poses
         for i, body in enumerate(self.objects):
             if self.state.on_table[i]:

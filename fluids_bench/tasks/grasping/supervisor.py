@@ -1,24 +1,24 @@
 """The grasping supervisor: corridor choice with foresight, waypoints, and a proportional controller.
 
 Every label is a function of the world's current state alone (the poses, joint angles and
-gripper opening in :class:`~fluids_bench.tasks.grasping.sim.WorldState`), so the label for a
+gripper opening in `WorldState`), so the label for a
 state a learner drove to is what the supervisor would do from that state, whatever came before.
 Three levels, as the FLUIDS supervisor:
 
-- **behaviour** (:meth:`GraspSupervisor.corridor`): which approach corridor to the target.
+- **behaviour** (`GraspSupervisor.corridor`): which approach corridor to the target.
   Candidates are gripper headings fanned around the bearing from the arm's base to the target;
   each corridor is the strip the open jaws sweep from a lead-in point to the target. They are
   ranked by how deep obstacles reach into the strip (reachability checked by inverse
-  kinematics), then the best few are *simulated* (:func:`foresee`) on worlds rebuilt from the
+  kinematics), then the best few are *simulated* (`foresee`) on worlds rebuilt from the
   current objects with the arm at its rest pose (where episodes start) and the levels below in
   the loop, and the one with the lowest source cost (knocked off + 10 × not grasped, ties to
   less disturbance and fewer steps) is kept. The choice depends on the objects' poses and the
   arm's elbow branch only, so it is memoised under exactly those: a label between replans costs
   one waypoint evaluation, and a state whose objects moved gets a fresh choice;
-- **trajectory** (:func:`line_action`, :func:`corridor_action`): end-effector waypoints. On
+- **trajectory** (`line_action`, `corridor_action`): end-effector waypoints. On
   the line from the grasp centre to the target, needing no corridor: close (the target between
-  the fingers), advance (within :data:`COMMIT` of the target, the gripper pointing at it within
-  :data:`COMMIT_ANGLE`: straight at it, whichever corridor brought the gripper there), approach
+  the fingers), advance (within `COMMIT` of the target, the gripper pointing at it within
+  `COMMIT_ANGLE`: straight at it, whichever corridor brought the gripper there), approach
   (further out, pointing at it with no obstacle in the jaws' path: straight at it), retract
   (too close for any approach otherwise: back out). Along the chosen corridor: approach (on its
   line before the advance: along it, which turns the trailing gripper onto it), retract
@@ -26,7 +26,7 @@ Three levels, as the FLUIDS supervisor:
   if the straight path would cross it). Only the corridor's waypoints need the behaviour level,
   so a state whose objects the advance is pushing needs no replan;
 - **control**: the end-effector velocity toward the current waypoint, proportional to the
-  distance and capped (normalised by ``max_speed``, in [-1, 1]), and the grip command. In the
+  distance and capped (normalised by `max_speed`, in [-1, 1]), and the grip command. In the
   advance the speed falls continuously to zero at the target, so labels near it vary smoothly.
 """
 
@@ -68,10 +68,10 @@ PUSHED_AWAY = 0.04  # m: a foresight rollout that pushed the target this far has
 
 @dataclass(frozen=True)
 class Corridor:
-    """A behaviour: approach the target with the gripper heading ``heading`` (rad)."""
+    """A behaviour: approach the target with the gripper heading `heading` (rad)."""
 
     heading: float
-    intrusion: float  # how deep obstacles reach into the strip (see :func:`intrusion`)
+    intrusion: float  # how deep obstacles reach into the strip (see `intrusion`)
 
 
 @dataclass(frozen=True)
@@ -120,7 +120,7 @@ def elbow_branch(st: WorldState) -> float:
 
 def reachable(cfg: GraspConfig, x: float, y: float, heading: float, elbow: float) -> bool:
     """Inverse kinematics on the arm's elbow branch lands inside the joint limits, with
-    :data:`LIMIT_MARGIN` to spare (the gripper must still turn on the way)."""
+    `LIMIT_MARGIN` to spare (the gripper must still turn on the way)."""
     q = inverse(cfg, x, y, heading, elbow)
     return q is not None and all(
         lo + LIMIT_MARGIN <= a <= hi - LIMIT_MARGIN
@@ -148,7 +148,7 @@ def rank_corridors(cfg: GraspConfig, st: WorldState, fan_deg: tuple[float, ...])
 
 
 def _steer(px, py, wx, wy, speed: float, max_speed: float) -> tuple[float, float]:
-    """Proportional control toward (wx, wy), capped at ``speed``, as a normalised velocity."""
+    """Proportional control toward (wx, wy), capped at `speed`, as a normalised velocity."""
     vx, vy = GAIN * (wx - px), GAIN * (wy - py)
     norm = math.hypot(vx, vy)
     cap = speed * max_speed
@@ -173,15 +173,15 @@ def line_action(world: GraspWorld) -> tuple[np.ndarray, str] | None:
     """The waypoints that need no corridor, all on the line from the grasp centre to the
     target: the action if the state is in one of them, else None.
 
-    - close: the target's centre is between the fingers and at most :data:`CLOSE_ALONG` short
+    - close: the target's centre is between the fingers and at most `CLOSE_ALONG` short
       of the grasp centre (or the jaws have started closing on it);
-    - advance: within :data:`COMMIT` of the target, the gripper pointing at it within
-      :data:`COMMIT_ANGLE`: straight at the target at a speed proportional to the distance
-      (capped at :data:`ADVANCE_SPEED`; the trailing gripper turns onto the line on the way);
+    - advance: within `COMMIT` of the target, the gripper pointing at it within
+      `COMMIT_ANGLE`: straight at the target at a speed proportional to the distance
+      (capped at `ADVANCE_SPEED`; the trailing gripper turns onto the line on the way);
     - retract: closer than any corridor's approach and not pointing at the target: back out;
-    - approach: within :data:`APPROACH_REACH`, pointing at the target within
-      :data:`COMMIT_ANGLE`, and no obstacle's centre in the jaws' path along that line
-      (:func:`intrusion` < 1): straight at the target, the speed rising from the advance's at
+    - approach: within `APPROACH_REACH`, pointing at the target within
+      `COMMIT_ANGLE`, and no obstacle's centre in the jaws' path along that line
+      (`intrusion` < 1): straight at the target, the speed rising from the advance's at
       the hand-over (continuous there).
     """
     cfg, st = world.cfg, world.state
@@ -219,7 +219,7 @@ def line_action(world: GraspWorld) -> tuple[np.ndarray, str] | None:
 
 def corridor_action(world: GraspWorld, heading: float) -> tuple[np.ndarray, str]:
     """The trajectory and control levels: the action toward the current waypoint of the corridor
-    with gripper heading ``heading``, and the name of the waypoint phase (see the module's
+    with gripper heading `heading`, and the name of the waypoint phase (see the module's
     docstring). The phase is a function of the state."""
     near = line_action(world)
     if near is not None:
@@ -273,7 +273,7 @@ class Outcome:
 
 
 def rest_state(cfg: GraspConfig, st: WorldState) -> WorldState:
-    """``st`` with the arm at its rest pose (where every episode starts), on ``st``'s elbow
+    """`st` with the arm at its rest pose (where every episode starts), on `st`'s elbow
     branch, gripper open: the foresight's start, so that the corridor choice depends on the
     objects and the elbow branch only, never on where the arm happens to be."""
     hx, hy, hh = cfg.home
@@ -286,9 +286,9 @@ def rest_state(cfg: GraspConfig, st: WorldState) -> WorldState:
 
 class Rollout:
     """The corridor's trajectory and control levels rolled out from the arm's rest pose on a
-    world rebuilt from ``st``'s objects (:func:`rest_state`), until the target is grasped or
-    knocked off, or ``horizon`` steps; :meth:`run` can pause it once the target is pushed
-    :data:`PUSHED_AWAY` from where it lay, which no clean grasp does (in 59 clean foresight
+    world rebuilt from `st`'s objects (`rest_state`), until the target is grasped or
+    knocked off, or `horizon` steps; `run` can pause it once the target is pushed
+    `PUSHED_AWAY` from where it lay, which no clean grasp does (in 59 clean foresight
     grasps it moved at most 2.7 cm; every failed one moved it more than 5 cm)."""
 
     def __init__(self, cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> None:
@@ -323,7 +323,7 @@ class Rollout:
 
 
 def foresee(cfg: GraspConfig, st: WorldState, heading: float, horizon: int) -> Outcome:
-    """The outcome of the corridor's full :class:`Rollout`."""
+    """The outcome of the corridor's full `Rollout`."""
     rollout = Rollout(cfg, st, heading, horizon)
     rollout.run(pause_when_pushed=False)
     return rollout.outcome()
@@ -424,7 +424,7 @@ class GraspSupervisor:
 
     def decide(self, world: GraspWorld) -> tuple[np.ndarray, str]:
         """The label for the world's current state and the name of its waypoint phase;
-        :attr:`plan_` is the corridor it followed, or None when it needed none."""
+        `plan_` is the corridor it followed, or None when it needed none."""
         out = line_action(world)  # on the line to the target no corridor is needed
         if out is None:
             out = corridor_action(world, self.corridor(world.state).corridor.heading)

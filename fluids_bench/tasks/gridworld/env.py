@@ -100,8 +100,8 @@ class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     | `world_seed`       | int   | 0       | seed of the world's layout, >= 0                       |
     | `render_mode`      | str   | None    | None or "rgb_array"                                    |
 
-    Numbers may be Python or numpy scalars; a bad value raises ``ValueError`` naming it and what
-    is allowed, an unknown argument ``ValueError`` listing the allowed ones.
+    Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
+    is allowed, an unknown argument `ValueError` listing the allowed ones.
 
     ```python
     >>> import gymnasium as gym, fluids_bench

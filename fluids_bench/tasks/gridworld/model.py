@@ -1,7 +1,7 @@
 """The gridworld of the source's ch. 3 as plain data: world generation, the slip dynamics, their
 explicit transition table and a picture. No gymnasium here (the env is a thin adapter).
 
-States are flat cell indices ``s = x * size + y``; the robot's cell is ``(x, y)``.
+States are flat cell indices `s = x * size + y`; the robot's cell is `(x, y)`.
 """
 
 from __future__ import annotations
@@ -21,12 +21,13 @@ FREE, PENALTY, GOAL = 0, 1, 2
 COLOURS = np.array([(235, 235, 235), (200, 40, 40), (40, 170, 60)], dtype=np.uint8)
 ROBOT_COLOUR = np.array((40, 80, 220), dtype=np.uint8)
 CELL_PIXELS = 16
+ROBOT_MARGIN = 3  # pixels of the cell's colour around the robot
 
 
 @dataclass(frozen=True, eq=False)
 class GridWorld:
-    """One generated world: ``cells[x, y]`` in {FREE, PENALTY, GOAL}, the deterministic move
-    table ``next_state[s, a]``, the reward ``state_rewards[s]`` paid on entering ``s``, and the
+    """One generated world: `cells[x, y]` in {FREE, PENALTY, GOAL}, the deterministic move
+    table `next_state[s, a]`, the reward `state_rewards[s]` paid on entering `s`, and the
     cells an episode may start from."""
 
     size: int
@@ -46,8 +47,8 @@ class GridWorld:
         penalty_reward: float,
         world_seed: int,
     ) -> GridWorld:
-        """One goal, then ``penalty_fraction`` of the cells as penalties, drawn from
-        ``world_seed`` (arguments already validated by the caller)."""
+        """One goal, then `penalty_fraction` of the cells as penalties, drawn from
+        `world_seed` (arguments already validated by the caller)."""
         cells = generate_cells(size, penalty_fraction, np.random.default_rng(world_seed))
         flat = cells.reshape(-1)
         rewards = np.where(
@@ -63,7 +64,7 @@ class GridWorld:
         )
 
     def transition_matrix(self) -> sparse.csr_array:
-        """The explicit table ``P`` of the slip dynamics: row ``s * 5 + a`` is ``P(. | s, a)``.
+        """The explicit table `P` of the slip dynamics: row `s * 5 + a` is `P(. | s, a)`.
 
         Sparse (at most five reachable cells per row): a dense table of a 100 x 100 grid
         would take 4 GB.
@@ -88,7 +89,7 @@ class GridWorld:
         return int(rng.choice(self.start_states))
 
     def step(self, state: int, action: int, rng: np.random.Generator) -> tuple[int, float]:
-        """Execute ``action`` from ``state``; with probability ``slip_probability`` one of the
+        """Execute `action` from `state`; with probability `slip_probability` one of the
         other moves, uniformly, instead. Returns the next state and the reward paid there."""
         executed = action
         if rng.random() < self.slip_probability:
@@ -102,17 +103,21 @@ class GridWorld:
         return divmod(state, self.size)
 
     def draw(self, state: int) -> np.ndarray:
-        """RGB picture, ``CELL_PIXELS`` per cell, forward (y + 1) pointing up."""
-        image = COLOURS[self.cells].copy()
+        """RGB picture, `CELL_PIXELS` per cell, forward (y + 1) pointing up. The robot is a
+        square inset in its cell, so the cell's own colour (the goal's green, a penalty's red)
+        still shows around it."""
         x, y = self.cell(state)
-        image[x, y] = ROBOT_COLOUR
         # rows of the image are y from top to bottom, so forward (y + 1) points up
-        image = np.flipud(image.transpose(1, 0, 2))
-        return np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
+        image = np.flipud(COLOURS[self.cells].transpose(1, 0, 2))
+        image = np.repeat(np.repeat(image, CELL_PIXELS, axis=0), CELL_PIXELS, axis=1)
+        row, col = (self.size - 1 - y) * CELL_PIXELS, x * CELL_PIXELS
+        m = ROBOT_MARGIN
+        image[row + m : row + CELL_PIXELS - m, col + m : col + CELL_PIXELS - m] = ROBOT_COLOUR
+        return image
 
 
 def generate_cells(size: int, penalty_fraction: float, rng: np.random.Generator) -> np.ndarray:
-    """``cells[x, y]`` in {FREE, PENALTY, GOAL}: one goal, then penalties among the rest."""
+    """`cells[x, y]` in {FREE, PENALTY, GOAL}: one goal, then penalties among the rest."""
     n = size * size
     order = rng.permutation(n)
     cells = np.full(n, FREE, dtype=np.int64)
@@ -123,7 +128,7 @@ def generate_cells(size: int, penalty_fraction: float, rng: np.random.Generator)
 
 
 def next_state_table(size: int) -> np.ndarray:
-    """``next_state[s, a]``: the cell reached by executing move ``a`` exactly from ``s`` (a move
+    """`next_state[s, a]`: the cell reached by executing move `a` exactly from `s` (a move
     into the border stays)."""
     xs, ys = np.divmod(np.arange(size * size), size)
     nx = np.clip(xs[:, None] + MOVES[None, :, 0], 0, size - 1)

@@ -1,10 +1,10 @@
 """The gridworld supervisor: exact discounted value iteration on the explicit transition table.
 
-The observation of :class:`fluids_bench.tasks.gridworld.env.GridWorldEnv` is the cell ``(x, y)`` with no
+The observation of `fluids_bench.tasks.gridworld.env.GridWorldEnv` is the cell `(x, y)` with no
 clock, so a learner can only represent stationary policies. The supervisor is therefore the
 optimal *stationary* policy of the infinite-horizon discounted problem (ch. 3, "We use Value
 Iteration to compute an optimal supervisor"), iterated until the Bellman residual is below
-``tol``, rather than the time-dependent optimum of the 30-step finite horizon.
+`tol`, rather than the time-dependent optimum of the 30-step finite horizon.
 
 Ties between actions (exact symmetries of open ground) go to the lowest action index, so the
 labels are a deterministic function of the world.
@@ -24,7 +24,7 @@ TIE_TOLERANCE = 1e-9
 
 @dataclass(frozen=True)
 class ValueIterationResult:
-    """Optimal values ``V[s]``, action values ``Q[s, a]`` and the greedy policy ``policy[s]``."""
+    """Optimal values `V[s]`, action values `Q[s, a]` and the greedy policy `policy[s]`."""
 
     values: np.ndarray
     q_values: np.ndarray
@@ -39,16 +39,16 @@ def value_iteration(
     tol: float = 1e-10,
     max_iterations: int = 3_000,
 ) -> ValueIterationResult:
-    """Solve ``V(s) = max_a sum_s' P(s'|s,a) (r(s') + discount V(s'))``.
+    """Solve `V(s) = max_a sum_s' P(s'|s,a) (r(s') + discount V(s'))`.
 
-    ``transitions`` is the table ``P`` with one row per state–action pair: row ``s * A + a``
-    holds ``P(. | s, a)`` (a scipy sparse matrix or a dense array of shape ``(S * A, S)``).
-    ``rewards[s']`` is paid on entering ``s'``. Stops when the largest change of ``V`` in one
-    sweep is below ``tol``.
+    `transitions` is the table `P` with one row per state–action pair: row `s * A + a`
+    holds `P(. | s, a)` (a scipy sparse matrix or a dense array of shape `(S * A, S)`).
+    `rewards[s']` is paid on entering `s'`. Stops when the largest change of `V` in one
+    sweep is below `tol`.
 
-    Value iteration contracts by ``discount`` per sweep, so near 1 it needs ~``ln(tol) /
-    ln(discount)`` sweeps (25,000 at 0.999, 250,000 at 0.9999: minutes on a large grid). After
-    ``max_iterations`` sweeps it finishes with exact policy iteration started from the greedy
+    Value iteration contracts by `discount` per sweep, so near 1 it needs ~`ln(tol) /
+    ln(discount)` sweeps (25,000 at 0.999, 250,000 at 0.9999: minutes on a large grid). After
+    `max_iterations` sweeps it finishes with exact policy iteration started from the greedy
     policy so far (sparse linear solves; a handful of improvements), so every discount in
     (0, 1) is solved; a discount that converges within the sweeps gets exactly value iteration.
     """
@@ -84,9 +84,9 @@ def _policy_iteration(
     sweeps: int,
     max_improvements: int = 1_000,
 ) -> ValueIterationResult:
-    """Exact policy iteration from the greedy policy of ``values``: evaluate the policy by
-    solving ``(I - discount P_pi) V = P_pi r``, improve greedily (keeping an action within
-    ``TIE_TOLERANCE`` of the best, so ties cannot cycle), stop when the policy is stable."""
+    """Exact policy iteration from the greedy policy of `values`: evaluate the policy by
+    solving `(I - discount P_pi) V = P_pi r`, improve greedily (keeping an action within
+    `TIE_TOLERANCE` of the best, so ties cannot cycle), stop when the policy is stable."""
     n_states = len(rewards)
     table = sparse.csr_array(transitions)
     n_actions = table.shape[0] // n_states

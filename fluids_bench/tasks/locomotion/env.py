@@ -1,10 +1,10 @@
-"""Gymnasium's MuJoCo v5 locomotion envs with a supervisor: ``<Name>-IL-v0``.
+"""Gymnasium's MuJoCo v5 locomotion envs with a supervisor: `<Name>-IL-v0`.
 
-The physics, observations, rewards and terminations are Gymnasium's own ``<Name>-v5`` env,
-unchanged: each IL env holds one and forwards ``reset``/``step``/``render`` to it, and only adds
-the supervisor protocol (``supervisor_action()``, ``info["supervisor_action"]``) and a record
-of which supervisor labels (``metadata["supervisor"]``: kind, recipe, weights sha256).
-``reset(seed=s)`` gives exactly Gymnasium's initial state for seed ``s``.
+The physics, observations, rewards and terminations are Gymnasium's own `<Name>-v5` env,
+unchanged: each IL env holds one and forwards `reset`/`step`/`render` to it, and only adds
+the supervisor protocol (`supervisor_action()`, `info["supervisor_action"]`) and a record
+of which supervisor labels (`metadata["supervisor"]`: kind, recipe, weights sha256).
+`reset(seed=s)` gives exactly Gymnasium's initial state for seed `s`.
 """
 
 from __future__ import annotations
@@ -77,9 +77,9 @@ _KNOWN_MUJOCO_WARNINGS = ("compiler attribute 'settotalmass' is deprecated",)
 
 @contextlib.contextmanager
 def _mujoco_warnings_to_python():
-    """While building a model, route MuJoCo's warnings to Python's ``warnings``: its default
-    handler prints them and appends them to ``MUJOCO_LOG.TXT`` in the working directory, which
-    every HalfCheetah build did (``settotalmass``). Known harmless ones are dropped."""
+    """While building a model, route MuJoCo's warnings to Python's `warnings`: its default
+    handler prints them and appends them to `MUJOCO_LOG.TXT` in the working directory, which
+    every HalfCheetah build did (`settotalmass`). Known harmless ones are dropped."""
 
     def handler(message: str) -> None:
         if not message.startswith(_KNOWN_MUJOCO_WARNINGS):
@@ -105,8 +105,8 @@ def perturb_model(
     gravity: float = GRAVITY,
 ) -> None:
     """Change a compiled model in place (a sensitivity sweep's factors): every body's mass and
-    inertia × ``body_mass_scale``, every geom's sliding friction × ``friction_scale``, every
-    actuator's gear × ``actuator_gain_scale``, gravity ``-gravity`` along z. The defaults leave
+    inertia × `body_mass_scale`, every geom's sliding friction × `friction_scale`, every
+    actuator's gear × `actuator_gain_scale`, gravity `-gravity` along z. The defaults leave
     the model untouched."""
     if body_mass_scale != 1.0:
         model.body_mass[:] *= body_mass_scale
@@ -120,7 +120,7 @@ def perturb_model(
 
 
 class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
-    """Base class of the four ids; subclasses set ``task`` and carry the env card."""
+    """Base class of the four ids; subclasses set `task` and carry the env card."""
 
     task: str = ""
     metadata = {"render_modes": ["rgb_array"], "render_fps": 0}

@@ -1,13 +1,13 @@
-"""Predictive-sampling MPC on MuJoCo's own model, through ``mujoco.rollout``.
+"""Predictive-sampling MPC on MuJoCo's own model, through `mujoco.rollout`.
 
-The planner clones the env's full physics state (``mjSTATE_FULLPHYSICS`` plus
-``qacc_warmstart``), so its rollouts reproduce ``env.step`` bit for bit: a plan's predicted
+The planner clones the env's full physics state (`mjSTATE_FULLPHYSICS` plus
+`qacc_warmstart`), so its rollouts reproduce `env.step` bit for bit: a plan's predicted
 return is the return the env would pay. Each label is planned from scratch ("cold"): the
-nominal plan starts at zero and ``iterations`` rounds of predictive sampling refine it, each
-round drawing ``samples - 1`` Gaussian perturbations of the nominal (plus the nominal itself)
-and keeping the best; round ``i`` scales the noise by ``sigma_decay**i``. With ``knots`` = K > 0
+nominal plan starts at zero and `iterations` rounds of predictive sampling refine it, each
+round drawing `samples - 1` Gaussian perturbations of the nominal (plus the nominal itself)
+and keeping the best; round `i` scales the noise by `sigma_decay**i`. With `knots` = K > 0
 the perturbations are drawn at K knots and interpolated linearly over the horizon (a smaller
-search space: what a cold start needs). The draws come from a generator seeded by ``seed`` and a CRC of the state
+search space: what a cold start needs). The draws come from a generator seeded by `seed` and a CRC of the state
 bytes, so the label is a pure function of the physics state: asking twice, or from the same
 state reached another way, gives the same action.
 
@@ -15,15 +15,15 @@ The objective is the env's own reward over the horizon (forward progress, contro
 healthy bonus with termination masking), plus planner-only shaping terms that are part of the
 supervisor's definition and never change the env's reward:
 
-* ``upright_weight``: HalfCheetah: ``w * max(|pitch| - 0.5, 0)^2`` per step, which stops the
+* `upright_weight`: HalfCheetah: `w * max(|pitch| - 0.5, 0)^2` per step, which stops the
   planner from running on its back (the pure-reward optimum flips the cheetah over);
-  Hopper/Walker2d: ``w * ((z - z0)^2 + pitch^2)``; Humanoid: ``w * (z - z0)^2``.
-* ``velocity_cap``: forward speed above this earns nothing (Humanoid: falls come from
+  Hopper/Walker2d: `w * ((z - z0)^2 + pitch^2)`; Humanoid: `w * (z - z0)^2`.
+* `velocity_cap`: forward speed above this earns nothing (Humanoid: falls come from
   sprinting);
-* ``termination_penalty``: a one-off cost when the horizon's state leaves the healthy set, and
+* `termination_penalty`: a one-off cost when the horizon's state leaves the healthy set, and
   the shaping costs keep accruing after it, so dying early is never the cheap option.
 
-With a ``prior`` (a policy mapping the physics state to an action), the first nominal is the
+With a `prior` (a policy mapping the physics state to an action), the first nominal is the
 prior's own closed-loop plan from the current state (simulated on a scratch copy), so the search
 refines a plan that already walks instead of starting from standing still; a pure function of
 the state too.
@@ -57,7 +57,7 @@ _STAND_Z = {"Hopper": 1.25, "Walker2d": 1.25, "HalfCheetah": 0.0, "Humanoid": 1.
 
 @dataclass(frozen=True, kw_only=True)
 class MPCConfig:
-    """Settings of :class:`SamplingMPC` (``horizon`` in env steps; ``sigma`` in half action ranges)."""
+    """Settings of `SamplingMPC` (`horizon` in env steps; `sigma` in half action ranges)."""
 
     task: str
     samples: int = 128
@@ -98,7 +98,7 @@ def planning_model(task: str, model: mujoco.MjModel, xml_path: str) -> mujoco.Mj
     """The model the planner rolls out: the env's own, plus (Humanoid) a centre-of-mass sensor.
 
     Humanoid's reward is the velocity of the mass centre, which is not part of the state; a
-    ``subtreecom`` sensor on the root body reads it. Sensors do not change the dynamics.
+    `subtreecom` sensor on the root body reads it. Sensors do not change the dynamics.
     """
     if task != "Humanoid":
         return model
@@ -113,7 +113,7 @@ def planning_model(task: str, model: mujoco.MjModel, xml_path: str) -> mujoco.Mj
 
 
 class SamplingMPC:
-    """Cold-started predictive sampling; ``act(data)`` is a pure function of ``data``'s state."""
+    """Cold-started predictive sampling; `act(data)` is a pure function of `data`'s state."""
 
     def __init__(
         self,
@@ -211,7 +211,7 @@ class SamplingMPC:
         return ok.astype(float)
 
     def act(self, data: mujoco.MjData) -> np.ndarray:
-        """The planned first action from ``data``'s physics state (pure function of the state)."""
+        """The planned first action from `data`'s physics state (pure function of the state)."""
         cfg = self.config
         x0 = np.empty(self.nstate)
         mujoco.mj_getState(self.model, data, x0, mujoco.mjtState.mjSTATE_FULLPHYSICS)
@@ -242,8 +242,8 @@ class SamplingMPC:
         return nominal[0].copy()
 
     def _prior_plan(self, data: mujoco.MjData, x0: np.ndarray, warm: np.ndarray) -> np.ndarray:
-        """The prior policy's closed-loop actions over the horizon, simulated from ``data``'s
-        state ``x0`` (the first read from ``data`` itself: Humanoid's observation holds
+        """The prior policy's closed-loop actions over the horizon, simulated from `data`'s
+        state `x0` (the first read from `data` itself: Humanoid's observation holds
         quantities the state alone does not set until the next step)."""
         m = self.model
         if self._scratch is None:

@@ -1,16 +1,16 @@
-"""A small feed-forward policy evaluated in numpy, loaded from a hash-checked ``.npz`` file.
+"""A small feed-forward policy evaluated in numpy, loaded from a hash-checked `.npz` file.
 
 The locomotion supervisors that are trained policies ship as weight files inside the package.
 No deep-learning framework is needed at run time: the forward pass is a few matrix products.
 
-File format (``numpy.savez``): ``obs_mean`` and ``obs_std`` (the observation normaliser the
-policy was trained with), then ``W0, b0, W1, b1, ...`` (layer ``i`` maps its input ``x`` to
-``W_i @ x + b_i``; hidden layers use tanh). The output layer is squashed by tanh and scaled to the
+File format (`numpy.savez`): `obs_mean` and `obs_std` (the observation normaliser the
+policy was trained with), then `W0, b0, W1, b1, ...` (layer `i` maps its input `x` to
+`W_i @ x + b_i`; hidden layers use tanh). The output layer is squashed by tanh and scaled to the
 action bounds, so the policy is never a linear function of the observation.
 
-Two evaluations of the same network: ``policy(obs)`` is the float64 numpy forward pass the
+Two evaluations of the same network: `policy(obs)` is the float64 numpy forward pass the
 training script rolls out (so a recorded training run reproduces the shipped file bit for bit),
-batched over leading axes; ``policy.act32(obs)`` is the supervisor's label, one observation at
+batched over leading axes; `policy.act32(obs)` is the supervisor's label, one observation at
 a time, a compiled loop (numba, no fused multiply-add) with the result rounded to float32, the
 envs' action dtype. The two differ only in float64 rounding (numpy's matrix product sums in
 BLAS's order): after rounding to float32 they agree on essentially every state (tested), and
@@ -36,7 +36,7 @@ def sha256_of(path: str | Path) -> str:
 
 
 class MLPPolicy:
-    """``a = low + (tanh(f(x)) + 1) / 2 * (high - low)``, ``f`` an MLP on the normalised observation."""
+    """`a = low + (tanh(f(x)) + 1) / 2 * (high - low)`, `f` an MLP on the normalised observation."""
 
     def __init__(
         self,
@@ -84,8 +84,8 @@ class MLPPolicy:
             )
 
     def _check_values(self) -> None:
-        """Shapes of the normaliser and the bounds, finite numbers everywhere, ``obs_std > 0``
-        (it divides) and ``action_low < action_high``: a ValueError naming the array."""
+        """Shapes of the normaliser and the bounds, finite numbers everywhere, `obs_std > 0`
+        (it divides) and `action_low < action_high`: a ValueError naming the array."""
         if self.obs_mean.ndim != 1 or self.obs_std.shape != self.obs_mean.shape:
             raise ValueError(
                 f"MLPPolicy: obs_mean {self.obs_mean.shape}, obs_std {self.obs_std.shape}; "
@@ -132,7 +132,7 @@ class MLPPolicy:
         return x @ self._w_out.T + self._b_out
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        """The deterministic action for ``obs`` (shape ``(obs_dim,)`` or ``(n, obs_dim)``)."""
+        """The deterministic action for `obs` (shape `(obs_dim,)` or `(n, obs_dim)`)."""
         # the arithmetic (and so every bit of the result) is the training script's
         return self.action_low + (np.tanh(self.preactivation(obs)) + 1.0) * 0.5 * self._range
 
@@ -141,7 +141,7 @@ class MLPPolicy:
         return _forward32(obs, self._flat, self._sizes)
 
     def to_bytes(self) -> bytes:
-        """The ``.npz`` bytes of this policy (the shipped file format)."""
+        """The `.npz` bytes of this policy (the shipped file format)."""
         arrays = {"obs_mean": self.obs_mean, "obs_std": self.obs_std}
         arrays["action_low"] = self.action_low
         arrays["action_high"] = self.action_high
@@ -154,7 +154,7 @@ class MLPPolicy:
 
     @classmethod
     def from_bytes(cls, data: bytes) -> MLPPolicy:
-        """The policy of ``.npz`` bytes; a ValueError if they are not a complete, sane file."""
+        """The policy of `.npz` bytes; a ValueError if they are not a complete, sane file."""
         try:
             z = np.load(io.BytesIO(data), allow_pickle=False)
         except (zipfile.BadZipFile, ValueError, OSError, EOFError) as e:
@@ -203,7 +203,7 @@ class MLPPolicy:
 
     @classmethod
     def load(cls, path: str | Path, sha256: str) -> MLPPolicy:
-        """Load ``path`` after checking its bytes hash to ``sha256`` (a ValueError if not)."""
+        """Load `path` after checking its bytes hash to `sha256` (a ValueError if not)."""
         data = Path(path).read_bytes()
         actual = hashlib.sha256(data).hexdigest()
         if actual != sha256:
@@ -219,8 +219,8 @@ class MLPPolicy:
 
 @njit(cache=True)
 def _forward32(obs, flat, sizes):  # pragma: no cover (compiled)
-    """:meth:`MLPPolicy.__call__`'s arithmetic for one observation, in plain loops; the result
-    rounded to float32. ``flat``/``sizes``: see ``MLPPolicy.__init__``."""
+    """`MLPPolicy.__call__`'s arithmetic for one observation, in plain loops; the result
+    rounded to float32. `flat`/`sizes`: see `MLPPolicy.__init__`."""
     d0 = sizes[0]
     x = np.empty(d0)
     for i in range(d0):

@@ -2,14 +2,14 @@
 
 Every supervisor maps the env's physics state to an action, deterministically:
 
-* ``"policy"``: the task's shipped network (:mod:`.policy`; weights in ``weights/``, each
-  file's sha256 recorded in ``weights/manifest.json`` and checked when loaded), evaluated on
+* `"policy"`: the task's shipped network (`.policy`; weights in `weights/`, each
+  file's sha256 recorded in `weights/manifest.json` and checked when loaded), evaluated on
   Gymnasium's observation of the state; microseconds per label.
-* ``"mpc"``: cold-started predictive sampling on the exact model (:mod:`.mpc`); tens of ms
+* `"mpc"`: cold-started predictive sampling on the exact model (`.mpc`); tens of ms
   (HalfCheetah) to seconds (Humanoid) per label.
-* ``"guided_mpc"``: the same search, started from the shipped policy's own plan.
+* `"guided_mpc"`: the same search, started from the shipped policy's own plan.
 
-``describe()`` is what the env records in ``metadata["supervisor"]`` and datasets store.
+`describe()` is what the env records in `metadata["supervisor"]` and datasets store.
 """
 
 from __future__ import annotations
@@ -58,7 +58,7 @@ MPC_SETTINGS: dict[str, dict[str, Any]] = {
 
 @cache
 def manifest() -> dict[str, dict[str, Any]]:
-    """``task -> {"file", "sha256", "recipe", ...}`` for every shipped weight file."""
+    """`task -> {"file", "sha256", "recipe", ...}` for every shipped weight file."""
     path = WEIGHTS_DIR / "manifest.json"
     return json.loads(path.read_text()) if path.exists() else {}
 
@@ -66,7 +66,7 @@ def manifest() -> dict[str, dict[str, Any]]:
 def load_policy(
     task: str, weights: str | None = None, sha256: str | None = None
 ) -> tuple[MLPPolicy, dict]:
-    """The task's shipped policy (or ``weights`` checked against ``sha256``) and its record."""
+    """The task's shipped policy (or `weights` checked against `sha256`) and its record."""
     if weights is None:
         entries = manifest()
         if task not in entries:
@@ -87,8 +87,8 @@ def load_policy(
 
 
 def observation(env, data) -> np.ndarray:
-    """Gymnasium's own observation of ``env`` (its ``_get_obs``), read from ``data`` (an
-    ``MjData`` of the same layout, stepped as the env steps) instead of the env's."""
+    """Gymnasium's own observation of `env` (its `_get_obs`), read from `data` (an
+    `MjData` of the same layout, stepped as the env steps) instead of the env's."""
     own = env.data
     env.data = data
     try:
@@ -105,7 +105,7 @@ class PolicySupervisor:
         self._act32 = policy.act32  # bound once: a label is asked for every env step
 
     def label(self, env, obs: np.ndarray | None = None) -> np.ndarray:
-        """``obs``: the env's observation of the current state, when the caller has it."""
+        """`obs`: the env's observation of the current state, when the caller has it."""
         return self._act32(env._get_obs() if obs is None else obs)
 
     def describe(self) -> dict[str, Any]:
@@ -159,7 +159,7 @@ def make_supervisor(
     weights_sha256: str | None = None,
     mpc: dict | None = None,
 ):
-    """Build the ``kind`` supervisor for ``env`` (a Gymnasium MuJoCo env of ``task``)."""
+    """Build the `kind` supervisor for `env` (a Gymnasium MuJoCo env of `task`)."""
     if kind == "mpc":
         return MPCSupervisor(task, env, mpc)
     policy, record = load_policy(task, weights, weights_sha256)

@@ -45,7 +45,7 @@ MAX_OVERLAP = 0.05
 
 
 def _check_reset_state(c: SceneConfig, state: Any) -> tuple[float, float, np.ndarray]:
-    """``options["state"]`` as (theta, r, poses), or a ValueError saying what is wrong: the arm
+    """`options["state"]` as (theta, r, poses), or a ValueError saying what is wrong: the arm
     within its joint limits, every object's centre on the table, no two objects overlapping."""
     name = "options['state']"
     values = np.asarray(state) if not isinstance(state, str) else np.asarray([])

@@ -4,13 +4,13 @@ The source's participants teleoperated five demonstrations, then labelled the sa
 retroactively; the Pearson correlation between their retroactive and teleoperated controls was
 0.60 in rotation and 0.22 in translation. The model: a retroactive label is the teleoperated
 (supervisor's) label shrunk towards its mean plus independent Gaussian noise of the matching
-variance, per action dimension ``j``,
+variance, per action dimension `j`,
 
     y'_j = mu_j + rho_j (y_j - mu_j) + sqrt(1 - rho_j^2) sigma_j eps_j,   eps_j ~ N(0, 1),
 
-then clipped to the action bounds (the labelling interface is bounded), where ``mu_j`` and
-``sigma_j`` are the mean and standard deviation of the teleoperated labels. Without clipping
-``corr(y', y) = rho_j`` exactly in expectation; :func:`calibrate` picks the model's ``rho_j`` so
+then clipped to the action bounds (the labelling interface is bounded), where `mu_j` and
+`sigma_j` are the mean and standard deviation of the teleoperated labels. Without clipping
+`corr(y', y) = rho_j` exactly in expectation; `calibrate` picks the model's `rho_j` so
 that the correlation measured after clipping, on the reference labels, is the target.
 Teleoperated demonstrations keep their labels (a demonstration's labels are what was executed).
 """
@@ -27,7 +27,7 @@ SOURCE_CORRELATIONS = (0.60, 0.22)
 
 @dataclass(frozen=True)
 class RetroactiveLabelModel:
-    """Per-dimension shrinkage ``rho``, label mean ``mu`` and spread ``sigma``, bounds [lo, hi]."""
+    """Per-dimension shrinkage `rho`, label mean `mu` and spread `sigma`, bounds [lo, hi]."""
 
     rho: np.ndarray
     mu: np.ndarray
@@ -36,7 +36,7 @@ class RetroactiveLabelModel:
     high: float = 1.0
 
     def corrupt(self, labels: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-        """Retroactive versions of ``labels`` (n, d); draws n × d normals from ``rng``."""
+        """Retroactive versions of `labels` (n, d); draws n × d normals from `rng`."""
         y = np.asarray(labels, dtype=np.float64)
         eps = rng.standard_normal(y.shape)
         return self._apply(y, eps).astype(np.asarray(labels).dtype)
@@ -65,8 +65,8 @@ def calibrate(
     low: float = -1.0,
     high: float = 1.0,
 ) -> RetroactiveLabelModel:
-    """The model whose clipped retroactive labels of ``reference`` (teleoperated labels, (n, d))
-    correlate with them at ``targets`` (bisection per dimension on common random numbers)."""
+    """The model whose clipped retroactive labels of `reference` (teleoperated labels, (n, d))
+    correlate with them at `targets` (bisection per dimension on common random numbers)."""
     y = np.asarray(reference, dtype=np.float64)
     targets_arr = np.asarray(targets, dtype=np.float64)
     if y.ndim != 2 or y.shape[1] != len(targets_arr):

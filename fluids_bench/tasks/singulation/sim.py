@@ -1,16 +1,16 @@
 """The singulation world (source ch. 5): a planar arm pushing four polygons on a table (pymunk 7).
 
 Units are SI: metres, radians, seconds. The arm's base is the origin, at the table's near edge;
-the table extends towards +y. The arm has two joints, base rotation ``theta`` (from +x,
-counter-clockwise; 90° points straight across the table) and extension ``r`` (base to
+the table extends towards +y. The arm has two joints, base rotation `theta` (from +x,
+counter-clockwise; 90° points straight across the table) and extension `r` (base to
 fingertip). Only the fingertip touches the table: the link passes over the objects, as on the
 source's robot. The fingertip is a kinematic circle driven by velocity so that the commanded
-joint pose is reached at the end of every step (``SUBSTEPS`` physics substeps, the fingertip
+joint pose is reached at the end of every step (`SUBSTEPS` physics substeps, the fingertip
 moving along the commanded joint-space segment).
 
 No gravity and a space damping of 0 make pushing quasi-static: an object moves only while
 something pushes it. The four objects are fixed convex polygons of about 10 cm (the source's
-four MDF polygons of 4" diameter) with uniform density; ``SceneConfig.object_size_scale``
+four MDF polygons of 4" diameter) with uniform density; `SceneConfig.object_size_scale`
 scales them (a sensitivity sweep's factor).
 
 This module imports neither gymnasium nor another task.
@@ -80,8 +80,8 @@ OBJECT_SIZE_SCALES = (0.5, 1.5)  # the range of SceneConfig.object_size_scale
 
 @functools.lru_cache(maxsize=32)
 def object_shapes(scale: float = 1.0) -> tuple[np.ndarray, ...]:
-    """The four objects' vertices (m) with every length multiplied by ``scale``; at 1.0 the
-    very arrays of :data:`OBJECT_SHAPES` (the nominal world, bit for bit)."""
+    """The four objects' vertices (m) with every length multiplied by `scale`; at 1.0 the
+    very arrays of `OBJECT_SHAPES` (the nominal world, bit for bit)."""
     if scale == 1.0:
         return OBJECT_SHAPES
     shapes = tuple(shape * scale for shape in OBJECT_SHAPES)
@@ -94,9 +94,9 @@ def object_shapes(scale: float = 1.0) -> tuple[np.ndarray, ...]:
 class SceneConfig:
     """Table, arm limits and the initial-state distribution.
 
-    The cluster's translation is ``N(cluster_mean, cluster_std² I)`` (clipped to
-    ``cluster_clip`` standard deviations so the cluster stays reachable), its rotation uniform
-    in ``[-cluster_rotation, cluster_rotation]``; each object's own orientation is uniform and
+    The cluster's translation is `N(cluster_mean, cluster_std² I)` (clipped to
+    `cluster_clip` standard deviations so the cluster stays reachable), its rotation uniform
+    in `[-cluster_rotation, cluster_rotation]`; each object's own orientation is uniform and
     the objects are packed touching in a random order from random directions.
     """
 
@@ -141,7 +141,7 @@ class SceneConfig:
 
     @property
     def singulation_distance(self) -> float:
-        """Centre distance (m) that counts as singulated: 10 cm × ``object_size_scale``."""
+        """Centre distance (m) that counts as singulated: 10 cm × `object_size_scale`."""
         return SINGULATION_DISTANCE * self.object_size_scale
 
 
@@ -164,7 +164,7 @@ def progress(centres: np.ndarray) -> float:
 
 
 def _progress4(x: list[float], y: list[float]) -> float:
-    """:func:`progress` of four centres, from the six pair distances (the same numbers as the
+    """`progress` of four centres, from the six pair distances (the same numbers as the
     all-pairs matrix, a quarter of the cost)."""
     d = np.hypot(
         [x[0] - x[1], x[0] - x[2], x[0] - x[3], x[1] - x[2], x[1] - x[3], x[2] - x[3]],
@@ -177,19 +177,19 @@ def _progress4(x: list[float], y: list[float]) -> float:
 
 
 def is_singulated(centres: np.ndarray, distance: float = SINGULATION_DISTANCE) -> bool:
-    """Some object's centre is at least ``distance`` (10 cm) from every other object's centre."""
+    """Some object's centre is at least `distance` (10 cm) from every other object's centre."""
     return progress(centres) >= distance - SUCCESS_TOLERANCE
 
 
 def object_polygon(index: int, x: float, y: float, angle: float, scale: float = 1.0) -> np.ndarray:
-    """World vertices (k, 2) of object ``index`` (its size × ``scale``) at pose (x, y, angle)."""
+    """World vertices (k, 2) of object `index` (its size × `scale`) at pose (x, y, angle)."""
     c, s = math.cos(angle), math.sin(angle)
     v = object_shapes(scale)[index]
     return np.column_stack((x + c * v[:, 0] - s * v[:, 1], y + s * v[:, 0] + c * v[:, 1]))
 
 
 def sample_cluster(config: SceneConfig, rng: np.random.Generator) -> np.ndarray:
-    """Object poses (4, 3) ``[x, y, angle]``: packed touching, never already singulated."""
+    """Object poses (4, 3) `[x, y, angle]`: packed touching, never already singulated."""
     while True:
         poses = _pack(rng, config.object_size_scale)
         if is_singulated(poses[:, :2], config.singulation_distance):
@@ -213,9 +213,9 @@ def sample_cluster(config: SceneConfig, rng: np.random.Generator) -> np.ndarray:
 
 
 def _pack(rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
-    """Place the objects (their size × ``scale``) one at a time, in a random order, each slid in
+    """Place the objects (their size × `scale`) one at a time, in a random order, each slid in
     from a random direction towards the centroid of those already placed until it touches them
-    (gap ``TOUCH_GAP``)."""
+    (gap `TOUCH_GAP`)."""
     order = rng.permutation(NUM_OBJECTS)
     angles = rng.uniform(-math.pi, math.pi, NUM_OBJECTS)
     poses = np.zeros((NUM_OBJECTS, 3))
@@ -251,9 +251,9 @@ def _pack(rng: np.random.Generator, scale: float = 1.0) -> np.ndarray:
 
 
 class _Slide:
-    """Object ``index`` (at ``angle``, its size × ``scale``) slid along the line ``centre + t u``
-    towards ``union``: its gap to the union at several ``t`` in one vectorised shapely call (the
-    same vertices, bit for bit, as :func:`object_polygon` at each point)."""
+    """Object `index` (at `angle`, its size × `scale`) slid along the line `centre + t u`
+    towards `union`: its gap to the union at several `t` in one vectorised shapely call (the
+    same vertices, bit for bit, as `object_polygon` at each point)."""
 
     def __init__(self, index, angle, centre, u, union, scale: float = 1.0) -> None:
         c, s = math.cos(angle), math.sin(angle)
@@ -272,8 +272,8 @@ class _Slide:
         return shapely.distance(shapely.polygons(coords), self.union)
 
     def bisect(self, lo: float, hi: float, halvings: int, per_call: int = 4) -> float:
-        """``hi`` after ``halvings`` of ``mid = (lo + hi) / 2; hi = mid if gap(mid) > 0 else
-        lo = mid``, evaluating ``per_call`` levels of the decision tree per shapely call (the
+        """`hi` after `halvings` of `mid = (lo + hi) / 2; hi = mid if gap(mid) > 0 else
+        lo = mid`, evaluating `per_call` levels of the decision tree per shapely call (the
         same mids, so the same answer, in a third of the calls)."""
         while halvings > 0:
             k = min(per_call, halvings)
@@ -298,8 +298,8 @@ class _Slide:
         return hi
 
     def back_off(self, t: float, step: float, gap: float) -> float:
-        """``t`` increased by ``step`` until the gap is at least ``gap`` (as ``while gap(t) <
-        gap: t += step``), several ``t`` per call."""
+        """`t` increased by `step` until the gap is at least `gap` (as `while gap(t) <
+        gap: t += step`), several `t` per call."""
         while True:
             ts = [t]
             while len(ts) < 8:
@@ -310,8 +310,8 @@ class _Slide:
             t = ts[-1] + step
 
     def march(self, t: float, step: float) -> float:
-        """``t`` decreased by ``step`` until the object touches the union or ``t`` is not
-        positive (as ``while t > 0 and gap(t) > 0: t -= step``), several ``t`` per call."""
+        """`t` decreased by `step` until the object touches the union or `t` is not
+        positive (as `while t > 0 and gap(t) > 0: t -= step`), several `t` per call."""
         size = 8  # usually enough (contact after ~6 steps); then 16 at a time
         while True:
             ts = [t]
@@ -336,9 +336,9 @@ class SingulationWorld:
     bit-identically. The joint pose is kept as numbers (the commanded pose, reached at the end
     of every step); the fingertip body follows it.
 
-    Pickling (and so ``copy.deepcopy``) stores the numbers the world was built from and the
+    Pickling (and so `copy.deepcopy`) stores the numbers the world was built from and the
     joint commands stepped since, and rebuilds it by replaying them: the copy continues
-    bit-identically. (pymunk's own ``Space.copy`` does not: the contact cache the solver warm
+    bit-identically. (pymunk's own `Space.copy` does not: the contact cache the solver warm
     starts from is not restored, and a copy drifts by ~1e-5 m within 30 steps.)
     """
 

@@ -1,17 +1,17 @@
 """The singulation supervisor: behaviour, trajectory and control levels (as FLUIDS' stack).
 
-* **Behaviour** (:meth:`SingulationSupervisor._replan`): which object to push and in which
-  direction. Candidates are every object × ``DIRECTIONS`` world directions; each gets a
+* **Behaviour** (`SingulationSupervisor._replan`): which object to push and in which
+  direction. Candidates are every object × `DIRECTIONS` world directions; each gets a
   pre-push point behind the object (the first point, backing off along the push line, where
   the fingertip clears every object). Candidates whose pre-push point is out of reach or has
   no collision-free approach are dropped; the rest are simulated (foresight) on a world
   rebuilt from the current state, the fingertip placed at the pre-push point and pushing along
   the line. The pick: the fewest total steps among those that singulate with a margin, else
   the largest progress reached.
-* **Trajectory** (:func:`route`): joint-space waypoints from the fingertip to the pre-push
+* **Trajectory** (`route`): joint-space waypoints from the fingertip to the pre-push
   point, the shortest collision-free of direct / retract–rotate–extend /
   extend–rotate–retract; then the push line.
-* **Control** (:func:`joint_action`, :func:`line_action`): the per-step joint change toward the
+* **Control** (`joint_action`, `line_action`): the per-step joint change toward the
   current waypoint (or along the push line), scaled into the per-step limits.
 
 Labels are cheap between replans: the chosen push is cached with the object poses it was
@@ -71,7 +71,7 @@ _NEXT = np.roll(np.arange(_K), -1)
 
 @functools.lru_cache(maxsize=32)
 def _padded_shapes(scale: float) -> np.ndarray:
-    """The objects' vertices (size × ``scale``) padded to ``_K`` each (read-only)."""
+    """The objects' vertices (size × `scale`) padded to `_K` each (read-only)."""
     out = np.array([[*s, *[s[-1]] * (_K - len(s))] for s in object_shapes(scale)])
     out.setflags(write=False)
     return out
@@ -79,8 +79,8 @@ def _padded_shapes(scale: float) -> np.ndarray:
 
 def polygons(poses: np.ndarray, scale: float = 1.0) -> np.ndarray:
     """World vertices padded to a common count (n, k, 2) (padding repeats the last vertex):
-    :func:`~fluids_bench.tasks.singulation.sim.object_polygon` of every object (their size ×
-    ``scale``), in one go."""
+    `object_polygon` of every object (their size ×
+    `scale`), in one go."""
     if len(poses) != NUM_OBJECTS:
         raise ValueError(f"polygons: poses has {len(poses)} rows; allowed: {NUM_OBJECTS}")
     # math.cos / math.sin as object_polygon (numpy's may differ in the last bit)
@@ -109,7 +109,7 @@ def edge_planes(verts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 def blocked(
     points: np.ndarray, planes: tuple[np.ndarray, np.ndarray], clearance: float
 ) -> np.ndarray:
-    """Per point (m, 2): within ``clearance`` of any polygon (the polygon grown by moving every
+    """Per point (m, 2): within `clearance` of any polygon (the polygon grown by moving every
     edge outwards, a slight over-estimate at corners: conservative)."""
     normals, offsets = planes
     n, k = offsets.shape
@@ -128,7 +128,7 @@ def radial_extent(verts: np.ndarray) -> tuple[float, float]:
 
 @functools.lru_cache(maxsize=512)
 def _fractions(n: int) -> np.ndarray:
-    """``np.linspace(0, 1, n)``, made once per ``n`` (read-only)."""
+    """`np.linspace(0, 1, n)`, made once per `n` (read-only)."""
     f = np.linspace(0.0, 1.0, n)
     f.setflags(write=False)
     return f
@@ -156,10 +156,10 @@ def route(
     planes: tuple[np.ndarray, np.ndarray],
     cache: dict | None = None,
 ) -> tuple[list[tuple[float, float]], float] | None:
-    """The shortest collision-free joint-space route start -> goal (waypoints after ``start``
+    """The shortest collision-free joint-space route start -> goal (waypoints after `start`
     and its length in steps), trying direct, retract–rotate–extend and extend–rotate–retract;
     None when none is clear. Near the start a fingertip already touching an object may move
-    away from it. ``cache`` (a dict, empty at first) keeps what depends only on ``start`` and
+    away from it. `cache` (a dict, empty at first) keeps what depends only on `start` and
     the objects between calls with the same ones."""
     cache = {} if cache is None else cache
     r_lo, r_hi = world_limits[2], world_limits[3]
@@ -208,7 +208,7 @@ def route(
 
 
 def joint_action(start: tuple[float, float], goal: tuple[float, float]) -> tuple[float, float]:
-    """(dtheta, dr) toward ``goal`` along the joint-space line, scaled into the limits."""
+    """(dtheta, dr) toward `goal` along the joint-space line, scaled into the limits."""
     dth, dr = goal[0] - start[0], goal[1] - start[1]
     scale = max(1.0, abs(dth) / MAX_DTHETA, abs(dr) / MAX_DR)
     return dth / scale, dr / scale
@@ -218,7 +218,7 @@ def line_action(
     tip: tuple[float, float], origin: np.ndarray, direction: np.ndarray, end: float
 ) -> tuple[float, float]:
     """(dtheta, dr) that moves the fingertip along the push line (back onto it if it drifted)
-    by up to ``LOOKAHEAD``, not beyond the line's ``end`` (distance from ``origin``)."""
+    by up to `LOOKAHEAD`, not beyond the line's `end` (distance from `origin`)."""
     rel = np.array(tip) - origin
     s = float(rel @ direction)
     target = origin + min(s + LOOKAHEAD, end) * direction
@@ -257,7 +257,7 @@ class PushPlan:
 
 
 class SingulationSupervisor:
-    """The hierarchical supervisor; :meth:`action` is the label for the world's current state."""
+    """The hierarchical supervisor; `action` is the label for the world's current state."""
 
     def __init__(self) -> None:
         self.plan: PushPlan | None = None
@@ -272,7 +272,7 @@ class SingulationSupervisor:
     # the label --------------------------------------------------------------------------
 
     def action(self, world: SingulationWorld) -> np.ndarray:
-        """The normalised action ``[dtheta / 1.5°, dr / 1 cm]`` the supervisor takes now."""
+        """The normalised action `[dtheta / 1.5°, dr / 1 cm]` the supervisor takes now."""
         poses = world.poses()
         tip = world.tip_xy()
         here = (world.theta, world.r)
@@ -347,7 +347,7 @@ def candidate_pushes(world: SingulationWorld, poses: np.ndarray):
     """(target, pre-push point, direction) of every candidate whose push stays within reach,
     with the objects' vertices and edge planes. The pre-push point backs off from the target's
     centre against the push direction to the first point where the fingertip stands clear of
-    every object by ``STANDOFF`` (all candidates in one vectorised test)."""
+    every object by `STANDOFF` (all candidates in one vectorised test)."""
     c = world.config
     verts = polygons(poses, c.object_size_scale)
     planes = edge_planes(verts)
@@ -386,7 +386,7 @@ def simulate_push(
     horizon: int = PUSH_MAX_STEPS,
     scratch: SingulationWorld | None = None,
 ) -> tuple[float, int, float]:
-    """Foresight: push from ``origin`` along ``direction`` on a rebuilt world (``scratch``, a
+    """Foresight: push from `origin` along `direction` on a rebuilt world (`scratch`, a
     foresight world restarted from the state, when given). Returns the best progress reached,
     the step it was reached at and how far along the line the fingertip was."""
     theta, r = joint_pose(*origin)
@@ -413,8 +413,8 @@ def plan_push(world: SingulationWorld, poses: np.ndarray) -> PushPlan | None:
 
     Candidates are taken in order of approach length (lazily: the direct joint-space distance
     is a lower bound, the collision-free route is computed only when a candidate comes up);
-    once a push is known to singulate in ``C`` steps, candidates whose approach alone takes
-    ``C`` steps or more cannot beat it and are neither routed nor simulated (branch and bound:
+    once a push is known to singulate in `C` steps, candidates whose approach alone takes
+    `C` steps or more cannot beat it and are neither routed nor simulated (branch and bound:
     the same pick as trying all, for far fewer simulations)."""
     c = world.config
     goal = c.singulation_distance + SUCCESS_MARGIN

@@ -8,7 +8,7 @@ track are at most ~3 apart: at sigma = 50 the kernel between any two states exce
 the source's numbers used as they stand all mean "everything is similar".
 
 The mapping used here anchors the source's grid-searched value to the usual well-tuned
-bandwidth, the median heuristic: ``sigma = sigma_source / 200 * m``, where ``m`` is the median
+bandwidth, the median heuristic: `sigma = sigma_source / 200 * m`, where `m` is the median
 Euclidean distance between the distinct states of a supervisor demonstration on the track (raw
 HOG, as the source's bandwidths are in raw feature units). Ratios between the source's values
 are kept: sigma_source = 1 becomes m / 200 (every state not seen before is novel: "ask for
@@ -25,7 +25,7 @@ MAX_STATES = 500  # distinct states used for the median (evenly spaced), boundin
 
 
 def median_state_distance(states: np.ndarray) -> float:
-    """Median Euclidean distance between the distinct rows of ``states`` (> 0).
+    """Median Euclidean distance between the distinct rows of `states` (> 0).
 
     Raises ValueError when fewer than two distinct states are given (no scale to measure)."""
     X = np.asarray(states, dtype=np.float64).reshape(len(states), -1)
@@ -45,8 +45,8 @@ def median_state_distance(states: np.ndarray) -> float:
 
 
 def source_sigma(sigma_source: float, scale: float) -> float:
-    """The bandwidth here for the source's ``sigma_source``, given the track's state scale
-    ``scale`` (:func:`median_state_distance`)."""
+    """The bandwidth here for the source's `sigma_source`, given the track's state scale
+    `scale` (`median_state_distance`)."""
     if not (np.isfinite(sigma_source) and sigma_source > 0):
         raise ValueError(f"source_sigma: 'sigma_source' is {sigma_source!r}; allowed: > 0")
     if not (np.isfinite(scale) and scale > 0):

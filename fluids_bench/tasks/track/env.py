@@ -45,7 +45,7 @@ def _hog():
 
 
 def _python_scalars(init):
-    """Accept numpy scalars wherever a number is expected (``np.int64(3)`` as ``3``)."""
+    """Accept numpy scalars wherever a number is expected (`np.int64(3)` as `3`)."""
 
     @functools.wraps(init)
     def converted(self, *args: Any, **kwargs: Any) -> None:
@@ -268,8 +268,8 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
         return obs[self.obs_type] if isinstance(self.obs_type, str) else obs
 
     def _noisy(self, kind: str, value: np.ndarray) -> np.ndarray:
-        """``value`` plus N(0, obs_noise²) per element (pixels: × 255, rounded), clipped to the
-        observation's bounds; from the episode's ``np_random``."""
+        """`value` plus N(0, obs_noise²) per element (pixels: × 255, rounded), clipped to the
+        observation's bounds; from the episode's `np_random`."""
         noise = self.np_random.normal(0.0, self.obs_noise, value.shape)
         if kind == "pixels":
             return np.clip(np.rint(value + 255.0 * noise), 0, 255).astype(np.uint8)

@@ -1,16 +1,16 @@
 """What the learner sees on the track: a bird's-eye RGB image and its HOG descriptor (ch. 6).
 
 As the source: the whole workspace drawn from above at one pixel per unit (500×500 by
-default), downsampled with two Gaussian-pyramid steps (``cv2.pyrDown``) to 125×125 RGB, then
-described with OpenCV's Histogram of Oriented Gradients (``cv2.HOGDescriptor``).
+default), downsampled with two Gaussian-pyramid steps (`cv2.pyrDown`) to 125×125 RGB, then
+described with OpenCV's Histogram of Oriented Gradients (`cv2.HOGDescriptor`).
 
 HOG parameters (ours; the source reports only the resulting 27,926 dimensions): the window is
 the whole 125×125 image, 5×5-pixel cells, blocks of 2×2 cells moved by one cell, 9 unsigned
 orientation bins, OpenCV's defaults otherwise (Gaussian block weighting, L2-Hys block norm).
-That is 24 × 24 blocks × 4 cells × 9 bins = :data:`HOG_DIM` = 20,736 dimensions.
+That is 24 × 24 blocks × 4 cells × 9 bins = `HOG_DIM` = 20,736 dimensions.
 
-OpenCV 5 moved ``HOGDescriptor`` out of the main ``opencv-python-headless`` wheel; it is in
-``opencv-contrib-python-headless`` (the same OpenCV with the extra modules), which the suite
+OpenCV 5 moved `HOGDescriptor` out of the main `opencv-python-headless` wheel; it is in
+`opencv-contrib-python-headless` (the same OpenCV with the extra modules), which the suite
 depends on instead.
 
 The road and the grass never change within an episode, so they are drawn once per track and
@@ -60,7 +60,7 @@ def hog_descriptor() -> cv2.HOGDescriptor:
 
 
 class BirdsEye:
-    """Draws the track (once) and the car (per frame) at ``scale`` pixels per unit, then
+    """Draws the track (once) and the car (per frame) at `scale` pixels per unit, then
     downsamples by Gaussian pyramid steps: the source's image pipeline."""
 
     def __init__(self, track: Track, workspace: float, size: int = IMAGE_SIZE) -> None:
@@ -111,11 +111,11 @@ class BirdsEye:
         return image
 
     def frame(self, x: float, y: float, heading: float) -> np.ndarray:
-        """The observed ``size``×``size`` RGB frame (a new array), bit-identical to
-        :meth:`frame_reference` but ~10× cheaper.
+        """The observed `size`×`size` RGB frame (a new array), bit-identical to
+        `frame_reference` but ~10× cheaper.
 
         The pyramid of the background is computed once. Per frame only a patch around the car
-        is drawn and downsampled: an output pixel of two ``pyrDown`` steps depends on input
+        is drawn and downsampled: an output pixel of two `pyrDown` steps depends on input
         rows and columns within ±6 of 4× its own, so with the patch's corners on multiples of 4
         and a margin beyond the car, the patch's inner output pixels are exactly the full
         image's, and the pixels outside them do not see the car. A patch cut at the image's

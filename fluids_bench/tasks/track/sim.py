@@ -1,12 +1,12 @@
 """The polygonal driving track of the source's ch. 6 and a car on it (no gymnasium).
 
 Track: points drawn from a Gaussian centred in a square workspace, their convex hull kept when it
-has five to seven edges (resampled otherwise), and a road of constant half-width ``half_width``
+has five to seven edges (resampled otherwise), and a road of constant half-width `half_width`
 around that polygon: a point is on the road iff its distance to the centre line is at most
-``half_width``. Car: a point with a heading, moving ``speed`` units per step; each step the
+`half_width`. Car: a point with a heading, moving `speed` units per step; each step the
 steering action turns the heading instantly by -15°, 0 or +15°, then the car moves.
 
-Leaving the road is a crash. The car is put back on the centre line a distance ``reset_ahead``
+Leaving the road is a crash. The car is put back on the centre line a distance `reset_ahead`
 beyond the point where it left, heading along the road there: resetting exactly at the
 projection of where it left puts it back at the corner that caused the crash, where it crashes
 again (a trap measured in the research note, hundreds of "crashes" per lap).
@@ -37,7 +37,7 @@ class TrackConfig:
     """Geometry of the generated tracks and the car (workspace units).
 
     The defaults make a lap about 90 steps long; a 15° turn every step drives a circle of
-    diameter ``speed / sin(7.5°)`` ≈ 7.7 ``speed``, wider than the road, so a car cannot turn
+    diameter `speed / sin(7.5°)` ≈ 7.7 `speed`, wider than the road, so a car cannot turn
     round on the road: it goes forward or leaves the road.
     """
 
@@ -90,7 +90,7 @@ class Track:
         return project(self.vertices, self.directions, self.lengths, self.starts, x, y)
 
     def point_at(self, arc: float) -> tuple[float, float, float]:
-        """The centre-line point at arc length ``arc`` (any real; wrapped) and its heading."""
+        """The centre-line point at arc length `arc` (any real; wrapped) and its heading."""
         arc = arc % self.perimeter
         seg = int(np.searchsorted(self.starts, arc, side="right") - 1)
         t = arc - self.starts[seg]
@@ -100,7 +100,7 @@ class Track:
 
 
 def generate_track(rng: np.random.Generator, config: TrackConfig) -> Track:
-    """Draw a track: the convex hull of Gaussian samples with ``min_edges``–``max_edges`` edges,
+    """Draw a track: the convex hull of Gaussian samples with `min_edges`–`max_edges` edges,
     whose road lies inside the workspace. Vertices counter-clockwise, starting at the hull
     vertex of smallest x (then y), so the track depends only on the samples."""
     centre = config.workspace / 2.0
@@ -157,7 +157,7 @@ class CarState:
 
 
 class TrackSim:
-    """One car on one track: ``step(action)`` moves it and applies the crash-and-replace rule."""
+    """One car on one track: `step(action)` moves it and applies the crash-and-replace rule."""
 
     def __init__(self, track: Track, config: TrackConfig) -> None:
         self.track = track
@@ -165,8 +165,8 @@ class TrackSim:
         self.car = CarState(*track.point_at(0.0), arc=0.0)
 
     def place(self, arc: float, lateral: float = 0.0, heading_offset: float = 0.0) -> None:
-        """Start an episode at arc length ``arc``, ``lateral`` units left of the centre line,
-        heading ``heading_offset`` from the road's direction there."""
+        """Start an episode at arc length `arc`, `lateral` units left of the centre line,
+        heading `heading_offset` from the road's direction there."""
         x, y, heading = self.track.point_at(arc)
         # left normal of a counter-clockwise track points inwards
         x -= lateral * math.sin(heading)
@@ -180,7 +180,7 @@ class TrackSim:
         return self.car.progress / self.track.perimeter
 
     def step(self, action: int) -> bool:
-        """Steer by ``STEERING[action]``, move one step; return whether the car crashed."""
+        """Steer by `STEERING[action]`, move one step; return whether the car crashed."""
         car, track = self.car, self.track
         heading = car.heading + STEERING[action]
         x = car.x + self.config.speed * math.cos(heading)
@@ -197,7 +197,7 @@ class TrackSim:
         return crashed
 
     def lookahead(self, distances: np.ndarray) -> np.ndarray:
-        """Centre-line points ``distances`` ahead of the car's nearest point, in the car's frame
+        """Centre-line points `distances` ahead of the car's nearest point, in the car's frame
         (x forward, y left), flattened: (2 * len(distances),)."""
         car = self.car
         out = np.empty((len(distances), 2))

@@ -1,13 +1,13 @@
-"""The track's supervisor: a deterministic depth-``D`` search through the car's model.
+"""The track's supervisor: a deterministic depth-`D` search through the car's model.
 
-Every sequence of ``D`` steering actions in {-15°, 0, +15°}^D is scored by simulating the car
+Every sequence of `D` steering actions in {-15°, 0, +15°}^D is scored by simulating the car
 (without the crash reset) and the first action of the cheapest sequence is returned. The cost of
-a sequence, per step ``k`` until the first exit from the road:
+a sequence, per step `k` until the first exit from the road:
 
     (d_k / w)^2                         deviation from the centre line (d: distance, w: half-width)
     - progress_weight * min(a_k, v) / v progress along the track (a_k: arc gained by the step)
 
-and, when step ``k`` leaves the road, ``CRASH_COST * (D - k + 1)`` and the sequence ends there
+and, when step `k` leaves the road, `CRASH_COST * (D - k + 1)` and the sequence ends there
 (a later exit costs less, so an unavoidable crash is put off). Capping the per-step progress at
 the step length keeps a jump of the nearest centre-line point across an inner corner from
 paying, and gives every partial sequence an exact lower bound on its cost.
@@ -20,7 +20,7 @@ fixed enumeration order (straight, left, right at each depth), makes the result 
 exhaustive search's argmin whatever bound seeded it: the label is a pure function of the car's
 pose and the track. A small cache keyed on the exact pose makes repeated labels free.
 
-Depth is the quality knob (``depth=1`` is myopic and crashes at sharp corners; the default
+Depth is the quality knob (`depth=1` is myopic and crashes at sharp corners; the default
 drives with few crashes).
 """
 
@@ -47,8 +47,8 @@ def _search(
     vertices, directions, lengths, starts, perimeter, half_width, speed,
     x0, y0, heading0, depth, progress_weight, turns, order, bound, plan,
 ):  # pragma: no cover (compiled)  # fmt: skip
-    """Branch and bound over all steering sequences; fills ``plan`` with the best one (action
-    indices) and returns its cost. ``bound``: a cost known to be reachable (or +inf)."""
+    """Branch and bound over all steering sequences; fills `plan` with the best one (action
+    indices) and returns its cost. `bound`: a cost known to be reachable (or +inf)."""
     n = depth + 1
     xs, ys, hs = np.empty(n), np.empty(n), np.empty(n)
     arcs, acc = np.empty(n), np.empty(n)
@@ -110,7 +110,7 @@ def _sequence_cost(
     vertices, directions, lengths, starts, perimeter, half_width, speed,
     x0, y0, heading0, progress_weight, turns, sequence,
 ):  # pragma: no cover (compiled)  # fmt: skip
-    """The cost of one steering sequence, computed exactly as :func:`_search` computes it."""
+    """The cost of one steering sequence, computed exactly as `_search` computes it."""
     depth = sequence.shape[0]
     x, y, h = x0, y0, heading0
     arc0 = project(vertices, directions, lengths, starts, x0, y0)[1]
@@ -129,7 +129,7 @@ def _sequence_cost(
 
 
 class SearchSupervisor:
-    """Labels for one track: ``action(x, y, heading)`` is the first step of the best plan."""
+    """Labels for one track: `action(x, y, heading)` is the first step of the best plan."""
 
     def __init__(
         self,

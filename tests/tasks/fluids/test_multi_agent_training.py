@@ -95,6 +95,7 @@ def test_without_black_death_supersuit_refuses_a_shrinking_agent_set():
             vec.step(np.tile(np.array([0.0, 1.0], np.float32), (2, 1)))
 
 
+@pytest.mark.train_extra
 def test_shared_policy_recipe_trains_with_stable_baselines3(tmp_path):
     # the page's recipe, shortened; the optional `train` extra: skipped without it, except in CI
     # (FLUIDS_BENCH_TRAIN_TESTS=1)

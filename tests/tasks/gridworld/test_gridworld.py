@@ -186,6 +186,23 @@ def test_render_rgb_array_shows_the_robot() -> None:
     assert GridWorldEnv().render() is None
 
 
+def test_the_goal_stays_visible_under_the_robot() -> None:
+    from fluids_bench.tasks.gridworld.model import COLOURS, GOAL, ROBOT_COLOUR
+
+    env = GridWorldEnv(render_mode="rgb_array")
+    env.reset(seed=0)
+    world = env.unwrapped.world
+    goal = int(np.flatnonzero(world.cells.ravel() == GOAL)[0])
+    image = world.draw(goal)  # the robot on the goal, where it ends every solved episode
+    pixels = image.reshape(-1, 3)
+    assert (pixels == COLOURS[GOAL]).all(axis=1).sum() > 0
+    assert (pixels == ROBOT_COLOUR).all(axis=1).sum() > 0
+    # and the robot is drawn in the cell it is in: its centre pixel is the robot's colour
+    x, y = world.cell(goal)
+    row, col = (world.size - 1 - y) * 16 + 8, x * 16 + 8
+    assert (image[row, col] == ROBOT_COLOUR).all() and (image[row - 7, col] == COLOURS[GOAL]).all()
+
+
 @pytest.mark.parametrize(
     ("field", "value"),
     [

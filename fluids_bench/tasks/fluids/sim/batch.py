@@ -1,13 +1,13 @@
 """B worlds of one scene stepped by one compiled call.
 
 Each per-agent array that differs between the worlds is stored as one row of a (B, ...) array;
-each world's attribute is a view of its row. :class:`World` only ever writes its arrays in
+each world's attribute is a view of its row. `World` only ever writes its arrays in
 place, so the views stay bound while it steps; a world built afresh (a reset) or put back from
-a snapshot is bound again with :meth:`WorldBatch.bind`, which copies its values into its rows.
+a snapshot is bound again with `WorldBatch.bind`, which copies its values into its rows.
 The arrays every world of the scene shares (kinds, sizes, covering circles) are the first
-world's. :meth:`WorldBatch.step` is :meth:`World.step` for every world whose mask is set, with
-the per-agent arithmetic of all of them in one call (:func:`kernels.advance_worlds`, which runs
-:func:`kernels.advance_world` on each row: the same arithmetic, so each world moves bit for bit
+world's. `WorldBatch.step` is `World.step` for every world whose mask is set, with
+the per-agent arithmetic of all of them in one call (`kernels.advance_worlds`, which runs
+`kernels.advance_world` on each row: the same arithmetic, so each world moves bit for bit
 as alone).
 """
 
@@ -58,7 +58,7 @@ class Rows:
         return self.rows[name]
 
     def bind(self, index: int, obj) -> None:
-        """Make ``obj`` object ``index``: its values go into row ``index`` and its arrays
+        """Make `obj` object `index`: its values go into row `index` and its arrays
         become views of that row."""
         for name, rows in self.rows.items():
             rows[index] = getattr(obj, name)
@@ -67,7 +67,7 @@ class Rows:
 
 
 class WorldBatch(Rows):
-    """Row storage and the batched step of ``worlds`` (all of one scene, with one layout)."""
+    """Row storage and the batched step of `worlds` (all of one scene, with one layout)."""
 
     def __init__(self, worlds: list[World]) -> None:
         self.clocks = Rows(worlds, CLOCK)
@@ -92,9 +92,9 @@ class WorldBatch(Rows):
         world.light_state = world.lights.current
 
     def step(self, stepping: np.ndarray) -> list[list[Collision]]:
-        """Advance the worlds where ``stepping`` (bool, (B,)) is set under their rows of
-        :attr:`controls` (written by the caller), as :meth:`World.step` would; returns each
-        world's new collisions (empty for the others; :attr:`hit` marks the worlds with
+        """Advance the worlds where `stepping` (bool, (B,)) is set under their rows of
+        `controls` (written by the caller), as `World.step` would; returns each
+        world's new collisions (empty for the others; `hit` marks the worlds with
         some)."""
         worlds, rows = self.worlds, self.rows
         w = worlds[0]  # the arrays every world shares
@@ -124,8 +124,8 @@ class WorldBatch(Rows):
         return events
 
     def _advance_clocks(self, stepping: np.ndarray, dt: float) -> None:
-        """:meth:`World.begin_step` of every stepping world: its new time read from
-        :func:`clock_ticks` (a clock set by hand off the ticks advances alone)."""
+        """`World.begin_step` of every stepping world: its new time read from
+        `clock_ticks` (a clock set by hand off the ticks advances alone)."""
         steps, times = self.steps, self.times
         ticks = clock_ticks(dt, int(steps.max()) + 1)
         on_tick = ticks[steps] == times
@@ -137,8 +137,8 @@ class WorldBatch(Rows):
 
 
 class FaultBatch(Rows):
-    """Row storage and the batched :meth:`FaultTracker.update` of the trackers of a
-    :class:`WorldBatch`'s worlds."""
+    """Row storage and the batched `FaultTracker.update` of the trackers of a
+    `WorldBatch`'s worlds."""
 
     def __init__(self, trackers: list[FaultTracker]) -> None:
         first = trackers[0]
@@ -156,7 +156,7 @@ class FaultBatch(Rows):
         self._followed[index] = -2
 
     def update(self, stepping: np.ndarray, worlds: WorldBatch) -> None:
-        """:meth:`FaultTracker.update` of each tracker where ``stepping`` (its world stepped)."""
+        """`FaultTracker.update` of each tracker where `stepping` (its world stepped)."""
         trackers = self.objects
         # FaultTracker._follow_routes, called only where the routes changed since the last
         # call (elsewhere it would find its thresholds current)

@@ -1,16 +1,16 @@
 """Collision checking: a compiled broad phase, then Shapely 2's vectorised predicates.
 
-Kinds logged: ``car-car``, ``car-pedestrian`` and ``offroad`` (a car's footprint leaves the
+Kinds logged: `car-car`, `car-pedestrian` and `offroad` (a car's footprint leaves the
 drivable area, i.e. touches terrain or a sidewalk). Pedestrians brushing past each other is not
 a collision.
 
 Pairs are first culled by covering circles (three along each car, one per pedestrian: they
 contain the footprint, so disjoint circles prove no contact) in one compiled loop over all
-pairs (:func:`fluids_bench.tasks.fluids.sim.kernels.touching_pairs`); only pairs whose circles meet become
-Shapely polygons, tested with one array call of ``shapely.intersects``. At the scene sizes
+pairs (`fluids_bench.tasks.fluids.sim.kernels.touching_pairs`); only pairs whose circles meet become
+Shapely polygons, tested with one array call of `shapely.intersects`. At the scene sizes
 FLUIDS runs (tens of agents) this beats building an STRtree every step;
-:func:`find_collisions_strtree` is the tree-based equivalent, used by the tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
-the (slightly grown) drivable area iff its four corners do (one ``contains_xy`` call) and no
+`find_collisions_strtree` is the tree-based equivalent, used by the tests as a reference. Off-road is exact without building polygons: a rectangle lies inside
+the (slightly grown) drivable area iff its four corners do (one `contains_xy` call) and no
 vertex of that area's boundary lies inside the rectangle (the only way the boundary can cut in
 between inside corners).
 """
@@ -29,7 +29,7 @@ _CORNERS = np.array([[1, 1], [1, -1], [-1, -1], [-1, 1]], float)
 
 
 def footprint_corners(x, y, theta, length, width) -> np.ndarray:
-    """Corners (N, 4, 2) of rectangles centred at (x, y), ``length`` along heading ``theta``."""
+    """Corners (N, 4, 2) of rectangles centred at (x, y), `length` along heading `theta`."""
     c, s = np.cos(theta)[:, None], np.sin(theta)[:, None]
     px = _CORNERS[None, :, 0] * (length / 2)[:, None]
     py = _CORNERS[None, :, 1] * (width / 2)[:, None]
@@ -53,12 +53,12 @@ def find_collisions(
     boundary: np.ndarray,
     offroad_candidates: np.ndarray | None = None,
 ) -> list[tuple[int, int, str]]:
-    """Every colliding pair ``(i, j, kind)`` with i < j among ``active`` agents, and
-    ``(i, -1, "offroad")`` for active cars.
+    """Every colliding pair `(i, j, kind)` with i < j among `active` agents, and
+    `(i, -1, "offroad")` for active cars.
 
-    ``state`` (N, 4) holds [x, y, θ, v]; ``drivable_tolerant`` is the prepared drivable area
-    grown by :data:`OFFROAD_TOLERANCE` and ``boundary`` its boundary's vertices (complex).
-    ``offroad_candidates`` (bool, N) limits the off-road test to the cars the caller cannot
+    `state` (N, 4) holds [x, y, θ, v]; `drivable_tolerant` is the prepared drivable area
+    grown by `OFFROAD_TOLERANCE` and `boundary` its boundary's vertices (complex).
+    `offroad_candidates` (bool, N) limits the off-road test to the cars the caller cannot
     vouch for (default: every active car).
     """
     n = len(state)

@@ -1,6 +1,6 @@
 """Typed, validated configuration of a FLUIDS scene. SI units throughout.
 
-Every dataclass is frozen and checks itself on creation: a bad value raises ``ValueError``
+Every dataclass is frozen and checks itself on creation: a bad value raises `ValueError`
 naming the field, the value and the allowed range.
 """
 
@@ -15,8 +15,8 @@ from fluids_bench.core.validation import is_int, is_real
 
 
 def check_range(owner: str, name: str, value, lo: float, hi: float, integer: bool = False) -> None:
-    """Raise ValueError unless ``lo <= value <= hi`` (and ``value`` is an integer when
-    ``integer``). numpy scalars count as the Python numbers they hold; bools count as neither."""
+    """Raise ValueError unless `lo <= value <= hi` (and `value` is an integer when
+    `integer`). numpy scalars count as the Python numbers they hold; bools count as neither."""
     kind = "an integer" if integer else "a number"
     ok = is_int(value) if integer else is_real(value) and math.isfinite(value)
     if not ok or not lo <= value <= hi:
@@ -54,7 +54,7 @@ class CarConfig:
 
 @dataclass(frozen=True)
 class PedestrianConfig:
-    """A pedestrian: point model with a square footprint of side ``2 * radius``."""
+    """A pedestrian: point model with a square footprint of side `2 * radius`."""
 
     radius: float = 0.3  # m
     max_speed: float = 1.4  # m/s
@@ -74,7 +74,7 @@ LAYOUTS = ("four_way", "t_junction", "roundabout")
 
 @dataclass(frozen=True)
 class SceneConfig:
-    """What a FLUIDS world contains. ``num_cars`` counts every car, the ego included."""
+    """What a FLUIDS world contains. `num_cars` counts every car, the ego included."""
 
     layout: str = "four_way"
     lanes: int = 1  # lanes per direction (four_way, t_junction)

@@ -1,8 +1,8 @@
 """Crosswalks as rectangles: which ones a pedestrian is on, and where each car route meets them.
 
 One definition of "a crosswalk with a pedestrian on it" serves everything that asks: the
-velocity planner's yield rule (``yield_to_pedestrians``), the check that the ego yielded
-(:class:`~fluids_bench.tasks.fluids.sim.fault.FaultTracker`) and the quasi-LIDAR v1, which
+velocity planner's yield rule (`yield_to_pedestrians`), the check that the ego yielded
+(`FaultTracker`) and the quasi-LIDAR v1, which
 sees an occupied crosswalk's edges. A crosswalk is occupied when an active pedestrian's disc
 (radius: half its width) overlaps its rectangle.
 """
@@ -31,10 +31,10 @@ COMMIT_DECEL = 3.0
 class Crosswalks:
     """A layout's C crosswalk rectangles and where each of its R routes meets them.
 
-    ``car_enter[r, c]``: the route arc length (m) at which a car on route ``r`` (front bumper)
-    reaches crosswalk ``c`` (where its path enters the rectangle); ``inf`` where the route does
-    not cross it, and for walks. ``walk_crosswalk[r]``, ``walk_enter[r]``: the crosswalk a walk
-    ``r`` crosses (-1 for car routes and walks that cross none) and the arc length at which its
+    `car_enter[r, c]`: the route arc length (m) at which a car on route `r` (front bumper)
+    reaches crosswalk `c` (where its path enters the rectangle); `inf` where the route does
+    not cross it, and for walks. `walk_crosswalk[r]`, `walk_enter[r]`: the crosswalk a walk
+    `r` crosses (-1 for car routes and walks that cross none) and the arc length at which its
     path enters it, so a walker's front reaches it as its disc starts to overlap the rectangle.
     """
 
@@ -52,7 +52,7 @@ class Crosswalks:
 
 @functools.lru_cache(maxsize=32)
 def crosswalks_of(layout: Layout) -> Crosswalks:
-    """The crosswalk rectangles of ``layout`` (cached per compiled layout)."""
+    """The crosswalk rectangles of `layout` (cached per compiled layout)."""
     centre, axis, half = [], [], []
     for cw in layout.spec.crosswalks:
         p, q = np.asarray(cw.start, float), np.asarray(cw.end, float)
@@ -86,7 +86,7 @@ def crosswalks_of(layout: Layout) -> Crosswalks:
 
 def _entry_arc_length(outside: np.ndarray) -> float:
     """Arc length at which a path sampled every PATH_SPACING first enters a rectangle, its
-    samples' distances ``outside`` it (<= 0 inside) interpolated linearly between samples."""
+    samples' distances `outside` it (<= 0 inside) interpolated linearly between samples."""
     first = int(np.argmax(outside <= 0))
     if first == 0:
         return 0.0
@@ -96,7 +96,7 @@ def _entry_arc_length(outside: np.ndarray) -> float:
 
 @njit(cache=True)
 def crosswalk_occupied(c, state, active, is_car, width, centre, axis, half):  # pragma: no cover
-    """True when an active pedestrian's disc overlaps crosswalk ``c``'s rectangle."""
+    """True when an active pedestrian's disc overlaps crosswalk `c`'s rectangle."""
     for j in range(len(state)):
         if is_car[j] or not active[j]:
             continue
@@ -111,7 +111,7 @@ def crosswalk_occupied(c, state, active, is_car, width, centre, axis, half):  # 
 
 @njit(cache=True)
 def occupied_crosswalks(state, active, is_car, width, centre, axis, half, out):  # pragma: no cover
-    """``out[c]`` = :func:`crosswalk_occupied` for every crosswalk; returns whether any is."""
+    """`out[c]` = `crosswalk_occupied` for every crosswalk; returns whether any is."""
     anyone = False
     for c in range(len(centre)):
         out[c] = crosswalk_occupied(c, state, active, is_car, width, centre, axis, half)
@@ -136,12 +136,12 @@ def record_yield_step(
     state, width, centre, axis, half,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """One step of the yield check, in place. An active car whose front reached a crosswalk on
-    its route (``car_enter``) since the last step (``prev_at`` < enter <= now) while that
-    crosswalk was occupied (``prev_occ``, the last step's) failed to yield (``failed``) if it
-    was ``warned``: the crosswalk has been occupied since a step at which the car was not yet
-    committed to it (:func:`committed`), so it could have stopped. A walker who steps out in
-    front of a car that can no longer stop is the walker's doing. Then ``prev_at``,
-    ``prev_occ`` and ``warned`` become this step's."""
+    its route (`car_enter`) since the last step (`prev_at` < enter <= now) while that
+    crosswalk was occupied (`prev_occ`, the last step's) failed to yield (`failed`) if it
+    was `warned`: the crosswalk has been occupied since a step at which the car was not yet
+    committed to it (`committed`), so it could have stopped. A walker who steps out in
+    front of a car that can no longer stop is the walker's doing. Then `prev_at`,
+    `prev_occ` and `warned` become this step's."""
     n_cw = len(centre)
     for i in range(len(route_s)):
         at = route_s[i] + front[i]
@@ -164,16 +164,16 @@ def record_yield_step(
 
 @njit(cache=True)
 def stopping_reach(v):  # pragma: no cover (compiled)
-    """How far short of a crosswalk a car at ``v`` m/s must be to stop for a walker who steps
-    on now: what it covers in :data:`COMMIT_LATENCY` plus braking at :data:`COMMIT_DECEL`.
+    """How far short of a crosswalk a car at `v` m/s must be to stop for a walker who steps
+    on now: what it covers in `COMMIT_LATENCY` plus braking at `COMMIT_DECEL`.
     Closer than that (and not past it) the car is *committed* to the crosswalk."""
     return v * COMMIT_LATENCY + v * v / (2.0 * COMMIT_DECEL)
 
 
 def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | None = None):
     """Crosswalks (bool (C,)) that an active car is committed to: too close to stop for a
-    walker stepping on now (:func:`stopping_reach`), or, for the cars marked in
-    ``turning_out`` (bool (N,); default none), already inside the junction on its way out
+    walker stepping on now (`stopping_reach`), or, for the cars marked in
+    `turning_out` (bool (N,); default none), already inside the junction on its way out
     across it, so that a walker stepping out does not strand such a car in the box."""
     cw = crosswalks_of(world.layout)
     if turning_out is None:
@@ -188,7 +188,7 @@ def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | Non
 def committed_to(
     state, s, offset, front, is_car, active, route, entered, turning_out, car_enter
 ):  # pragma: no cover (compiled)
-    """:func:`committed_crosswalks` over the world's arrays (``car_enter`` (R, C): where each
+    """`committed_crosswalks` over the world's arrays (`car_enter` (R, C): where each
     car route meets each crosswalk)."""
     busy = np.zeros(car_enter.shape[1], np.bool_)
     for i in range(len(s)):

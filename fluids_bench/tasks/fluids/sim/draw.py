@@ -1,16 +1,16 @@
 """Drawing a FLUIDS world: the static layout rasterised once per scale, lights and agents each
 frame. The bird's-eye sensor and the renderer for people both draw with it (drawing only reads).
 
-What is drawn, back to front, in :data:`COLOURS`: terrain (green), sidewalks (beige grey),
+What is drawn, back to front, in `COLOURS`: terrain (green), sidewalks (beige grey),
 the drivable area (dark grey) with lane markings (a yellow centre line between opposite
 directions, white dashes between lanes of one direction, white stop lines at unsignalised
 entries), zebra crosswalks, routes (pink line), light bars (a bar across every signalised stop
 line, green / yellow / red, and one at each end of a signalised crosswalk, white / red), cars
 (blue, with a dark windscreen at the front), pedestrians (orange) and the ego (magenta).
 
-Speed comes from drawing the static layout once: :func:`static_layer` rasterises it per layout
+Speed comes from drawing the static layout once: `static_layer` rasterises it per layout
 and pixel scale and caches it; each frame only the dynamic elements are drawn with
-``cv2.fillPoly`` (one call per colour).
+`cv2.fillPoly` (one call per colour).
 """
 
 from __future__ import annotations
@@ -61,7 +61,7 @@ MIN_AGENT_PX = 2.5  # agents are drawn at least this many pixels long and wide
 
 # ----------------------------------------------------------------------------- geometry helpers
 def _rings(geom) -> list[np.ndarray]:
-    """Exterior and interior rings (world coordinates) of every polygon in ``geom``."""
+    """Exterior and interior rings (world coordinates) of every polygon in `geom`."""
     out = []
     for poly in shapely.get_parts(geom):
         if poly.is_empty or poly.geom_type != "Polygon":
@@ -72,7 +72,7 @@ def _rings(geom) -> list[np.ndarray]:
 
 
 def _quad(centre, along, half_along: float, half_across: float) -> np.ndarray:
-    """Corners (4, 2) of a rectangle centred at ``centre`` with long axis ``along`` (unit)."""
+    """Corners (4, 2) of a rectangle centred at `centre` with long axis `along` (unit)."""
     c, u = np.asarray(centre, float), np.asarray(along, float)
     n = np.array([-u[1], u[0]])
     return np.array(
@@ -195,7 +195,7 @@ def _crosswalk_stripes(layout: Layout) -> np.ndarray:
 # ----------------------------------------------------------------------------- static layer
 @dataclass(frozen=True, eq=False)
 class StaticLayer:
-    """A layout rasterised once: ``image`` (read-only) and the affine ``to_pixels`` (2×3) from
+    """A layout rasterised once: `image` (read-only) and the affine `to_pixels` (2×3) from
     world metres to its pixels, plus the light bars (world frame) drawn over it each step."""
 
     image: np.ndarray
@@ -212,7 +212,7 @@ class StaticLayer:
 def static_layer(
     layout: Layout, ppm: float, x0: float, y1: float, width: int, height: int
 ) -> StaticLayer:
-    """Rasterise ``layout`` at ``ppm`` pixels per metre into a ``height`` × ``width`` image whose
+    """Rasterise `layout` at `ppm` pixels per metre into a `height` × `width` image whose
     top-left corner is world (x0, y1). Cached: every sensor on a layout and scale shares one."""
     affine = pixel_affine(ppm, x0, y1)
     img = np.empty((height, width, 3), np.uint8)
@@ -247,7 +247,7 @@ def static_layer(
 
 
 def layer_for_bounds(layout: Layout, ppm: float, margin: float = 0.0) -> StaticLayer:
-    """The cached raster of the whole layout (plus ``margin`` m) at ``ppm``, capped in size."""
+    """The cached raster of the whole layout (plus `margin` m) at `ppm`, capped in size."""
     x0, y0, x1, y1 = layout.bounds
     x0, y0, x1, y1 = x0 - margin, y0 - margin, x1 + margin, y1 + margin
     ppm = min(ppm, MAX_MAP_PX / max(x1 - x0, y1 - y0))
@@ -257,7 +257,7 @@ def layer_for_bounds(layout: Layout, ppm: float, margin: float = 0.0) -> StaticL
 
 
 def square_view(layout: Layout, size: int, margin: float = 0.0) -> tuple[float, float, float]:
-    """(ppm, x0, y1) of a ``size``-pixel square showing the whole layout (plus ``margin`` m)."""
+    """(ppm, x0, y1) of a `size`-pixel square showing the whole layout (plus `margin` m)."""
     x0, y0, x1, y1 = layout.bounds
     side = max(x1 - x0, y1 - y0) + 2 * margin
     cx, cy = (x0 + x1) / 2, (y0 + y1) / 2
@@ -266,7 +266,7 @@ def square_view(layout: Layout, size: int, margin: float = 0.0) -> tuple[float, 
 
 # ----------------------------------------------------------------------------- dynamic drawing
 def draw_route(img, affine, ppm, path: np.ndarray, colour, metres: float = 0.35) -> None:
-    """A polyline through ``path`` (k, 2) world points (every 2 m is plenty)."""
+    """A polyline through `path` (k, 2) world points (every 2 m is plenty)."""
     if len(path) >= 2:
         cv2.polylines(
             img, [to_fixed(affine, path)], False, colour, line_px(ppm, metres), cv2.LINE_AA, SHIFT
@@ -274,16 +274,16 @@ def draw_route(img, affine, ppm, path: np.ndarray, colour, metres: float = 0.35)
 
 
 def remaining_path(world, agent: int, every: float = 2.0) -> np.ndarray:
-    """World points (k, 2) of ``agent``'s path from its progress to its end, about ``every`` m
-    apart (the last one within ``every`` m of the end)."""
+    """World points (k, 2) of `agent`'s path from its progress to its end, about `every` m
+    apart (the last one within `every` m of the end)."""
     k0 = int(world.s[agent] / PATH_SPACING)
     k1 = int(round(world.path_len[agent] / PATH_SPACING))
     return world.path[agent, k0 : k1 + 1 : max(1, int(every / PATH_SPACING))]
 
 
 def light_groups(layer: StaticLayer, states: np.ndarray) -> tuple:
-    """((colour, bar indices), …) for the lights in ``states``, one per colour shown, in
-    palette order: what each ``fillPoly`` call draws. Cached on the layer: the lights cycle
+    """((colour, bar indices), …) for the lights in `states`, one per colour shown, in
+    palette order: what each `fillPoly` call draws. Cached on the layer: the lights cycle
     through a few states, and grouping them costs more numpy calls than drawing."""
     key = (states.dtype.char, states.tobytes())
     groups = layer.light_groups.get(key)
@@ -302,7 +302,7 @@ def draw_lights(img, affine, layer: StaticLayer, states: np.ndarray) -> None:
 
 
 def fill_lights(img, quads: np.ndarray, layer: StaticLayer, states: np.ndarray) -> None:
-    """:func:`draw_lights` with the bars ``layer.light_quads`` already in fixed-point pixels."""
+    """`draw_lights` with the bars `layer.light_quads` already in fixed-point pixels."""
     for colour, bars in light_groups(layer, states):
         cv2.fillPoly(img, quads[bars], colour, cv2.LINE_AA, SHIFT)
 
@@ -310,8 +310,8 @@ def fill_lights(img, quads: np.ndarray, layer: StaticLayer, states: np.ndarray) 
 def agent_boxes(
     affine, ppm: float, world, idx: np.ndarray, grow: float = 0.0, min_px: float = MIN_AGENT_PX
 ) -> np.ndarray:
-    """Fixed-point pixel footprints (len(idx), 4, 2) of ``idx``, ``grow`` m larger all round
-    and at least ``min_px`` pixels a side."""
+    """Fixed-point pixel footprints (len(idx), 4, 2) of `idx`, `grow` m larger all round
+    and at least `min_px` pixels a side."""
     st = world.state[idx].T
     floor = min_px / ppm
     return boxes_px(
@@ -332,11 +332,11 @@ def visible_agents(world, ego: int = 0) -> np.ndarray:
 
 
 class AgentPainter:
-    """Draws agents at ``ppm`` pixels per metre, at least ``min_px`` pixels a side.
+    """Draws agents at `ppm` pixels per metre, at least `min_px` pixels a side.
 
     Each world's agent shapes (body and windscreen corners in the agent's frame, as complex
     numbers) are computed once and cached, so a frame costs a fixed handful of numpy calls:
-    corner = centre + e^{iθ} · offset, for all agents at once, then one ``fillPoly`` per colour.
+    corner = centre + e^{iθ} · offset, for all agents at once, then one `fillPoly` per colour.
     """
 
     def __init__(self, ppm: float, min_px: float = MIN_AGENT_PX) -> None:
@@ -362,7 +362,7 @@ class AgentPainter:
         return self._shapes
 
     def corners(self, world, idx: np.ndarray) -> np.ndarray:
-        """World corners (len(idx), 8, 2) of the bodies (4) and windscreens (4) of ``idx``."""
+        """World corners (len(idx), 8, 2) of the bodies (4) and windscreens (4) of `idx`."""
         shapes = self._shapes_of(world)[idx]
         st = world.state[idx]
         z = np.exp(1j * st[:, 2])[:, None] * shapes
@@ -372,18 +372,18 @@ class AgentPainter:
         return z.view(np.float64).reshape(len(idx), 8, 2)
 
     def draw(self, img, affine, world, idx: np.ndarray, ego: int = 0) -> None:
-        """Cars (blue), pedestrians (orange) and the ego (magenta) among ``idx``; cars get a dark
+        """Cars (blue), pedestrians (orange) and the ego (magenta) among `idx`; cars get a dark
         windscreen (it shows the heading) when they are at least 8 pixels long."""
         if len(idx):
             self.fill(img, to_fixed(affine, self.corners(world, idx)), world, idx, ego)
 
     def fill(self, img, px: np.ndarray, world, idx: np.ndarray, ego: int = 0) -> None:
-        """:meth:`draw` with the :meth:`corners` already in fixed-point pixels ``px``."""
+        """`draw` with the `corners` already in fixed-point pixels `px`."""
         for colour, rows, corners in self._groups_of(world, idx, ego):
             cv2.fillPoly(img, px[rows, corners], colour, cv2.LINE_AA, SHIFT)
 
     def _groups_of(self, world, idx: np.ndarray, ego: int) -> tuple:
-        """((colour, rows of ``idx``, corners), …) for each non-empty ``fillPoly`` call, in
+        """((colour, rows of `idx`, corners), …) for each non-empty `fillPoly` call, in
         drawing order. Cached per set of agents drawn and ego: it changes rarely."""
         self._shapes_of(world)  # drops the cache for another world's agents
         key = (idx.tobytes(), ego)

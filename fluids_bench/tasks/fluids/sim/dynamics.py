@@ -1,4 +1,4 @@
-"""Agent dynamics, integrated for all agents at once (explicit Euler, step ``dt`` seconds).
+"""Agent dynamics, integrated for all agents at once (explicit Euler, step `dt` seconds).
 
 Cars follow the kinematic bicycle model (ch. 7):
     x' = v cos(θ + β),  y' = v sin(θ + β),  v' = F / m,  θ' = (v / l_r) sin β,
@@ -9,7 +9,7 @@ with steering ψ (rad) and force F (N). Pedestrians follow the point model: they
 
 The loop over agents is compiled (numba): a few dozen operations per agent cost less as a
 loop than as numpy calls on arrays of tens of elements. Its arithmetic is the array
-formulation's, operation for operation (``tests/tasks/fluids/sim/numpy_reference.py``), with the
+formulation's, operation for operation (`tests/tasks/fluids/sim/numpy_reference.py`), with the
 C library's scalar trigonometric functions.
 """
 
@@ -23,13 +23,13 @@ from numba import njit
 
 @njit(cache=True, nogil=True)
 def wrap_angle(angle: float) -> float:  # pragma: no cover (compiled)
-    """To [-π, π), as ``(angle + π) % 2π − π`` (Python's and numpy's floored modulo)."""
+    """To [-π, π), as `(angle + π) % 2π − π` (Python's and numpy's floored modulo)."""
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
 @njit(cache=True, nogil=True)
 def advance(state, controls, is_car, params, dt, active):  # pragma: no cover (compiled)
-    """One step of every ``active`` agent, in place (the arrays as for :func:`integrate`)."""
+    """One step of every `active` agent, in place (the arrays as for `integrate`)."""
     for i in range(state.shape[0]):
         if not active[i]:
             continue
@@ -60,7 +60,7 @@ def integrate(
     dt: float,
     active: np.ndarray | None = None,
 ) -> np.ndarray:
-    """One step for every agent (or every ``active`` one; the others keep their state); returns
+    """One step for every agent (or every `active` one; the others keep their state); returns
     the new state array.
 
     state: (N, 4) [x, y, θ, v]; controls: (N, 2) [ψ, F] for cars, [ψ, a] for pedestrians;

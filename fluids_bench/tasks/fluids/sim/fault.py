@@ -1,33 +1,33 @@
 """Who was at fault in a collision: rules of the road applied to the world's recent history.
 
-:class:`FaultTracker` watches a world step by step (when each agent entered its shared zone, the
+`FaultTracker` watches a world step by step (when each agent entered its shared zone, the
 junction for a car and the crosswalk for a pedestrian, and the light it had then; the last few
 seconds of states) and labels each collision. The rules, first match wins:
 
-1. ``offroad``: the car that left the road.
-2. ``red_light``: exactly one of the two entered its zone against a red light (a red traffic
+1. `offroad`: the car that left the road.
+2. `red_light`: exactly one of the two entered its zone against a red light (a red traffic
    light, a "don't walk" crosswalk light): that one.
-3. ``rear_end``: two cars, one in the other's lane ahead of it (on its path, within 45° of
+3. `rear_end`: two cars, one in the other's lane ahead of it (on its path, within 45° of
    the path's heading there; measured along the path, so curves count too): the follower.
-   ``cut_in`` is True when the leader came in front of the follower less than
-   :data:`HISTORY` steps ago with a gap (bumper to bumper) shorter than the follower's stopping
+   `cut_in` is True when the leader came in front of the follower less than
+   `HISTORY` steps ago with a gap (bumper to bumper) shorter than the follower's stopping
    distance then (one planning period at its speed plus braking at
-   :data:`COMFORT_DECEL`): a follower that could not have stopped.
-4. ``moving_into_stationary``: exactly one of the two was moving (faster than
-   :data:`STATIONARY_SPEED`): the mover.
-5. ``car_yields_to_pedestrian``: a car and a pedestrian, both moving: the car.
-6. ``turn_yields``: two moving cars that came from opposite approaches (their routes' entry
+   `COMFORT_DECEL`): a follower that could not have stopped.
+4. `moving_into_stationary`: exactly one of the two was moving (faster than
+   `STATIONARY_SPEED`): the mover.
+5. `car_yields_to_pedestrian`: a car and a pedestrian, both moving: the car.
+6. `turn_yields`: two moving cars that came from opposite approaches (their routes' entry
    headings more than 135° apart), exactly one of them turning left (its route's heading turns
    left by more than 45°; right-hand traffic): the left-turner, which crosses the oncoming lane
    and must yield to the other going straight or turning right.
-7. ``entered_occupied``: two cars, both moving: the one that entered the junction later (a
+7. `entered_occupied`: two cars, both moving: the one that entered the junction later (a
    car not yet in the junction counts as entering now). Same step: both.
-8. ``shared``: otherwise both.
+8. `shared`: otherwise both.
 
 It also records, per car, whether it ever drove onto a crosswalk with a pedestrian on it that
-it could have stopped for (``failed_to_yield``: its front reached a crosswalk on its route
+it could have stopped for (`failed_to_yield`: its front reached a crosswalk on its route
 while that crosswalk was occupied, and had been since a step at which the car was not yet
-committed to it; see :mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
+committed to it; see `fluids_bench.tasks.fluids.sim.crosswalks`).
 """
 
 from __future__ import annotations
@@ -67,8 +67,8 @@ def route_turns(routes) -> tuple[np.ndarray, np.ndarray]:
 
 
 def turns_across(start: np.ndarray, turning: np.ndarray, ra, rb):
-    """Whether route ``ra`` turns left across route ``rb`` coming the other way (rule 6: the
-    two entry headings more than 135° apart, ``ra`` turning left and ``rb`` going straight or
+    """Whether route `ra` turns left across route `rb` coming the other way (rule 6: the
+    two entry headings more than 135° apart, `ra` turning left and `rb` going straight or
     turning right); elementwise."""
     opposite = np.abs(_wrap(start[ra] - start[rb])) > 3 * np.pi / 4
     return opposite & turning[ra] & ~turning[rb]
@@ -80,9 +80,9 @@ def _record_step(
     state, ring, slot, yield_check, route, active, is_car, car_enter, prev_at, prev_occupied,
     warned, failed, width, centre, axis, half,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """One step of :meth:`FaultTracker.update` in one compiled call: zone entries, red lights
-    and history (:func:`record_fault_step`), then, with ``yield_check``, the crosswalks
-    (:func:`record_yield_step`), both at the agents' route arc lengths ``s + offset``."""
+    """One step of `FaultTracker.update` in one compiled call: zone entries, red lights
+    and history (`record_fault_step`), then, with `yield_check`, the crosswalks
+    (`record_yield_step`), both at the agents' route arc lengths `s + offset`."""
     route_s = s + offset
     record_fault_step(
         route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
@@ -101,8 +101,8 @@ def record_steps(
     steps, state, ring, slots, yield_check, route, active, is_car, car_enter, prev_at,
     prev_occupied, warned, failed, width, centre, axis, half,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`_record_step` on row ``b`` of every per-world array where ``stepping[b]`` (at
-    step ``steps[b]``, into ring slot ``slots[b]``)."""
+    """`_record_step` on row `b` of every per-world array where `stepping[b]` (at
+    step `steps[b]`, into ring slot `slots[b]`)."""
     for b in range(len(stepping)):
         if stepping[b]:
             _record_step(
@@ -114,7 +114,7 @@ def record_steps(
 
 
 class FaultTracker:
-    """Follows one world (call :meth:`update` after every ``world.step``) and labels collisions."""
+    """Follows one world (call `update` after every `world.step`) and labels collisions."""
 
     def __init__(self, world) -> None:
         self.world = world
@@ -146,7 +146,7 @@ class FaultTracker:
 
     def _follow_routes(self) -> None:
         """Recompute the zone thresholds when routes were assigned or changed (in place: a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch` holds these arrays as rows)."""
+        `FaultBatch` holds these arrays as rows)."""
         w = self.world
         key = w.route.tobytes()
         if key != self._route_key:
@@ -176,14 +176,14 @@ class FaultTracker:
         self._recorded[()] += 1
 
     def _history(self) -> list[np.ndarray]:
-        """The kept states, oldest first (at most :data:`HISTORY`)."""
+        """The kept states, oldest first (at most `HISTORY`)."""
         recorded = int(self._recorded)
         kept = min(recorded, HISTORY)
         return [self._ring[(recorded - kept + k) % HISTORY] for k in range(kept)]
 
     # ------------------------------------------------------------------ labels
     def label(self, a: int, b: int, kind: str) -> dict:
-        """``{"at_fault": [agents], "rule": name, "cut_in": bool}`` for collision (a, b, kind)."""
+        """`{"at_fault": [agents], "rule": name, "cut_in": bool}` for collision (a, b, kind)."""
         w = self.world
         if b < 0 or kind == "offroad":
             return {"at_fault": [a], "rule": "offroad", "cut_in": False}
@@ -233,8 +233,8 @@ class FaultTracker:
         return None
 
     def _follower(self, a: int, b: int, state: np.ndarray) -> int | None:
-        """The car behind when one of ``a``, ``b`` is on the other's path ahead of it (see
-        :meth:`_ahead_gap`), else None. Where each is on the other's path (side by side),
+        """The car behind when one of `a`, `b` is on the other's path ahead of it (see
+        `_ahead_gap`), else None. Where each is on the other's path (side by side),
         the one whose centre is behind along their mean heading."""
         a_behind = self._ahead_gap(state, a, b) is not None
         b_behind = self._ahead_gap(state, b, a) is not None
@@ -263,9 +263,9 @@ class FaultTracker:
         return bool(gap < stop)
 
     def _ahead_gap(self, state: np.ndarray, follower: int, leader: int) -> float | None:
-        """Bumper gap (m), measured along the follower's path, when ``leader`` is in the
+        """Bumper gap (m), measured along the follower's path, when `leader` is in the
         follower's lane ahead of it, else None. In the lane ahead: the leader's centre lies
-        within :data:`AHEAD` metres ahead along the follower's path, within half the two
+        within `AHEAD` metres ahead along the follower's path, within half the two
         widths of it, heading within 45° of the path there. Measured along the path, not the
         follower's heading, so that it holds on curves (a roundabout's ring) too."""
         w = self.world
@@ -281,5 +281,5 @@ class FaultTracker:
         return float(k * PATH_SPACING - (w.length[follower] + w.length[leader]) / 2)
 
     def annotate(self, events) -> list[dict]:
-        """The collisions ``events`` as dicts with their fault labels."""
+        """The collisions `events` as dicts with their fault labels."""
         return [{**e.as_dict(), **self.label(e.a, e.b, e.kind)} for e in events]

@@ -1,13 +1,13 @@
 """Compiled per-step loops of the world (numba): progress along paths, the quick on-road test
-and the collision broad phase (the dynamics' loop is in :mod:`fluids_bench.tasks.fluids.sim.dynamics`).
+and the collision broad phase (the dynamics' loop is in `fluids_bench.tasks.fluids.sim.dynamics`).
 
 A FLUIDS scene has tens of agents, so each of these is a few dozen arithmetic operations per
 agent (or per pair). As numpy expressions they cost one call of 1–2 µs per operation on these
 machines, which made them most of a step; compiled they are plain loops. The arithmetic is the
 numpy formulation's, operation for operation in float64 with no fast-math (no fused
 multiply-add); only sin/cos/hypot are the C library's scalar functions, which numpy's vectorised
-ones may differ from in the last bit on some CPUs. ``tests/tasks/fluids/sim/numpy_reference.py``
-keeps those formulations and ``tests/tasks/fluids/sim/test_sim_kernels.py`` compares. Data stays in the world's arrays
+ones may differ from in the last bit on some CPUs. `tests/tasks/fluids/sim/numpy_reference.py`
+keeps those formulations and `tests/tasks/fluids/sim/test_sim_kernels.py` compares. Data stays in the world's arrays
 (struct of arrays over agents); nothing here allocates per agent.
 """
 
@@ -36,12 +36,12 @@ def progress_into(
     lateral,
     heading_error,
 ):  # pragma: no cover (compiled)
-    """Each agent projected onto its path near its previous progress ``s``: the path samples
-    ``lo`` … ``hi − 1`` around it are searched (an agent moves a few samples per step at most).
+    """Each agent projected onto its path near its previous progress `s`: the path samples
+    `lo` … `hi − 1` around it are searched (an agent moves a few samples per step at most).
 
-    In place: progress ``s`` (m; kept for inactive agents; each agent reads only its own old
-    value), the ``nearest`` sample, and the signed ``lateral`` offset (m, left positive) and
-    ``heading_error`` (rad) from that sample."""
+    In place: progress `s` (m; kept for inactive agents; each agent reads only its own old
+    value), the `nearest` sample, and the signed `lateral` offset (m, left positive) and
+    `heading_error` (rad) from that sample."""
     n, width = path_z.shape
     for i in range(n):
         x, y = state[i, 0], state[i, 1]
@@ -68,9 +68,9 @@ def progress_into(
 def surely_on_road(
     state, nearest, offsets, samples, radius, path_z, clearance
 ):  # pragma: no cover (compiled)
-    """Agents each of whose covering circles (centred ``offsets`` (N, 3) m along the heading,
-    ``radius`` (N,) m) lies within the road clearance of the path sample nearest it (the agent's
-    nearest sample plus ``samples`` (N, 3)): their footprints are certainly on the road."""
+    """Agents each of whose covering circles (centred `offsets` (N, 3) m along the heading,
+    `radius` (N,) m) lies within the road clearance of the path sample nearest it (the agent's
+    nearest sample plus `samples` (N, 3)): their footprints are certainly on the road."""
     out = np.empty(path_z.shape[0], np.bool_)
     surely_on_road_into(state, nearest, offsets, samples, radius, path_z, clearance, out)
     return out
@@ -80,7 +80,7 @@ def surely_on_road(
 def surely_on_road_into(
     state, nearest, offsets, samples, radius, path_z, clearance, out
 ):  # pragma: no cover (compiled)
-    """:func:`surely_on_road` written into ``out``."""
+    """`surely_on_road` written into `out`."""
     n, width = path_z.shape
     for i in range(n):
         x, y = state[i, 0], state[i, 1]
@@ -100,9 +100,9 @@ def surely_on_road_into(
 @njit(cache=True, nogil=True)
 def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
     """Pairs (a, b), a < b, of active agents whose covering circles meet: first their
-    circumscribed circles (``reach2`` (N, N), the squared sum of their radii; negative for pairs
-    never checked), then the three circles along each (``offsets`` (N, 3) m along the heading,
-    ``radius`` (N,) m). Disjoint circles prove two footprints apart; the rest go to Shapely."""
+    circumscribed circles (`reach2` (N, N), the squared sum of their radii; negative for pairs
+    never checked), then the three circles along each (`offsets` (N, 3) m along the heading,
+    `radius` (N,) m). Disjoint circles prove two footprints apart; the rest go to Shapely."""
     n = state.shape[0]
     first, second = [], []
     for a in range(n):
@@ -117,7 +117,7 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
 
 @njit(cache=True, nogil=True)
 def _circles_meet(state, a, b, reach2, offsets, radius):  # pragma: no cover (compiled)
-    """Whether the covering circles of agents ``a`` and ``b`` meet (see :func:`touching_pairs`)."""
+    """Whether the covering circles of agents `a` and `b` meet (see `touching_pairs`)."""
     gx, gy = state[a, 0] - state[b, 0], state[a, 1] - state[b, 1]
     if not gx * gx + gy * gy < reach2[a, b]:
         return False
@@ -136,7 +136,7 @@ def _circles_meet(state, a, b, reach2, offsets, radius):  # pragma: no cover (co
 
 @njit(cache=True, nogil=True)
 def any_touching(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
-    """Whether :func:`touching_pairs` would find any pair."""
+    """Whether `touching_pairs` would find any pair."""
     n = state.shape[0]
     for a in range(n):
         if active[a]:
@@ -148,8 +148,8 @@ def any_touching(state, active, reach2, offsets, radius):  # pragma: no cover (c
 
 @njit(cache=True, nogil=True)
 def mark_arrived(s, path_len, length, tolerance, active, reached):  # pragma: no cover
-    """In place: each active agent whose front is within ``tolerance`` (m) of its path's end
-    (``s >= path_len - length / 2 - tolerance``) has reached it and is no longer active."""
+    """In place: each active agent whose front is within `tolerance` (m) of its path's end
+    (`s >= path_len - length / 2 - tolerance`) has reached it and is no longer active."""
     for i in range(s.shape[0]):
         if active[i] and s[i] >= path_len[i] - length[i] / 2 - tolerance:
             reached[i] = True
@@ -158,8 +158,8 @@ def mark_arrived(s, path_len, length, tolerance, active, reached):  # pragma: no
 
 @njit(cache=True, nogil=True)
 def mark_entered(s, offset, front, route, enter_s, active, entered, step):  # pragma: no cover
-    """In place: ``entered[i] = step`` for each active agent on a route whose front has reached
-    its route's ``enter_s`` and that had not entered before (:attr:`World.entered`)."""
+    """In place: `entered[i] = step` for each active agent on a route whose front has reached
+    its route's `enter_s` and that had not entered before (`World.entered`)."""
     for i in range(s.shape[0]):
         r = route[i]
         if entered[i] < 0 and active[i] and r >= 0 and s[i] + offset[i] + front[i] >= enter_s[r]:
@@ -171,11 +171,11 @@ def record_fault_step(
     route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
     state, ring, slot,
 ):  # fmt: skip
-    """One step of :class:`~fluids_bench.tasks.fluids.sim.fault.FaultTracker`, in place: an
-    agent whose front passed its zone's start (``route_s + front >= enter``) enters now (its
-    ``enter`` becomes inf: once only), having run a red light when its light (``light_of``, -1:
-    none) showed ``stop`` on the previous step; then this step's lights become the previous
-    ones and the agents' state goes into history slot ``slot`` of ``ring``."""
+    """One step of `FaultTracker`, in place: an
+    agent whose front passed its zone's start (`route_s + front >= enter`) enters now (its
+    `enter` becomes inf: once only), having run a red light when its light (`light_of`, -1:
+    none) showed `stop` on the previous step; then this step's lights become the previous
+    ones and the agents' state goes into history slot `slot` of `ring`."""
     for i in range(route_s.shape[0]):
         if route_s[i] + front[i] >= enter[i]:
             entry_step[i] = step
@@ -197,10 +197,10 @@ def advance_world(
     offroad_candidates,
 ):  # fmt: skip
     """One world step's per-agent arithmetic in one compiled call, in place, in
-    :meth:`World.step`'s order: the dynamics (:func:`~..dynamics.advance`), progress along the
-    paths (:func:`progress_into`), zone entries at step ``step`` (:func:`mark_entered`),
-    arrivals (:func:`mark_arrived`), then the broad phase of the collision check: writes
-    ``offroad_candidates`` (active cars not surely on the road, :func:`surely_on_road`) and
+    `World.step`'s order: the dynamics (`advance`), progress along the
+    paths (`progress_into`), zone entries at step `step` (`mark_entered`),
+    arrivals (`mark_arrived`), then the broad phase of the collision check: writes
+    `offroad_candidates` (active cars not surely on the road, `surely_on_road`) and
     returns whether any candidate exists or any two agents' covering circles meet (False: the
     step has no collision, and Shapely need not be called)."""
     advance(state, controls, is_car, params, dt, active)
@@ -228,9 +228,9 @@ def advance_worlds(
     enter_s, entered, steps, length, tolerance, reached, circle_offsets, circle_samples,
     circle_radius, reach2, offroad_candidates, maybe_collided,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`advance_world` on row ``b`` of every per-world array, for each world ``b`` where
-    ``stepping[b]`` (the arrays without a batch axis are shared by all worlds); writes each
-    stepped world's result into ``maybe_collided[b]``."""
+    """`advance_world` on row `b` of every per-world array, for each world `b` where
+    `stepping[b]` (the arrays without a batch axis are shared by all worlds); writes each
+    stepped world's result into `maybe_collided[b]`."""
     for b in range(len(stepping)):
         if stepping[b]:
             maybe_collided[b] = advance_world(

@@ -1,7 +1,7 @@
 """Looping traffic and crosswalk lights, evaluated for all lights at once.
 
-States are coded by what they ask of the agent they govern: ``GO`` (green / white),
-``CAUTION`` (yellow) and ``STOP`` (red).
+States are coded by what they ask of the agent they govern: `GO` (green / white),
+`CAUTION` (yellow) and `STOP` (red).
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ STATE_NAMES = {
 
 @functools.lru_cache(maxsize=64)
 def _tables(lights: tuple, scale: float) -> tuple[np.ndarray, ...]:
-    """The programs of ``lights`` as arrays (read-only): each phase's cumulative end time,
+    """The programs of `lights` as arrays (read-only): each phase's cumulative end time,
     each phase's state code, each light's cycle length and offset (s)."""
     width = max((len(light.phases) for light in lights), default=1)
     ends = np.full((len(lights), width), np.inf)
@@ -43,10 +43,10 @@ def _tables(lights: tuple, scale: float) -> tuple[np.ndarray, ...]:
 
 
 class LightProgram:
-    """The programs of a layout's lights as arrays: ``states(t)`` is one vectorised lookup."""
+    """The programs of a layout's lights as arrays: `states(t)` is one vectorised lookup."""
 
     def __init__(self, lights, scale: float = 1.0) -> None:
-        """``scale`` multiplies every phase's duration and every offset (light timing)."""
+        """`scale` multiplies every phase's duration and every offset (light timing)."""
         self.names = tuple(light.name for light in lights)
         self.kinds = tuple(light.kind for light in lights)
         # the tables are read-only and shared by every program of the same lights and scale
@@ -67,8 +67,8 @@ class LightProgram:
         return len(self.names)
 
     def states(self, t: float) -> np.ndarray:
-        """State code of every light at time ``t`` (s): :attr:`current`, updated in place
-        (read it, never write it). Lights change rarely, so the last answer is kept while ``t``
+        """State code of every light at time `t` (s): `current`, updated in place
+        (read it, never write it). Lights change rarely, so the last answer is kept while `t`
         stays inside the interval it holds for."""
         valid = self._valid
         if valid[0] <= t < valid[1] or not len(self):
@@ -87,11 +87,11 @@ class LightProgram:
         return nxt - phase_t
 
     def describe(self, t: float) -> dict[str, str]:
-        """``{light name: colour}`` at time ``t``."""
+        """`{light name: colour}` at time `t`."""
         return self.describe_states(self.states(t))
 
     def describe_states(self, states: np.ndarray) -> dict[str, str]:
-        """``{light name: colour}`` for state codes ``states`` (cached: lights change rarely)."""
+        """`{light name: colour}` for state codes `states` (cached: lights change rarely)."""
         key = states.tobytes()
         if key not in self._described:
             self._described[key] = {

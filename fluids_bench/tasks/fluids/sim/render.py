@@ -1,12 +1,12 @@
 """Pictures of the simulator for people: a global top-down view of a world or of a bare layout.
 
 Drawing only reads the world. It reuses the cached static raster and the drawing of lights and
-agents of :mod:`fluids_bench.tasks.fluids.sim.draw` (as the bird's-eye sensor does), and adds what a person
+agents of `fluids_bench.tasks.fluids.sim.draw` (as the bird's-eye sensor does), and adds what a person
 watching needs: every car's remaining route (thin), the ego's (thick pink), this step's
 collisions (red outlines and a banner), the time and step, and a legend.
 
-The ``"human"`` render mode shows frames in a pygame window; pygame is the optional ``human``
-extra (``pip install "fluids-bench[human]"``).
+The `"human"` render mode shows frames in a pygame window; pygame is the optional `human`
+extra (`pip install "fluids-bench[human]"`).
 """
 
 from __future__ import annotations
@@ -56,14 +56,14 @@ LIGHT_LEGEND = (
 
 
 def _shade(img, x0: int, y0: int, x1: int, y1: int) -> None:
-    """Darken a box of ``img`` (clipped to it), as a backdrop for text."""
+    """Darken a box of `img` (clipped to it), as a backdrop for text."""
     h, w = img.shape[:2]
     roi = img[max(0, y0) : min(h, y1), max(0, x0) : min(w, x1)]
     roi[:] = (roi * 0.3).astype(np.uint8)
 
 
 def _text(img, text: str, org, scale: float, colour=(255, 255, 255)) -> None:
-    """One line of text (baseline-left at ``org``) on a dark backdrop, readable anywhere."""
+    """One line of text (baseline-left at `org`) on a dark backdrop, readable anywhere."""
     (tw, th), base = cv2.getTextSize(text, _FONT, scale, 1)
     x, y = org
     _shade(img, x - 4, y - th - 4, x + tw + 4, y + base + 2)
@@ -71,7 +71,7 @@ def _text(img, text: str, org, scale: float, colour=(255, 255, 255)) -> None:
 
 
 def draw_legend(img, items, corner: str, scale: float) -> None:
-    """A boxed legend of coloured swatches in the ``corner`` ("bl" or "br") of ``img``."""
+    """A boxed legend of coloured swatches in the `corner` ("bl" or "br") of `img`."""
     h, w = img.shape[:2]
     line = int(22 * scale / 0.5)
     sw = int(12 * scale / 0.5)
@@ -87,7 +87,7 @@ def draw_legend(img, items, corner: str, scale: float) -> None:
 
 
 class Renderer:
-    """Global RGB view of worlds on ``layout``: ``size`` × ``size`` pixels, the whole layout."""
+    """Global RGB view of worlds on `layout`: `size` × `size` pixels, the whole layout."""
 
     def __init__(self, layout: Layout, size: int = RENDER_SIZE, legend: bool = True) -> None:
         self.layout = layout
@@ -116,7 +116,7 @@ class Renderer:
             cv2.polylines(img, lines, False, colour, thickness, _AA, SHIFT)
 
     def render(self, world, ego: int = 0) -> np.ndarray:
-        """The frame (size, size, 3) uint8 RGB of ``world``'s current state."""
+        """The frame (size, size, 3) uint8 RGB of `world`'s current state."""
         img = self.base.copy()
         a, ppm = self.affine, self.ppm
         idx = visible_agents(world, ego)
@@ -138,7 +138,7 @@ class Renderer:
         return img
 
     def render_layout(self, t: float = 0.0) -> np.ndarray:
-        """A preview of the bare layout: every car route and walk, the lights as at time ``t``."""
+        """A preview of the bare layout: every car route and walk, the lights as at time `t`."""
         img = self._base(LAYOUT_LEGEND if self.legend else ()).copy()
         routes = self.layout.routes
         lengths = np.rint(routes.length / 0.5).astype(int)
@@ -175,8 +175,8 @@ RAY_LEGEND = (
 
 def draw_rays(img, affine, world, offsets: np.ndarray, reading: np.ndarray, ego: int = 0) -> None:
     """Quasi-LIDAR rays over a frame, like ch. 7's Fig. 7.5: from the ego's centre to each
-    ray's reading distance, coloured by what it hit (:data:`RAY_COLOURS`: nothing white,
-    car red, pedestrian orange, road edge cyan). ``reading`` is a (m, 4) observation."""
+    ray's reading distance, coloured by what it hit (`RAY_COLOURS`: nothing white,
+    car red, pedestrian orange, road edge cyan). `reading` is a (m, 4) observation."""
     x, y, th, _ = world.state[ego]
     ang = th + offsets
     ends = np.column_stack([x + reading[:, 0] * np.cos(ang), y + reading[:, 0] * np.sin(ang)])
@@ -206,7 +206,7 @@ def require_pygame():
 
 
 class HumanWindow:
-    """A pygame window showing RGB frames at most ``fps`` per second."""
+    """A pygame window showing RGB frames at most `fps` per second."""
 
     def __init__(self, title: str = "FLUIDS", fps: int = 10) -> None:
         self.pygame = require_pygame()

@@ -42,7 +42,7 @@ def capacity(world: World) -> tuple[int, int]:
 
 
 def spawn(world: World, rng: np.random.Generator) -> None:
-    """Place every agent of ``world`` at a random non-overlapping start, at rest."""
+    """Place every agent of `world` at a random non-overlapping start, at rest."""
     max_cars, max_peds = capacity(world)
     n_cars = int(world.is_car.sum())
     n_peds = world.n - n_cars

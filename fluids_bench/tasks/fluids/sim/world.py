@@ -1,8 +1,8 @@
-"""The FLUIDS world: struct-of-arrays state of every agent, one vectorised ``step``.
+"""The FLUIDS world: struct-of-arrays state of every agent, one vectorised `step`.
 
 Agent 0 is always the ego car; cars come first, pedestrians after. Each agent follows its own
 copy of a path (its route's, or a recovery path planned back to it), stored resampled every
-``PATH_SPACING`` metres so that progress ``s`` (m along the path) indexes it directly.
+`PATH_SPACING` metres so that progress `s` (m along the path) indexes it directly.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ PROGRESS_WINDOW = (-3, 9)  # path samples searched around the last progress: 3 b
 
 
 class RouteRows(NamedTuple):
-    """What :meth:`World.set_path` writes for each route of a layout (R rows of one width)."""
+    """What `World.set_path` writes for each route of a layout (R rows of one width)."""
 
     z: np.ndarray  # (R, width) complex128 points
     heading: np.ndarray  # (R, width)
@@ -42,7 +42,7 @@ class RouteRows(NamedTuple):
 
 
 def _path_rows(path, heading, length, clearance, width):
-    """One agent's path rows, ``width`` samples long (padded with the last sample): points,
+    """One agent's path rows, `width` samples long (padded with the last sample): points,
     headings, clearances, unit tangents, single-precision points, and the length (m)."""
     m = min(len(path), width)
     z, h, c = np.empty(width, np.complex128), np.empty(width), np.empty(width)
@@ -61,7 +61,7 @@ def _path_rows(path, heading, length, clearance, width):
 
 @functools.lru_cache(maxsize=32)
 def route_rows(layout: Layout, width: int) -> RouteRows:
-    """Every route's :func:`_path_rows` on ``layout``, computed once per layout and width (a
+    """Every route's `_path_rows` on `layout`, computed once per layout and width (a
     reset places every agent on a route: copying rows is cheaper than building them)."""
     table = layout.routes
     rows = [
@@ -95,8 +95,8 @@ _TICKS: dict[float, np.ndarray] = {}
 
 
 def clock_ticks(dt: float, steps: int) -> np.ndarray:
-    """The clock of a world after k steps of ``dt``, for k = 0 … at least ``steps``, as
-    :meth:`World.begin_step` advances it from 0 (read-only, cached per ``dt``): a batch of
+    """The clock of a world after k steps of `dt`, for k = 0 … at least `steps`, as
+    `World.begin_step` advances it from 0 (read-only, cached per `dt`): a batch of
     worlds reads every world's new time from it in one operation, with the same bits."""
     ticks = _TICKS.get(dt)
     if ticks is None or len(ticks) <= steps:
@@ -111,7 +111,7 @@ def clock_ticks(dt: float, steps: int) -> np.ndarray:
 
 
 class World:
-    """All agents of one scene on one compiled layout. Mutated only by :meth:`step` and the
+    """All agents of one scene on one compiled layout. Mutated only by `step` and the
     placement methods; readers (sensors, renderers, supervisors) must not write to its arrays."""
 
     def __init__(self, scene: SceneConfig, layout: Layout | None = None) -> None:
@@ -180,7 +180,7 @@ class World:
 
     # ----------------------------------------------------------------------------- placement
     def place(self, agent: int, route: int, s: float, speed: float = 0.0) -> None:
-        """Put ``agent`` on ``route`` at arc length ``s`` (m), heading along it."""
+        """Put `agent` on `route` at arc length `s` (m), heading along it."""
         table = self.layout.routes
         if table.kind[route] != self.kind[agent]:
             raise ValueError(
@@ -199,8 +199,8 @@ class World:
         self._update_entered()
 
     def follow_route(self, agent: int, route: int) -> None:
-        """Make route ``route``'s path the one ``agent`` follows (progress is kept): the rows
-        :meth:`set_path` would write, copied from the layout's table of them."""
+        """Make route `route`'s path the one `agent` follows (progress is kept): the rows
+        `set_path` would write, copied from the layout's table of them."""
         rows = route_rows(self.layout, self.path_z.shape[1])
         self.route[agent] = route
         self.path_z[agent] = rows.z[route]
@@ -218,8 +218,8 @@ class World:
         length: float,
         clearance: np.ndarray | None = None,
     ) -> None:
-        """Give ``agent`` a new path to follow (a recovery path; :meth:`follow_route` for a
-        route's). ``clearance`` (m from each point to the road's edge) is computed when not
+        """Give `agent` a new path to follow (a recovery path; `follow_route` for a
+        route's). `clearance` (m from each point to the road's edge) is computed when not
         given."""
         if clearance is None:
             clearance = self.layout.road_clearance(path)
@@ -230,12 +230,12 @@ class World:
     # ----------------------------------------------------------------------------- queries
     @property
     def path(self) -> np.ndarray:
-        """Every agent's path as points (n, width, 2) (m); a view of :attr:`path_z`."""
+        """Every agent's path as points (n, width, 2) (m); a view of `path_z`."""
         return self.path_z.view(np.float64).reshape(*self.path_z.shape, 2)
 
     @property
     def position(self) -> np.ndarray:
-        """Positions as complex numbers x + iy (n,); a view of :attr:`state`."""
+        """Positions as complex numbers x + iy (n,); a view of `state`."""
         return self.state.view(np.complex128)[:, 0]
 
     @property
@@ -252,7 +252,7 @@ class World:
     def path_points(
         self, s: np.ndarray, agents: np.ndarray | None = None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Points and headings at arc lengths ``s`` (shape (n,) or (n, ...)) on each agent's path."""
+        """Points and headings at arc lengths `s` (shape (n,) or (n, ...)) on each agent's path."""
         k = np.rint(s / PATH_SPACING).astype(np.int64)
         np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
         starts = self._row_start if agents is None else self._row_start[agents]
@@ -261,7 +261,7 @@ class World:
         return points.view(np.float64).reshape(*k.shape, 2), self.path_heading.ravel().take(k)
 
     def path_samples(self, s: np.ndarray, agents: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Points and unit tangents at arc lengths ``s`` (len(agents), ...), as complex64."""
+        """Points and unit tangents at arc lengths `s` (len(agents), ...), as complex64."""
         k = np.rint(s * (1.0 / PATH_SPACING)).astype(np.int64)
         np.minimum(np.maximum(k, 0, out=k), self.path_z.shape[1] - 1, out=k)
         k += self._row_start[agents].reshape((-1,) + (1,) * (k.ndim - 1))  # flat indices
@@ -274,12 +274,12 @@ class World:
 
     # ----------------------------------------------------------------------------- stepping
     def step(self, controls: np.ndarray) -> list[Collision]:
-        """Advance every active agent by ``dt`` under ``controls`` (N, 2); returns new collisions.
+        """Advance every active agent by `dt` under `controls` (N, 2); returns new collisions.
 
         The per-agent arithmetic (dynamics, progress, zone entries, arrivals and the collision
-        broad phase) is one compiled call (:func:`kernels.advance_world`); Shapely runs only
+        broad phase) is one compiled call (`kernels.advance_world`); Shapely runs only
         when that finds agents whose covering circles meet or a car not surely on the road.
-        A :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` runs the same three parts
+        A `WorldBatch` runs the same three parts
         for many worlds, the compiled one for all at once."""
         self.begin_step()
         maybe_collided = kernels.advance_world(
@@ -304,15 +304,15 @@ class World:
     steps = Entry("_step_count", (), int)  # steps taken since the world was made
 
     def begin_step(self) -> None:
-        """The clock's part of :meth:`step`, before the agents move (:func:`clock_ticks`)."""
+        """The clock's part of `step`, before the agents move (`clock_ticks`)."""
         self._clock[()] = round(self.time + self.dt, 9)
         self._step_count[()] += 1
 
     def finish_step(self, maybe_collided: bool) -> list[Collision]:
-        """The part of :meth:`step` after the agents moved: the lights at the new time and,
+        """The part of `step` after the agents moved: the lights at the new time and,
         when the broad phase found candidates, the exact collision check (a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` looks the lights up right after
-        :meth:`begin_step` and calls :meth:`collide` only where needed)."""
+        `WorldBatch` looks the lights up right after
+        `begin_step` and calls `collide` only where needed)."""
         self.light_state = self.lights.states(self.time)
         return self.collide() if maybe_collided else []
 
@@ -331,7 +331,7 @@ class World:
 
     def _update_progress(self) -> None:
         """Project each agent onto its path near its previous progress (a local window: an
-        agent moves at most a few samples per step); see :func:`kernels.progress_into`."""
+        agent moves at most a few samples per step); see `kernels.progress_into`."""
         kernels.progress_into(
             self.state, self.s, self.active, self.path_z, self.path_heading, self.path_len,
             PATH_SPACING, *PROGRESS_WINDOW, self.nearest, self.lateral_error, self.heading_error,
@@ -352,8 +352,8 @@ class World:
         )
 
     def _collisions(self, offroad_candidates: np.ndarray | None = None) -> list[Collision]:
-        """This step's collisions; ``offroad_candidates`` (bool, N): the cars that get the exact
-        off-road test (default: the active cars not :meth:`surely_on_road`)."""
+        """This step's collisions; `offroad_candidates` (bool, N): the cars that get the exact
+        off-road test (default: the active cars not `surely_on_road`)."""
         if offroad_candidates is None:
             offroad_candidates = self.is_car & self.active & ~self.surely_on_road()
         found = find_collisions(

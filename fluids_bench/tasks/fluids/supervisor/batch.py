@@ -1,11 +1,11 @@
 """The supervisors of B worlds planning and proposing their controls together.
 
 Each supervisor's targets, last proposal and PID memory are rows of batched arrays (as the
-worlds' in :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`), so
-:meth:`SupervisorBatch.propose` is :meth:`DrivingSupervisor.propose` for many worlds at once:
-:func:`kernels.pid_follow_into` on each row, the same arithmetic as alone. :meth:`SupervisorBatch.plan` finds the cars off their routes
+worlds' in `WorldBatch`), so
+`SupervisorBatch.propose` is `DrivingSupervisor.propose` for many worlds at once:
+`kernels.pid_follow_into` on each row, the same arithmetic as alone. `SupervisorBatch.plan` finds the cars off their routes
 in every world in one call and runs the velocity planner of every world due to plan in two
-(:func:`plan_kernels.plan_head_worlds`, :func:`plan_kernels.plan_tail_worlds`); only recovery
+(`plan_kernels.plan_head_worlds`, `plan_kernels.plan_tail_worlds`); only recovery
 (rare: a car off its route) runs world by world.
 """
 
@@ -36,8 +36,8 @@ PID_MEMORY = ("steer_prev", "steer_int", "speed_int")
 def mark_off_route_worlds(
     going, lateral, heading_error, active, is_car, max_lateral, max_heading, out, counts
 ):  # pragma: no cover (compiled)
-    """:func:`mark_off_route` on row ``b`` of the per-world arrays where ``going[b]``, into
-    ``out[b]`` and ``counts[b]`` (0 elsewhere)."""
+    """`mark_off_route` on row `b` of the per-world arrays where `going[b]`, into
+    `out[b]` and `counts[b]` (0 elsewhere)."""
     for b in range(len(going)):
         counts[b] = 0
         if going[b]:
@@ -52,8 +52,8 @@ def pid_follow_worlds(
     going, path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, targets,
     steer_prev, steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`pid_follow_into` on row ``b`` of every per-world array where ``going[b]``: the
-    controls into ``out[b]`` and the loops' next memory into ``memory[b]`` (3, N)."""
+    """`pid_follow_into` on row `b` of every per-world array where `going[b]`: the
+    controls into `out[b]` and the loops' next memory into `memory[b]` (3, N)."""
     for b in range(len(going)):
         if going[b]:
             pid_follow_into(
@@ -69,11 +69,11 @@ def waypoints_follow_worlds(
     spacing, state, is_car, targets, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
     low, high, out, memory,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """Where ``mask[b]``: the controls (into ``out[b]``) and next PID memory (``memory[b]``)
-    of world ``b`` with its ego steering to its trajectory-level ``waypoints[b]`` (W, 2; the
-    ego's frame) and every other agent to its look-ahead point, as ``levels.controls`` at the
-    trajectory level (``levels.waypoints_aim``: the first waypoint at least the look-ahead
-    away, else the last; the C library's hypot, cos and sin, as ``math``'s)."""
+    """Where `mask[b]`: the controls (into `out[b]`) and next PID memory (`memory[b]`)
+    of world `b` with its ego steering to its trajectory-level `waypoints[b]` (W, 2; the
+    ego's frame) and every other agent to its look-ahead point, as `levels.controls` at the
+    trajectory level (`levels.waypoints_aim`: the first waypoint at least the look-ahead
+    away, else the last; the C library's hypot, cos and sin, as `math`'s)."""
     for b in range(len(mask)):
         if not mask[b]:
             continue
@@ -99,7 +99,7 @@ def waypoints_follow_worlds(
 
 
 class SupervisorBatch:
-    """Row storage for the supervisors of a :class:`WorldBatch`'s worlds, and their batched
+    """Row storage for the supervisors of a `WorldBatch`'s worlds, and their batched
     proposal."""
 
     def __init__(self, supervisors: list[DrivingSupervisor]) -> None:
@@ -119,15 +119,15 @@ class SupervisorBatch:
         return self.plans.objects
 
     def bind(self, index: int, supervisor: DrivingSupervisor) -> None:
-        """Make ``supervisor`` the one of world ``index`` (its values go into its rows)."""
+        """Make `supervisor` the one of world `index` (its values go into its rows)."""
         self.plans.bind(index, supervisor)
         self.memory.bind(index, supervisor.pid)
 
     def plan(self, going: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
-        """:meth:`DrivingSupervisor.plan` of each supervisor where ``going``: the cars off
+        """`DrivingSupervisor.plan` of each supervisor where `going`: the cars off
         their routes found in all worlds in one call and recovered world by world (where any),
-        then the velocity plan of every world due for one (:meth:`plan_velocities`).
-        ``lights``: each world's light states now (B, L)."""
+        then the velocity plan of every world due for one (`plan_velocities`).
+        `lights`: each world's light states now (B, L)."""
         supervisors = self.supervisors
         if supervisors[0].config.recovery:
             off, counts = self._off_route
@@ -143,8 +143,8 @@ class SupervisorBatch:
             self.plan_velocities(due, worlds, lights)
 
     def plan_velocities(self, due: np.ndarray, worlds: WorldBatch, lights: np.ndarray) -> None:
-        """:meth:`VelocityPlanner.plan` of the worlds ``due`` (indices) into their rows of
-        :attr:`plans`' ``targets``: two compiled calls around numpy's abs of all their circle gaps. Every
+        """`VelocityPlanner.plan` of the worlds `due` (indices) into their rows of
+        `plans`' `targets`: two compiled calls around numpy's abs of all their circle gaps. Every
         world's planner shares the scene's constants (the vector env's worlds are all of one
         scene), so the first world's planner lends them."""
         sup, w = self.supervisors[0], worlds.worlds[0]
@@ -180,8 +180,8 @@ class SupervisorBatch:
             )
 
     def propose(self, going: np.ndarray, worlds: WorldBatch) -> None:
-        """:meth:`DrivingSupervisor.propose` for each world where ``going`` (bool, (B,)), into
-        the supervisors' rows of :attr:`proposed` and :attr:`next_memory`."""
+        """`DrivingSupervisor.propose` for each world where `going` (bool, (B,)), into
+        the supervisors' rows of `proposed` and `next_memory`."""
         self.follow(going, worlds, self.plans["targets"], self.proposed, self.next_memory)
 
     def follow(
@@ -192,8 +192,8 @@ class SupervisorBatch:
         out: np.ndarray,
         memory: np.ndarray,
     ) -> None:
-        """``PIDController.controls`` toward ``targets`` (B, N) for each world where ``mask``:
-        the controls into ``out`` (B, N, 2), the loops' next memory into ``memory`` (B, 3, N)."""
+        """`PIDController.controls` toward `targets` (B, N) for each world where `mask`:
+        the controls into `out` (B, N, 2), the loops' next memory into `memory` (B, 3, N)."""
         pid, w, rows = self.supervisors[0].pid, worlds.worlds[0], self.memory
         pid_follow_worlds(
             mask, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
@@ -210,8 +210,8 @@ class SupervisorBatch:
         out: np.ndarray,
         memory: np.ndarray,
     ) -> None:
-        """As :meth:`follow` toward the supervisors' targets, with each ego (where ``mask``)
-        steering to its trajectory-level ``waypoints`` (B, W, 2; metres, its own frame)
+        """As `follow` toward the supervisors' targets, with each ego (where `mask`)
+        steering to its trajectory-level `waypoints` (B, W, 2; metres, its own frame)
         instead of its look-ahead point."""
         sup, w, rows = self.supervisors[0], worlds.worlds[0], self.memory
         pid, cfg = sup.pid, sup.config.pid
@@ -224,7 +224,7 @@ class SupervisorBatch:
         )  # fmt: skip
 
     def commit_proposals(self, mask: np.ndarray) -> None:
-        """``DrivingSupervisor.commit()`` (of its own proposal's memory) for each supervisor
-        where ``mask``."""
+        """`DrivingSupervisor.commit()` (of its own proposal's memory) for each supervisor
+        where `mask`."""
         for k, name in enumerate(PID_MEMORY):
             self.memory[name][mask] = self.next_memory[mask, k]

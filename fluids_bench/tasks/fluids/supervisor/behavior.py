@@ -1,12 +1,12 @@
 """Level 1 of the supervisor: which movement (target lane) each car takes.
 
 The source's behaviour planner samples a start lane uniformly and then a target uniformly over
-the other approaches, p(l_t | l_g) = 1/(K−1) (ch. 7); :mod:`fluids_bench.tasks.fluids.sim.spawn` draws exactly
+the other approaches, p(l_t | l_g) = 1/(K−1) (ch. 7); `fluids_bench.tasks.fluids.sim.spawn` draws exactly
 that. A behaviour-level action picks among the movements of the car's entry lane, in the layout's
 order (counter-clockwise from the entry: right, straight, left on a four-way).
 
 The supervisor's behaviour for a car is the movement drawn for it at spawn, and stays so
-whatever a learner then chooses: the label is :func:`movement_of` that sampled route, never the
+whatever a learner then chooses: the label is `movement_of` that sampled route, never the
 car's current route (which the learner's own previous action set).
 """
 
@@ -25,20 +25,20 @@ def movement_count(world: World) -> int:
 
 
 def movement_of(world: World, route: int) -> int:
-    """Index of ``route`` among the movements of its entry lane."""
+    """Index of `route` among the movements of its entry lane."""
     routes = world.layout.routes
     options = world.layout.routes_from_entry(int(routes.entry[route]))
     return int(np.flatnonzero(options == route)[0])
 
 
 def current_movement(world: World, agent: int) -> int:
-    """Index of ``agent``'s current route among its entry lane's movements (what it drives now,
+    """Index of `agent`'s current route among its entry lane's movements (what it drives now,
     which a behaviour-level learner may have chosen; not the supervisor's label)."""
     return movement_of(world, int(world.route[agent]))
 
 
 def choose_movement(world: World, agent: int, movement: int) -> bool:
-    """Switch ``agent`` to movement ``movement`` (taken modulo the lane's count) if it has not
+    """Switch `agent` to movement `movement` (taken modulo the lane's count) if it has not
     reached the junction yet; returns whether its route changed. The entry lane is shared by all
     of its movements, so the car keeps its place and progress."""
     routes = world.layout.routes

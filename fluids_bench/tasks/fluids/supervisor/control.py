@@ -3,7 +3,7 @@
 Steering tracks the direction to a look-ahead point on the agent's path; force (cars) or
 acceleration (pedestrians) tracks the target velocity. Pedestrians turn directly toward the
 look-ahead point (point model). The per-agent arithmetic is a compiled loop
-(:mod:`fluids_bench.tasks.fluids.supervisor.kernels`): a few dozen scalar operations per agent cost
+(`fluids_bench.tasks.fluids.supervisor.kernels`): a few dozen scalar operations per agent cost
 less there than as numpy calls on 16-element arrays.
 """
 
@@ -85,7 +85,7 @@ class PIDController:
         self, world: World, target_speed: np.ndarray, aim: np.ndarray | None = None
     ) -> tuple[np.ndarray, tuple]:
         """Controls (N, 2): [steering ψ (rad), force F (N)] for cars, [heading, accel] for
-        pedestrians, and the loop memory to :meth:`commit` if they are executed. ``aim``
+        pedestrians, and the loop memory to `commit` if they are executed. `aim`
         overrides the look-ahead points (N, 2)."""
         if aim is None:  # the look-ahead points and the loops in one compiled call
             out, err, integ, v_int = kernels.pid_follow(
@@ -105,8 +105,8 @@ class PIDController:
     def controls_into(
         self, world: World, target_speed: np.ndarray, out: np.ndarray, memory: np.ndarray
     ) -> None:
-        """:meth:`controls` toward the look-ahead points, written into ``out`` (N, 2) and
-        ``memory`` (3, N)."""
+        """`controls` toward the look-ahead points, written into `out` (N, 2) and
+        `memory` (3, N)."""
         kernels.pid_follow_into(
             world.path_z, world.s, world.path_len, self.min_ahead, self.ahead_time, PATH_SPACING,
             world.state, self.is_car, target_speed, self.steer_prev, self.steer_int,

@@ -2,15 +2,15 @@
 
 The planner's CSP has one variable per agent in a binary constraint, its allowed candidate
 indices as the domain, and "not conflict[p, x, y]" per pair. Its reference is
-python-constraint2's ``OptimizedBacktrackingSolver`` with the variables in priority order, and
-:func:`solve` replays that solver's search step for step, so it returns the same assignment,
+python-constraint2's `OptimizedBacktrackingSolver` with the variables in priority order, and
+`solve` replays that solver's search step for step, so it returns the same assignment,
 not merely a valid one: variables in the given order; a variable's values tried from the end
 of its domain list; forward checking that hides the values of a constraint's one unassigned
 variable that clash with the assignment (in the domain's list order) and, on backtracking,
 appends them back at the end of the list (so a domain's order can change during the search,
 and the values tried next follow that order; on random dense instances this gives another
 answer than a plain lexicographic search in about 4 % of cases).
-``tests/tasks/fluids/supervisor/test_csp_kernel.py`` checks the assignment against
+`tests/tasks/fluids/supervisor/test_csp_kernel.py` checks the assignment against
 python-constraint2 on planner instances recorded from seeded episodes and on random ones.
 
 Pure integer logic over arrays: the same on every CPU.
@@ -24,7 +24,7 @@ from numba import njit
 
 @njit(cache=True, nogil=True, inline="always")
 def _hide(dom, dlen, hid, hlen, v, value):  # pragma: no cover (compiled)
-    """Domain.hideValue: remove ``value`` from v's list (shifting the rest) onto its stack."""
+    """Domain.hideValue: remove `value` from v's list (shifting the rest) onto its stack."""
     at = 0
     while dom[v, at] != value:
         at += 1
@@ -59,10 +59,10 @@ def _pop(states, slen, dom, dlen, hid, hlen, v):  # pragma: no cover (compiled)
 def _check(
     cons, first, second, bad, assigned, value, forward, dom, dlen, hid, hlen, snapshot
 ):  # pragma: no cover (compiled)
-    """The constraints of ``var`` (indices ``cons``, in the order they were added), after it
+    """The constraints of `var` (indices `cons`, in the order they were added), after it
     got its value: a constraint with both variables assigned must hold; with one unassigned
-    (and ``forward``: some domain was pushed) that variable's clashing values are hidden, and
-    an emptied domain fails it. False at the first failing constraint. ``snapshot`` (K,):
+    (and `forward`: some domain was pushed) that variable's clashing values are hidden, and
+    an emptied domain fails it. False at the first failing constraint. `snapshot` (K,):
     scratch for the domain's list as it was before hiding."""
     for c in cons:
         a, b = first[c], second[c]
@@ -89,7 +89,7 @@ def _check(
 @njit(cache=True, nogil=True)
 def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
     """The first solution of the planner's CSP as python-constraint2's
-    ``OptimizedBacktrackingSolver`` (forward checking on) finds it.
+    `OptimizedBacktrackingSolver` (forward checking on) finds it.
 
     order (V,): the variables in the order they are assigned; allowed (V, K) bool: each
     variable's domain, listed ascending; first, second, bad: the binary constraints in the
@@ -181,8 +181,8 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True)
 def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cover (compiled)
-    """Positions in ``agents`` in the order the CSP assigns them (right of way first): agents
-    whose front is in or past their route's shared zone (``enter_s``) first, the furthest in
+    """Positions in `agents` in the order the CSP assigns them (right of way first): agents
+    whose front is in or past their route's shared zone (`enter_s`) first, the furthest in
     first; then the others, nearest to it first; ties by world index."""
     n = len(agents)
     inside = np.zeros(n, np.bool_)
@@ -216,7 +216,7 @@ def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cove
 @njit(cache=True, nogil=True)
 def _before(in_a, k_in_a, k_out_a, ag_a, in_b, k_in_b, k_out_b, ag_b):  # pragma: no cover
     """Whether an agent with these keys (inside, key_in, key_out, world index) goes before
-    one with those (:func:`priority_order`)."""
+    one with those (`priority_order`)."""
     if in_a != in_b:
         return in_a
     if k_in_a != k_in_b:
@@ -241,7 +241,7 @@ def _fastest_allowed(allowed):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True)
 def _binds(choice, pairs, conflict):  # pragma: no cover (compiled)
-    """Some constraint clashes at ``choice``: the CSP matters."""
+    """Some constraint clashes at `choice`: the CSP matters."""
     for p in range(len(pairs)):
         if conflict[p, choice[pairs[p, 0]], choice[pairs[p, 1]]]:
             return True
@@ -250,8 +250,8 @@ def _binds(choice, pairs, conflict):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True)
 def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
-    """The CSP's solution written into ``choice`` (:func:`solve`; variables: the agents in
-    some pair, in the ``priority`` order, added in ascending position as their domains);
+    """The CSP's solution written into `choice` (`solve`; variables: the agents in
+    some pair, in the `priority` order, added in ascending position as their domains);
     False where it has none."""
     n, k = allowed.shape
     index = np.full(n, -1)
@@ -285,8 +285,8 @@ def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover
 @njit(cache=True, nogil=True)
 def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
     """Each agent's candidate (A,): its fastest allowed one, unless a binding constraint
-    (``pairs`` (P, 2) positions, ``conflict`` (P, K, K)) clashes there; then the CSP's solution
-    with the variables in the ``priority`` order. Returns (choice, solved)."""
+    (`pairs` (P, 2) positions, `conflict` (P, K, K)) clashes there; then the CSP's solution
+    with the variables in the `priority` order. Returns (choice, solved)."""
     choice = _fastest_allowed(allowed)
     if not _binds(choice, pairs, conflict):
         return choice, True
@@ -297,8 +297,8 @@ def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
 def plan_choice(
     agents, s, offset, front, route, enter_s, allowed, pairs, conflict
 ):  # pragma: no cover (compiled)
-    """:func:`choose` for ``agents`` (world indices), with the priority order
-    (:func:`priority_order`) worked out only when a constraint binds."""
+    """`choose` for `agents` (world indices), with the priority order
+    (`priority_order`) worked out only when a constraint binds."""
     choice = _fastest_allowed(allowed)
     if not _binds(choice, pairs, conflict):
         return choice, True

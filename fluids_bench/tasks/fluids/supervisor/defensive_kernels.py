@@ -1,6 +1,6 @@
 """The velocity planner's defensive constraints in one compiled call (numba).
 
-:meth:`VelocityPlanner.defensive_domains` prunes supervised agents' candidate speeds against
+`VelocityPlanner.defensive_domains` prunes supervised agents' candidate speeds against
 agents it does not control: the pairwise check against each uncontrolled agent braking, the
 supervised followers of a leader that may have to brake at once, and giving way to an
 uncontrolled agent with the right of way. As numpy it was some 60 array calls per plan on a
@@ -10,11 +10,11 @@ needs and stops at the first conflict that settles a candidate.
 Pure function over arrays (agents' state, paths, route tables, the plan's candidates) with no
 Python objects, so a batch of worlds can be walked the same way. The arithmetic is the numpy
 formulation's, operation for operation (float64 projections, float32 path samples as in
-:meth:`World.path_samples`, no fused multiply-add); the relative position of two agents uses
+`World.path_samples`, no fused multiply-add); the relative position of two agents uses
 the C library's scalar sin/cos and plain complex multiplication, which numpy's vectorised loops
 may differ from in the last bit on some CPUs, and it only feeds thresholds (ahead or behind,
-aligned or not). ``tests/tasks/fluids/supervisor/defensive_reference.py`` keeps the numpy
-formulation and ``test_defensive_kernel.py`` compares the two.
+aligned or not). `tests/tasks/fluids/supervisor/defensive_reference.py` keeps the numpy
+formulation and `test_defensive_kernel.py` compares the two.
 """
 
 from __future__ import annotations
@@ -37,7 +37,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
 
 @njit(cache=True, nogil=True)
 def _relative(state, f, ld):  # pragma: no cover (compiled)
-    """Agent ``ld``'s position in agent ``f``'s frame (along, across; m) and whether the two
+    """Agent `ld`'s position in agent `f`'s frame (along, across; m) and whether the two
     head within 45° of each other (world indices)."""
     c, s = math.cos(state[f, 2]), -math.sin(state[f, 2])
     along, across = _in_frame(state, f, ld, c, s)
@@ -46,7 +46,7 @@ def _relative(state, f, ld):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True, inline="always")
 def _in_frame(state, f, ld, c, s):  # pragma: no cover (compiled)
-    """Agent ``ld``'s position in agent ``f``'s frame (along, across; m); ``c``, ``s``: the
+    """Agent `ld`'s position in agent `f`'s frame (along, across; m); `c`, `s`: the
     cosine and minus the sine of f's heading (world indices)."""
     dx, dy = state[ld, 0] - state[f, 0], state[ld, 1] - state[f, 1]
     return dx * c - dy * s, dx * s + dy * c
@@ -54,14 +54,14 @@ def _in_frame(state, f, ld, c, s):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True, inline="always")
 def _aligned(state, f, ld):  # pragma: no cover (compiled)
-    """Agents ``f`` and ``ld`` head within 45° of each other (world indices)."""
+    """Agents `f` and `ld` head within 45° of each other (world indices)."""
     return abs(wrap_angle(state[ld, 2] - state[f, 2])) < math.pi / 4
 
 
 @njit(cache=True, nogil=True, inline="always")
 def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
-    """For each candidate c with ``out[c]`` False, set it where agent ``i`` at c (agent ``j``
-    if ``of_second``: conflict[p, :, c].any()) comes too close to the other at any of its
+    """For each candidate c with `out[c]` False, set it where agent `i` at c (agent `j`
+    if `of_second`: conflict[p, :, c].any()) comes too close to the other at any of its
     candidates. One call per pair, inlined: a call of a compiled helper increments and
     decrements an atomic reference count per array it takes, and with a call per candidate
     those took a quarter of the kernel's time."""
@@ -83,9 +83,9 @@ def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out): 
 def _mark_both_ways(
     s_stop, box_stop, s_go, box_go, offs, t, w, reach2, thresh2, out, hit_go
 ):  # pragma: no cover (compiled)
-    """Set ``out[k]`` (where False) for each candidate k at which agent ``t`` comes too close
-    to ``w`` both in the stop scenario and in the go one (any of w's candidates each);
-    ``hit_go`` (K,) is scratch."""
+    """Set `out[k]` (where False) for each candidate k at which agent `t` comes too close
+    to `w` both in the stop scenario and in the go one (any of w's candidates each);
+    `hit_go` (K,) is scratch."""
     row = out.copy()
     _mark_conflicts(s_stop, offs, box_stop, t, w, False, reach2, thresh2, out)
     for k in range(len(out)):
@@ -98,7 +98,7 @@ def _mark_both_ways(
 @njit(cache=True, nogil=True)
 def _pair_limits(radius, bound, crossing, i, j, margin, ped_margin, contact):  # pragma: no cover
     """Squared broad-phase reach (float32) and squared clearance (m²) of positions i, j: the
-    footprints' own with ``contact``, else plus the margin (the smaller one once a walker of
+    footprints' own with `contact`, else plus the margin (the smaller one once a walker of
     the pair is on its crossing)."""
     m = 0.0 if contact else (ped_margin if crossing[i] or crossing[j] else margin)
     clearance = radius[i] + radius[j] + m
@@ -107,7 +107,7 @@ def _pair_limits(radius, bound, crossing, i, j, margin, ped_margin, contact):  #
 
 @njit(cache=True, nogil=True)
 def _clear_row_if_all(forbid, a):  # pragma: no cover (compiled)
-    """Nothing is forbidden to ``a`` when everything would be (no candidate helps)."""
+    """Nothing is forbidden to `a` when everything would be (no candidate helps)."""
     for k in range(forbid.shape[1]):
         if not forbid[a, k]:
             return
@@ -123,8 +123,8 @@ def defensive_forbid(
     enter_s, across, curvature, speed_limit,
     fractions, hold_wild, ints, floats,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """forbid[a, k] (A, K): supervised agent ``a``'s candidate k could run into an uncontrolled
-    one (:meth:`VelocityPlanner.defensive_domains`, which documents the rules).
+    """forbid[a, k] (A, K): supervised agent `a`'s candidate k could run into an uncontrolled
+    one (`VelocityPlanner.defensive_domains`, which documents the rules).
 
     agents (A,): world indices of the planned agents; wild (A,): uncontrolled; targets (A, K)
     candidate speeds (m/s); hold_lines (A,): route arc lengths of the stop lines held (m, inf:
@@ -219,7 +219,7 @@ def _follow_supervised(
     now_y, bound, offs_a, radius_a, crossing, ints, floats,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """forbid[a, k]: supervised follower a's candidate k (held until the next plan, then
-    braking: ``s_def``) runs into the supervised car ahead of it in its lane braking now
+    braking: `s_def`) runs into the supervised car ahead of it in its lane braking now
     (s0, v0: the planned agents' arc lengths and speeds)."""
     every = ints[3]
     dt, max_accel, max_decel, gain = floats[0], floats[1], floats[2], floats[3]
@@ -282,7 +282,7 @@ def _follow_supervised(
 @njit(cache=True, nogil=True)
 def _slowest_ahead(ag, s, offset, route, is_car, max_speed, curvature, speed_limit, look,
                    lateral_accel, spacing):  # fmt: skip  # pragma: no cover (compiled)
-    """The lowest speed agent ``ag`` is allowed over the next ``look`` path samples of its
+    """The lowest speed agent `ag` is allowed over the next `look` path samples of its
     route (curves and limits; m/s), inf for a walker."""
     if not is_car[ag]:
         return np.inf

@@ -39,7 +39,7 @@ def run_supervised(
     config: SupervisorConfig | None = None,
     stop_on_collision: bool = True,
 ) -> EpisodeSummary:
-    """Run one episode with every agent supervised until all arrive (or ``max_steps``)."""
+    """Run one episode with every agent supervised until all arrive (or `max_steps`)."""
     world = make_world(scene, seed)
     sup = DrivingSupervisor(world, config)
     while world.active.any() and world.steps < max_steps:

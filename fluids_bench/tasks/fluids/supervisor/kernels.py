@@ -8,8 +8,8 @@ compiled than as numpy calls on 16-element arrays. The arithmetic is the numpy v
 operation for operation and in the same precision (float32 positions, float64 thresholds, no
 fused multiply-add), except that atan2 is the C library's scalar function, which numpy's
 vectorised one may differ from in the last bit on some CPUs
-(``tests/tasks/fluids/supervisor/test_supervisor_kernels.py`` keeps those references). The simulator's own
-loops are in :mod:`fluids_bench.tasks.fluids.sim.kernels`.
+(`tests/tasks/fluids/supervisor/test_supervisor_kernels.py` keeps those references). The simulator's own
+loops are in `fluids_bench.tasks.fluids.sim.kernels`.
 """
 
 from __future__ import annotations
@@ -20,8 +20,8 @@ from numba import njit
 
 @njit(cache=True, nogil=True)
 def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
-    """Agent ``i``'s swept box (lo_x, hi_x, lo_y, hi_y): every candidate, every projected time
-    and its position now, grown by its bounding-circle radius ``bound[i]`` (m)."""
+    """Agent `i`'s swept box (lo_x, hi_x, lo_y, hi_y): every candidate, every projected time
+    and its position now, grown by its bounding-circle radius `bound[i]` (m)."""
     x0, x1, y0, y1 = now_x[i], now_x[i], now_y[i], now_y[i]
     for a in range(px.shape[1]):
         for t in range(px.shape[2]):
@@ -34,9 +34,9 @@ def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
 # counting of their array arguments per call, and the callers' loops optimise across them.
 @njit(cache=True, nogil=True, inline="always")
 def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
-    """Whether agent ``i`` at candidate ``a`` and agent ``j`` at candidate ``b`` come too close
-    at some projected time: bounding circles nearer than ``sqrt(reach2)`` (broad phase), then
-    the nearest pair of footprint circles nearer than ``sqrt(thresh2)`` (float32 positions)."""
+    """Whether agent `i` at candidate `a` and agent `j` at candidate `b` come too close
+    at some projected time: bounding circles nearer than `sqrt(reach2)` (broad phase), then
+    the nearest pair of footprint circles nearer than `sqrt(thresh2)` (float32 positions)."""
     n_t = px.shape[2]
     # few times pass the broad phase: find the first and the last that do without a branch
     # per time (the loop vectorises), then visit only the times between them
@@ -67,8 +67,8 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
 def path_samples_into(
     path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy
 ):  # pragma: no cover (compiled)
-    """Points and unit tangents (float32) of each agent in ``rows`` (positions in ``agents``) at
-    the arc lengths ``proj`` (A, K, T), written into px, py, ux, uy (as World.path_samples)."""
+    """Points and unit tangents (float32) of each agent in `rows` (positions in `agents`) at
+    the arc lengths `proj` (A, K, T), written into px, py, ux, uy (as World.path_samples)."""
     width = path_c64.shape[1]
     for a in rows:
         agent = agents[a]
@@ -82,8 +82,8 @@ def path_samples_into(
 
 @njit(cache=True, nogil=True)
 def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
-    """(px, py, ux, uy): :func:`path_samples_into` into new arrays, whose rows not in
-    ``rows`` are left unset (no caller reads them; zeroing them cost more than sampling)."""
+    """(px, py, ux, uy): `path_samples_into` into new arrays, whose rows not in
+    `rows` are left unset (no caller reads them; zeroing them cost more than sampling)."""
     shape = proj.shape
     px, py = np.empty(shape, np.float32), np.empty(shape, np.float32)
     ux, uy = np.empty(shape, np.float32), np.empty(shape, np.float32)
@@ -93,7 +93,7 @@ def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma
 
 @njit(cache=True, nogil=True)
 def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
-    """(A, 4) :func:`swept_box` of each agent in ``rows`` (zeros elsewhere)."""
+    """(A, 4) `swept_box` of each agent in `rows` (zeros elsewhere)."""
     box = np.zeros((px.shape[0], 4))
     for a in rows:
         box[a, 0], box[a, 1], box[a, 2], box[a, 3] = swept_box(px, py, now_x, now_y, bound, a)
@@ -102,7 +102,7 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
 
 @njit(cache=True, nogil=True)
 def swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
-    """:func:`swept_boxes` from the candidates' boxes (:func:`candidate_boxes`): the same
+    """`swept_boxes` from the candidates' boxes (`candidate_boxes`): the same
     bounds, as min and max are exact, from K boxes instead of K·T points."""
     box = np.zeros((cbox.shape[0], 4))
     for a in rows:
@@ -117,7 +117,7 @@ def swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows):  # pragma: no co
 
 @njit(cache=True, nogil=True, inline="always")
 def boxes_apart(box, i, j):  # pragma: no cover (compiled)
-    """The swept boxes of ``i`` and ``j`` do not overlap (the pair cannot conflict)."""
+    """The swept boxes of `i` and `j` do not overlap (the pair cannot conflict)."""
     return (
         box[i, 0] > box[j, 1]
         or box[j, 0] > box[i, 1]
@@ -133,7 +133,7 @@ _APART = 1.001
 @njit(cache=True, nogil=True)
 def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
     """(A, K, 4) box (lo_x, hi_x, lo_y, hi_y; m) of each candidate's projected positions, for
-    the agents in ``rows`` (zeros elsewhere)."""
+    the agents in `rows` (zeros elsewhere)."""
     box = np.zeros((px.shape[0], px.shape[1], 4))
     for a in rows:
         for k in range(px.shape[1]):
@@ -147,8 +147,8 @@ def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True, inline="always")
 def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
-    """Agent ``i``'s candidate ``a`` and ``j``'s candidate ``b`` stay more than ``reach`` (m,
-    their summed bounding radii) times :data:`_APART` apart on some axis: :func:`too_close`
+    """Agent `i`'s candidate `a` and `j`'s candidate `b` stay more than `reach` (m,
+    their summed bounding radii) times `_APART` apart on some axis: `too_close`
     would find no time that passes its broad phase, so it need not run."""
     r = reach * _APART
     return (
@@ -163,14 +163,14 @@ def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
 def projected_arc_lengths(
     s0, v0, targets, decay, steps, every, dt, max_accel, max_decel, gain
 ):  # pragma: no cover (compiled)
-    """Arc lengths (A, K, T) travelled from ``s0`` (A,) at speed ``v0`` (A,) toward each target
-    speed (A, K) under the PID's discrete speed law, sampled every ``every`` of ``steps`` steps.
+    """Arc lengths (A, K, T) travelled from `s0` (A,) at speed `v0` (A,) toward each target
+    speed (A, K) under the PID's discrete speed law, sampled every `every` of `steps` steps.
 
-    A saturated, linear phase of ``n1`` steps, then a geometric approach: ``decay[n + steps]``
+    A saturated, linear phase of `n1` steps, then a geometric approach: `decay[n + steps]`
     is (1 - gain·dt)^n. Speeds are integrated with the trapezoid rule, as a cumulative sum.
 
     Each (agent, candidate) lane's speeds come first, phase by phase (no branch per step, and
-    the approach reads ``decay`` in order); then the sums, time outer and lanes inner, so that
+    the approach reads `decay` in order); then the sums, time outer and lanes inner, so that
     the lanes' chains of dependent additions overlap. Each lane's arithmetic is unchanged.
     """
     n_agents, n_cand = targets.shape
@@ -207,8 +207,8 @@ def projected_arc_lengths(
 def lookahead_points(
     path_z, s, state, path_len, min_ahead, ahead_time, spacing
 ):  # pragma: no cover
-    """The point (N, 2) of each agent's path (``path_z`` (N, M), x + iy) a look-ahead distance
-    ahead of its progress ``s``: max(min_ahead, ahead_time · speed) metres (speed: ``state``'s
+    """The point (N, 2) of each agent's path (`path_z` (N, M), x + iy) a look-ahead distance
+    ahead of its progress `s`: max(min_ahead, ahead_time · speed) metres (speed: `state`'s
     last column), capped at the path's end."""
     out = np.empty((len(s), 2))
     last = path_z.shape[1] - 1
@@ -224,8 +224,8 @@ def lookahead_points(
 def mark_off_route(
     lateral, heading_error, active, is_car, max_lateral, max_heading, out
 ):  # pragma: no cover (compiled)
-    """Marks in ``out`` the active cars farther than ``max_lateral`` (m) from their paths or
-    with a heading error above ``max_heading`` (rad); returns how many (an int boxes faster
+    """Marks in `out` the active cars farther than `max_lateral` (m) from their paths or
+    with a heading error above `max_heading` (rad); returns how many (an int boxes faster
     than an index array, and nearly every step has none)."""
     count = 0
     for i in range(lateral.shape[0]):
@@ -243,8 +243,8 @@ def pid_controls_into(
     state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
     low, high, out, err, integ, v_int,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """Controls (N, 2) of the two PID loops into ``out``, and their new memory into ``err``,
-    ``integ`` and ``v_int`` (N,: error, steering and speed integrators).
+    """Controls (N, 2) of the two PID loops into `out`, and their new memory into `err`,
+    `integ` and `v_int` (N,: error, steering and speed integrators).
 
     gains: steering kp, ki, kd/dt, speed kp, ki; limits: max steer (rad), max decel, max accel
     (m/s²); gain, low, high (N,): acceleration to actuator units, and the actuator's range.
@@ -273,7 +273,7 @@ def pid_controls(
     state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
     low, high,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`pid_controls_into` new arrays: the controls and the loops' new memory."""
+    """`pid_controls_into` new arrays: the controls and the loops' new memory."""
     n = len(state)
     out, err, integ, v_int = np.empty((n, 2)), np.empty(n), np.empty(n), np.empty(n)
     pid_controls_into(
@@ -288,7 +288,7 @@ def pid_follow(
     path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
     steer_int, speed_int, dt, gains, limits, gain, low, high,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`pid_controls` toward each agent's :func:`lookahead_points`, in one call."""
+    """`pid_controls` toward each agent's `lookahead_points`, in one call."""
     aim = lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing)
     return pid_controls(
         state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits,
@@ -301,7 +301,7 @@ def pid_follow_into(
     path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
     steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`pid_follow` into ``out`` (N, 2) and ``memory`` (3, N: the rows of its memory),
+    """`pid_follow` into `out` (N, 2) and `memory` (3, N: the rows of its memory),
     which saves the caller new arrays."""
     aim = lookahead_points(path_z, s, state, path_len, min_ahead, ahead_time, spacing)
     pid_controls_into(
@@ -314,8 +314,8 @@ def pid_follow_into(
 def hold_then_brake_into(
     out, rows, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
-    """The rows ``rows`` of :func:`hold_then_brake` (its arguments, (A, ...)), written into
-    ``out`` (A, K, T); the other rows are left alone.
+    """The rows `rows` of `hold_then_brake` (its arguments, (A, ...)), written into
+    `out` (A, K, T); the other rows are left alone.
 
     Each candidate of each row is its own chain of dependent operations. All of them are
     stepped side by side, time outer and one flat loop over the (row, candidate) lanes inner,
@@ -348,15 +348,15 @@ def hold_then_brake_into(
 def hold_then_brake(
     s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
-    """Arc lengths (A, K, T) of agents that track ``targets`` (A, K) for ``hold`` (A, K) steps
-    and then brake to a stop, sampled every ``every`` of ``steps`` steps (the defensive check's
+    """Arc lengths (A, K, T) of agents that track `targets` (A, K) for `hold` (A, K) steps
+    and then brake to a stop, sampled every `every` of `steps` steps (the defensive check's
     projections; stepped, not in closed form, because the target changes mid-way).
 
     The speed law is the PID's, v += clip(gain · (target − v), −decel, max_accel) · dt, floored
-    at 0, with per-agent ``decel`` (A,) and ``gain`` (A,): a supervised agent brakes as its
-    controller does; an uncontrolled one with ``gain = 1 / dt`` and its physical limit, i.e.
+    at 0, with per-agent `decel` (A,) and `gain` (A,): a supervised agent brakes as its
+    controller does; an uncontrolled one with `gain = 1 / dt` and its physical limit, i.e.
     as hard as it can. Speeds are integrated with the trapezoid rule, as in
-    :func:`projected_arc_lengths`.
+    `projected_arc_lengths`.
     """
     n_agents, n_cand = targets.shape
     out = np.empty((n_agents, n_cand, (steps - every) // every + 1))
@@ -369,7 +369,7 @@ def hold_then_brake(
 @njit(cache=True, nogil=True)
 def positions_now(agents, state, route, enter_s, is_car, s, offset, front):  # pragma: no cover
     """Where the planned agents are now (float32 x, y) and which are walkers on their crossing
-    (front past their route's ``enter_s``), whom cars may pass with a smaller clearance."""
+    (front past their route's `enter_s`), whom cars may pass with a smaller clearance."""
     n_agents = len(agents)
     now_x, now_y = np.empty(n_agents, np.float32), np.empty(n_agents, np.float32)
     crossing = np.zeros(n_agents, np.bool_)
@@ -387,19 +387,19 @@ def plan_conflicts(
     state, s, offset, front, is_car, route, enter_s,
     offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """The CSP's binary constraints: pairs (P', 2) of positions in ``agents`` and their
+    """The CSP's binary constraints: pairs (P', 2) of positions in `agents` and their
     conflict[p, a, b] (P', K, K), only the pairs with some conflict once both braking (0, 0)
     is allowed (so the CSP stays feasible).
 
-    first, second (P,): the candidate pairs (positions in ``agents``, each with a car);
+    first, second (P,): the candidate pairs (positions in `agents`, each with a car);
     d_now (P,) float32: the distance now between their nearest footprint circles (m; computed
-    by the caller with numpy's complex arithmetic). Projections ``s_proj`` (A, K, T) are
-    sampled on the agents' paths (complex64 points and tangents, ``inv_spacing`` samples per
+    by the caller with numpy's complex arithmetic). Projections `s_proj` (A, K, T) are
+    sampled on the agents' paths (complex64 points and tangents, `inv_spacing` samples per
     metre). A pair already closer than its clearance conflicts only where it gets closer
-    still: the clearance is ``min(clearance, d_now - 0.05)``, floored at 0. The clearance is
-    the footprint circles' radii plus ``margin`` (m), or ``pedestrian_margin`` once a walker of
-    the pair is on its crossing (its front past its route's ``enter_s``). World arrays (N, ...)
-    as :func:`defensive_kernels.defensive_forbid` takes them.
+    still: the clearance is `min(clearance, d_now - 0.05)`, floored at 0. The clearance is
+    the footprint circles' radii plus `margin` (m), or `pedestrian_margin` once a walker of
+    the pair is on its crossing (its front past its route's `enter_s`). World arrays (N, ...)
+    as `defensive_kernels.defensive_forbid` takes them.
     """
     n_agents, n_cand = s_proj.shape[0], s_proj.shape[1]
     rows = np.arange(n_agents)
@@ -448,9 +448,9 @@ def allowed_speeds(
     agents, s, offset, route, is_car, max_speed, curvature, speed_limit, look, lateral_accel,
     spacing,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """Speed (m/s) each of ``agents`` may drive at now: its maximum, its lane's limit at its
-    path sample, and the sharpest curvature of the next ``look`` samples of its route (at
-    ``lateral_accel`` m/s²); a walker's maximum."""
+    """Speed (m/s) each of `agents` may drive at now: its maximum, its lane's limit at its
+    path sample, and the sharpest curvature of the next `look` samples of its route (at
+    `lateral_accel` m/s²); a walker's maximum."""
     out = np.empty(len(agents))
     last = curvature.shape[1] - 1
     for a in range(len(agents)):
@@ -470,10 +470,10 @@ def allowed_speeds(
 def circle_gaps(agents, state, is_car, offs):  # pragma: no cover (compiled)
     """The planner's candidate pairs and how far apart their footprint circles are now.
 
-    Returns (first, second) (P,): the pairs of positions i < j in ``agents`` with a car, in
-    row order; and gaps (P, 9) complex64: each circle of ``first`` minus each of ``second``
-    (circle centres at ``offs`` (N, 3) float32 m along the heading, in complex64 as numpy
-    computes ``pos + offs * exp(1j·θ)``). Their lengths are left to numpy's complex abs, which
+    Returns (first, second) (P,): the pairs of positions i < j in `agents` with a car, in
+    row order; and gaps (P, 9) complex64: each circle of `first` minus each of `second`
+    (circle centres at `offs` (N, 3) float32 m along the heading, in complex64 as numpy
+    computes `pos + offs * exp(1j·θ)`). Their lengths are left to numpy's complex abs, which
     the planner's reference uses (its vector loop and the C library's hypotf differ in the
     last bit).
     """

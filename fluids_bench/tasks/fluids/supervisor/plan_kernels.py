@@ -1,14 +1,14 @@
-"""The velocity planner's tick as two compiled calls (:meth:`VelocityPlanner.plan`).
+"""The velocity planner's tick as two compiled calls (`VelocityPlanner.plan`).
 
-:func:`plan_head` chains what comes before the distances between footprint circles (allowed
+`plan_head` chains what comes before the distances between footprint circles (allowed
 speeds, candidates, projection, stop lines, defensive domains, candidate pairs);
-:func:`plan_tail` what comes after (pair conflicts, the CSP). In between, the planner takes the
+`plan_tail` what comes after (pair conflicts, the CSP). In between, the planner takes the
 distances with numpy's complex abs, the reference's (its vectorised loop may differ from the C
-library's ``hypotf`` in the last bit, so it stays numpy's). Each step is the kernel the
+library's `hypotf` in the last bit, so it stays numpy's). Each step is the kernel the
 planner's methods call one by one, in the same order on the same arrays: one Python call per
 half instead of seven, and no numpy temporaries in between.
 
-:func:`plan_head_worlds` and :func:`plan_tail_worlds` are the two halves for every due world of
+`plan_head_worlds` and `plan_tail_worlds` are the two halves for every due world of
 a batch (rows of (B, ...) arrays), with numpy's abs taken once over all their gaps between them:
 numpy's complex abs gives each element the same bits wherever it lies in an array (its SIMD
 loop loads a short tail masked, not through a scalar loop), which the batch's equality tests
@@ -43,13 +43,13 @@ def plan_head(
     yield_to_pedestrians, defensive,
 ):  # fmt: skip  # pragma: no cover (compiled)
     """(targets (A, K), s_proj (A, K, T), allowed (A, K), first, second (P,), gaps (P, 9)) of
-    the planned ``agents``: candidate speeds, their projections, the unary constraints (stop
-    lines; with ``defensive``, toward the ``uncontrolled`` agents) and the candidate pairs with
-    their circle gaps now. Arguments as :func:`defensive_kernels.defensive_forbid` and
-    :func:`stop_line_kernels.stop_lines` take them; ``ints`` and ``floats`` are the defensive
+    the planned `agents`: candidate speeds, their projections, the unary constraints (stop
+    lines; with `defensive`, toward the `uncontrolled` agents) and the candidate pairs with
+    their circle gaps now. Arguments as `defensive_kernels.defensive_forbid` and
+    `stop_line_kernels.stop_lines` take them; `ints` and `floats` are the defensive
     kernel's (period, horizon steps, give-way steps, sample_every, look-ahead samples; dt,
     max_accel, max_decel, speed_gain, margin, pedestrian_margin, lateral_accel, path spacing,
-    stationary speed); ``look``: path samples ahead whose curvature limits the speed now."""
+    stationary speed); `look`: path samples ahead whose curvature limits the speed now."""
     period, steps, every = ints[0], ints[1], ints[3]
     dt, max_accel, max_decel, gain = floats[0], floats[1], floats[2], floats[3]
     lateral_accel, spacing = floats[6], floats[7]
@@ -100,10 +100,10 @@ def plan_tail(
     state, s, offset, front, is_car, route, enter_s,
     offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin, out,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """The CSP's pairs and conflicts (:func:`kernels.plan_conflicts`, none without candidate
-    pairs) and its answer (:func:`csp_kernels.plan_choice`); writes each agent's chosen target
-    into ``out`` (N,) and returns whether the CSP was solved. ``gap_abs`` (P, 9): numpy's abs
-    of the circle gaps; their minimum per pair (exact, as numpy's ``min(axis=1)``) is the
+    """The CSP's pairs and conflicts (`kernels.plan_conflicts`, none without candidate
+    pairs) and its answer (`csp_kernels.plan_choice`); writes each agent's chosen target
+    into `out` (N,) and returns whether the CSP was solved. `gap_abs` (P, 9): numpy's abs
+    of the circle gaps; their minimum per pair (exact, as numpy's `min(axis=1)`) is the
     distance now."""
     if len(first):
         d_now = np.empty(len(first), gap_abs.dtype)
@@ -137,9 +137,9 @@ def plan_head_worlds(
     offs, radius, reach, path_c64, path_dir, decay, hold_wild, ints, floats, look,
     yield_to_pedestrians, defensive,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`plan_head` of world ``b`` for each ``b`` in ``due``, its planned agents the
-    active ones. The per-world arrays (``state`` … ``entered``, ``light_state``, ``times``,
-    ``path_c64``, ``path_dir``) are rows (B, ...); the others are the scene's. Returns each
+    """`plan_head` of world `b` for each `b` in `due`, its planned agents the
+    active ones. The per-world arrays (`state` … `entered`, `light_state`, `times`,
+    `path_c64`, `path_dir`) are rows (B, ...); the others are the scene's. Returns each
     due world's (agents, targets, s_proj, allowed, first, second), all their gaps stacked
     (P, 9), and where each world's start in them (len(due) + 1,)."""
     heads = List()
@@ -180,9 +180,9 @@ def plan_tail_worlds(
     state, s, offset, front, is_car, route, enter_s,
     offs, radius, reach, path_c64, path_dir, inv_spacing, margin, pedestrian_margin, out,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`plan_tail` of each due world from :func:`plan_head_worlds`' results
-    (``gap_abs``: numpy's abs of its stacked gaps): row ``b`` of ``out`` (B, N) becomes world
-    ``b``'s targets (0 for its inactive agents). Returns the position in ``due`` of the first
+    """`plan_tail` of each due world from `plan_head_worlds`' results
+    (`gap_abs`: numpy's abs of its stacked gaps): row `b` of `out` (B, N) becomes world
+    `b`'s targets (0 for its inactive agents). Returns the position in `due` of the first
     world whose CSP had no solution, or -1."""
     for j in range(len(due)):
         b = due[j]

@@ -1,9 +1,9 @@
 """The four supervisor levels wired together for every agent of a world.
 
-Each step, :meth:`DrivingSupervisor.prepare` reads the true world state (never an observation),
+Each step, `DrivingSupervisor.prepare` reads the true world state (never an observation),
 plans any needed recovery paths, runs the velocity planner at its rate and proposes controls for
 every agent. The env then overrides what the ego's chosen level decides and executes with
-:meth:`DrivingSupervisor.execute`. The labels of every level for any agent come from the same
+`DrivingSupervisor.execute`. The labels of every level for any agent come from the same
 proposal, so the label is what the supervisor would do in the current state.
 """
 
@@ -46,7 +46,7 @@ class SupervisorConfig:
 
 
 class DrivingSupervisor:
-    """Plans for all agents of ``world``; holds the planner's and controllers' memory."""
+    """Plans for all agents of `world`; holds the planner's and controllers' memory."""
 
     def __init__(self, world: World, config: SupervisorConfig | None = None) -> None:
         self.config = config or SupervisorConfig()
@@ -92,14 +92,14 @@ class DrivingSupervisor:
         self.propose(world)
 
     def plan(self, world: World) -> None:
-        """The first part of :meth:`prepare`: recovery paths, and the velocity plan when due
-        (written into :attr:`targets` in place)."""
+        """The first part of `prepare`: recovery paths, and the velocity plan when due
+        (written into `targets` in place)."""
         if self.config.recovery:
             self.recover(world, off_route(world))
         self.plan_velocity(world)
 
     def recover(self, world: World, agents: np.ndarray) -> None:
-        """Plan a path back to its route for each of ``agents`` (off their routes)."""
+        """Plan a path back to its route for each of `agents` (off their routes)."""
         for agent in agents:
             if self.recovery_planner(world).plan(world, int(agent)):
                 self.recoveries += 1
@@ -114,19 +114,19 @@ class DrivingSupervisor:
             )
 
     def propose(self, world: World) -> None:
-        """The rest of :meth:`prepare`: every agent's controls toward :attr:`targets` (a
-        :class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch` does this for
+        """The rest of `prepare`: every agent's controls toward `targets` (a
+        `SupervisorBatch` does this for
         many worlds in one call)."""
         self.pid.controls_into(world, self.targets, self.proposed, self._memory)
 
     def execute(
         self, world: World, controls: np.ndarray | None = None, memory: tuple | None = None
     ):
-        """Step ``world`` with ``controls`` (the proposal by default); returns new collisions."""
+        """Step `world` with `controls` (the proposal by default); returns new collisions."""
         return world.step(self.commit(controls, memory))
 
     def commit(self, controls: np.ndarray | None = None, memory: tuple | None = None):
-        """Advance the PID loops' memory for executing ``controls`` (the proposal by default,
+        """Advance the PID loops' memory for executing `controls` (the proposal by default,
         with its memory) and return the controls to execute."""
         self.pid.commit(self._memory if memory is None else memory)
         return self.proposed if controls is None else controls
@@ -138,7 +138,7 @@ class DrivingSupervisor:
 
     # ------------------------------------------------------------------ labels
     def label(self, world: World, level: str, agent: int = 0):
-        """What the supervisor does for ``agent`` at ``level`` in the current (prepared) state."""
+        """What the supervisor does for `agent` at `level` in the current (prepared) state."""
         if level == "behavior":
             return movement_of(world, int(self.behavior_routes[agent]))
         if level == "trajectory":

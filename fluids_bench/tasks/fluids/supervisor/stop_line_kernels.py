@@ -2,7 +2,7 @@
 
 Each plan, every agent may have to hold before a stop line: its light (red; yellow if it can
 still brake comfortably; for a walker, a white light that turns red before it would reach the
-crosswalk), with ``yield_to_pedestrians`` the nearest occupied crosswalk ahead of a car, and
+crosswalk), with `yield_to_pedestrians` the nearest occupied crosswalk ahead of a car, and
 for a walker the kerb while a car is committed to its crosswalk. A candidate speed that takes
 the agent past a line it can still stop for is pruned. As numpy this was some 50 array calls
 per plan on a dozen agents; here it is one pass over the agents.
@@ -10,8 +10,8 @@ per plan on a dozen agents; here it is one pass over the agents.
 Pure function over arrays with no Python objects, so a batch of worlds can be walked the same
 way. The arithmetic is the numpy formulation's, operation for operation in float64 (no
 transcendental function; the light phase is the floored modulo numpy and Python share).
-``tests/tasks/fluids/supervisor/stop_line_reference.py`` keeps that formulation and
-``test_stop_line_kernel.py`` compares bit for bit.
+`tests/tasks/fluids/supervisor/stop_line_reference.py` keeps that formulation and
+`test_stop_line_kernel.py` compares bit for bit.
 """
 
 from __future__ import annotations
@@ -31,7 +31,7 @@ def _wrapped(index, n):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True)
 def _time_to_change(light, t, ends, cycle, offset):  # pragma: no cover (compiled)
-    """Seconds until ``light`` next changes state (LightProgram.time_to_change)."""
+    """Seconds until `light` next changes state (LightProgram.time_to_change)."""
     phase_t = (t + offset[light]) % cycle[light]
     nxt = np.inf
     for e in ends[light]:
@@ -48,20 +48,20 @@ def stop_lines(
     cw_centre, cw_axis, cw_half, car_enter, walk_crosswalk, walk_enter, turning,
     max_decel, yield_to_pedestrians, plan_period_s,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """(allowed (A, K), line (A,), stops (3, A)) of the planned ``agents`` (world indices),
-    whose fronts are ``front_a`` (m) and projections ``s_proj`` (A, K, T) (path arc lengths).
+    """(allowed (A, K), line (A,), stops (3, A)) of the planned `agents` (world indices),
+    whose fronts are `front_a` (m) and projections `s_proj` (A, K, T) (path arc lengths).
 
     stops: the route arc length at which each agent's front must hold, per kind (its light,
-    the nearest occupied crosswalk ahead, the kerb), ``inf`` where none holds it. allowed[a, k]
+    the nearest occupied crosswalk ahead, the kerb), `inf` where none holds it. allowed[a, k]
     is False where candidate k takes agent a past a line it can still stop for (the slowest
-    candidate stops before it) within the horizon; line: the first such line (``inf``: none).
+    candidate stops before it) within the horizon; line: the first such line (`inf`: none).
 
-    World arrays (N, ...); ``uncontrolled`` (N,) bool: cars whose left turn out of the
-    junction does not hold walkers at the kerb. Routes: ``route_light`` (R,) (-1: none),
-    ``stop_s`` (R,). Lights: states now, phase ``ends`` (L, W), ``cycle`` and
-    ``light_offset`` (L,), time ``t`` (s). Crosswalks: rectangles (C, 2) each, where car
-    routes meet them ``car_enter`` (R, C), each walk's crosswalk and entry. ``turning`` (R,):
-    the routes that turn left. ``plan_period_s``: the planning period (s).
+    World arrays (N, ...); `uncontrolled` (N,) bool: cars whose left turn out of the
+    junction does not hold walkers at the kerb. Routes: `route_light` (R,) (-1: none),
+    `stop_s` (R,). Lights: states now, phase `ends` (L, W), `cycle` and
+    `light_offset` (L,), time `t` (s). Crosswalks: rectangles (C, 2) each, where car
+    routes meet them `car_enter` (R, C), each walk's crosswalk and entry. `turning` (R,):
+    the routes that turn left. `plan_period_s`: the planning period (s).
     """
     n_agents, n_cand = s_proj.shape[0], s_proj.shape[1]
     n_routes, n_cw = len(stop_s), len(cw_centre)

@@ -1,18 +1,18 @@
 """Level 2 of the supervisor: the nominal trajectory, and getting back to it with OMPL.
 
 Nominal paths are the layout's route paths: de Casteljau Bézier connectors between lane-end
-waypoints, computed once per layout and cached (:mod:`fluids_bench.tasks.fluids.sim.layout.compiled`).
+waypoints, computed once per layout and cached (`fluids_bench.tasks.fluids.sim.layout.compiled`).
 Pedestrians use the same mechanism along their walks.
 
-With ``trajectory_planner="ompl"``, OMPL plans every route's junction part instead
-(:func:`ompl_layout`): Dubins curves, valid where the footprint stays on the road.
+With `trajectory_planner="ompl"`, OMPL plans every route's junction part instead
+(`ompl_layout`): Dubins curves, valid where the footprint stays on the road.
 
 When a car is off its route (the learner or injected noise pushed it there), OMPL plans a
 kinematically feasible Dubins path back to a point of the route ahead, valid where the car's
 footprint stays inside the drivable area. The direct Dubins connection to each candidate rejoin
 point is tried first, in order: it is unique, so seeded episodes stay bit-identical. If none is
 valid, two Dubins curves through the shortest valid via pose of a fixed lattice around the car
-are tried (:meth:`DubinsPlanner.via`). No sampling planner is used: OMPL's RRT-Connect, tried
+are tried (`DubinsPlanner.via`). No sampling planner is used: OMPL's RRT-Connect, tried
 here before, found no exact path on one-lane roads, and on two-lane roads its paths depended on
 OMPL's per-process random seed and on a wall-clock budget, so episodes were not reproducible.
 """
@@ -57,7 +57,7 @@ def _ompl():
 
 
 def waypoints_ego_frame(world: World, agent: int, count: int, spacing: float) -> np.ndarray:
-    """The next ``count`` points of ``agent``'s path, ``spacing`` m apart, in its own frame
+    """The next `count` points of `agent`'s path, `spacing` m apart, in its own frame
     (x forward, y left), flattened to (2 * count,)."""
     s = world.s[agent] + spacing * np.arange(1, count + 1)
     pts, _ = world.path_points(np.minimum(s, world.path_len[agent]), np.full(count, agent))
@@ -82,7 +82,7 @@ class DubinsPlanner:
     curvature whose footprint stays in the drivable area."""
 
     def __init__(self, layout: Layout, car: CarConfig, clearance: float = 0.0) -> None:
-        """``clearance`` (m) is kept between the footprint and the road's edge (may be < 0)."""
+        """`clearance` (m) is kept between the footprint and the road's edge (may be < 0)."""
         ob = _ompl()
         wheelbase = car.lf + car.lr
         # turning radius at 80% of full lock, so the PID has authority left to track it
@@ -121,7 +121,7 @@ class DubinsPlanner:
         return st
 
     def direct(self, a, b) -> np.ndarray | None:
-        """The shortest Dubins curve from ``a`` to ``b`` as points, if OMPL finds it valid."""
+        """The shortest Dubins curve from `a` to `b` as points, if OMPL finds it valid."""
         if not self.si.checkMotion(a, b):
             return None
         length = self.space.distance(a, b)
@@ -134,8 +134,8 @@ class DubinsPlanner:
         return np.asarray(pts)
 
     def via(self, a, b) -> np.ndarray | None:
-        """Two Dubins curves ``a`` → v → ``b`` through the shortest valid via pose v of a fixed
-        lattice around ``a`` (:data:`VIA_RADII` × :data:`VIA_BEARINGS` × :data:`VIA_HEADINGS`),
+        """Two Dubins curves `a` → v → `b` through the shortest valid via pose v of a fixed
+        lattice around `a` (`VIA_RADII` × `VIA_BEARINGS` × `VIA_HEADINGS`),
         for when the direct curve leaves the road (a car turned round, or pushed onto the kerb).
         Candidates are tried in order of total Dubins length, ties by lattice order: no
         sampling and no time budget, so the result is the same on every run and machine load."""
@@ -160,7 +160,7 @@ class DubinsPlanner:
         return None
 
     def through(self, guide: np.ndarray) -> np.ndarray | None:
-        """A chain of valid Dubins curves through poses sampled along ``guide`` (a polyline),
+        """A chain of valid Dubins curves through poses sampled along `guide` (a polyline),
         with as few pieces as possible: one direct curve if it is valid, else 2, 3, ... 24."""
         guide = resample(guide)
         head = headings(guide)
@@ -175,11 +175,11 @@ class DubinsPlanner:
 
 @functools.lru_cache(maxsize=16)
 def ompl_layout(spec: LayoutSpec, car: CarConfig) -> Layout:
-    """``spec``'s compiled layout with every car route's junction part planned by OMPL.
+    """`spec`'s compiled layout with every car route's junction part planned by OMPL.
 
     Each route is joined from its entry lane's end to its exit lane's start by the fewest valid
     Dubins curves through poses of the default curve (deterministic: no sampling), keeping the
-    most clearance from the kerb of :data:`ROUTE_CLEARANCES` that allows it. A route OMPL cannot
+    most clearance from the kerb of `ROUTE_CLEARANCES` that allows it. A route OMPL cannot
     connect keeps its default curve.
     """
     layout = compile_layout(spec)
@@ -207,7 +207,7 @@ class RecoveryPlanner(DubinsPlanner):
         super().__init__(world.layout, world.scene.car, clearance=-0.25)
 
     def plan(self, world: World, agent: int) -> bool:
-        """Replace ``agent``'s path by one from its pose back onto its route; True on success."""
+        """Replace `agent`'s path by one from its pose back onto its route; True on success."""
         routes = world.layout.routes
         r = int(world.route[agent])
         x, y, th, _ = world.state[agent]

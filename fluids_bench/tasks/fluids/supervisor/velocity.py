@@ -1,12 +1,12 @@
 """Level 3 of the supervisor: a velocity planner posed as a constraint-satisfaction problem.
 
 For every agent and every candidate target velocity (fractions of what its path allows there),
-the planner projects the agent forward along its path for ``horizon`` seconds under the same
+the planner projects the agent forward along its path for `horizon` seconds under the same
 speed law the controller follows. Pairs of agents whose projections at a pair of candidates come
 closer than their footprints allow are a binary constraint; lights and crosswalks prune the
 domains (unary constraints). A backtracking solver then assigns every agent a velocity
-(:mod:`.csp_kernels`: compiled, the same search as python-constraint2's
-``OptimizedBacktrackingSolver``, which the tests keep as its reference).
+(`.csp_kernels`: compiled, the same search as python-constraint2's
+`OptimizedBacktrackingSolver`, which the tests keep as its reference).
 
 * Higher velocities first: domains are listed ascending, and the solver tries a domain's values
   from the end.
@@ -19,10 +19,10 @@ domains (unary constraints). A backtracking solver then assigns every agent a ve
 * Pedestrians are agents like cars: they obey crosswalk lights (unary constraints) and, having
   no right of way over a car already in the crosswalk, wait for it (priority order). Pairs of
   pedestrians are not constrained: they step round each other.
-* Pedestrians' right of way (``yield_to_pedestrians``): a crosswalk with a walker on it is a
+* Pedestrians' right of way (`yield_to_pedestrians`): a crosswalk with a walker on it is a
   stop line for the cars whose route crosses it, and walkers wait at the kerb while a car is
-  too close to stop for them (:mod:`fluids_bench.tasks.fluids.sim.crosswalks`).
-* Defensive toward agents it does not control (``plan(world, uncontrolled)``; the learner's ego,
+  too close to stop for them (`fluids_bench.tasks.fluids.sim.crosswalks`).
+* Defensive toward agents it does not control (`plan(world, uncontrolled)`; the learner's ego,
   the multi-agent env's cars): such an agent may brake as hard as its limits allow at any time.
   A supervised agent's candidate is allowed only if, holding it until the next plan and then
   braking, the agent stops short of every place the uncontrolled one can stop in that time
@@ -30,7 +30,7 @@ domains (unary constraints). A backtracking solver then assigns every agent a ve
   braking at the next plan is then still safe, so a supervised agent never runs into an
   uncontrolled one that stops, wherever physics lets it stop (one that cuts in inside its
   braking distance excepted). An uncontrolled agent running into a supervised one from behind
-  is its own doing and is not guarded against (see :mod:`fluids_bench.tasks.fluids.sim.fault`).
+  is its own doing and is not guarded against (see `fluids_bench.tasks.fluids.sim.fault`).
 """
 
 from __future__ import annotations
@@ -120,7 +120,7 @@ class VelocityPlanner:
         self.fractions = np.asarray(self.config.fractions)
 
     def allowed_speed(self, world: World, agents: np.ndarray) -> np.ndarray:
-        """Speed each of ``agents`` may drive at now: its maximum, the lane's limit, and the
+        """Speed each of `agents` may drive at now: its maximum, the lane's limit, and the
         curvature of the next 12 m of its route."""
         routes = world.layout.routes
         return allowed_speeds(
@@ -139,12 +139,12 @@ class VelocityPlanner:
 
     # ------------------------------------------------------------------ projection
     def project(self, world: World, agents: np.ndarray, targets: np.ndarray) -> np.ndarray:
-        """Path arc lengths (A, K, T) of ``agents`` under each candidate target speed (A, K).
+        """Path arc lengths (A, K, T) of `agents` under each candidate target speed (A, K).
 
         The speed law is the PID's, in the simulator's discrete time:
         v[n+1] = v[n] + clip(gain · (v_target − v[n]), −decel, accel) · dt. It is solved in closed
-        form: a saturated, linear phase of ``n1`` steps, then a geometric approach at rate
-        (1 − gain · dt) per step. Positions are sampled every ``sample_every`` steps.
+        form: a saturated, linear phase of `n1` steps, then a geometric approach at rate
+        (1 − gain · dt) per step. Positions are sampled every `sample_every` steps.
         """
         cfg, dt = self.config, world.dt
         return projected_arc_lengths(
@@ -163,7 +163,7 @@ class VelocityPlanner:
     # ------------------------------------------------------------------ constraints
     def domains(self, world: World, agents: np.ndarray, s_proj: np.ndarray) -> np.ndarray:
         """Unary constraints: allowed[a, k] is False where candidate k runs a stop light (or,
-        with ``yield_to_pedestrians``, drives onto a crosswalk with a pedestrian on it).
+        with `yield_to_pedestrians`, drives onto a crosswalk with a pedestrian on it).
 
         Stop (red, or "don't walk"): the agent's front may not pass its stop line within the
         horizon. Yellow: the same, unless it is too close to stop comfortably. An agent already
@@ -176,24 +176,24 @@ class VelocityPlanner:
     def _domains_and_hold_lines(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray, uncontrolled=None
     ) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`domains`, and the route arc length (A,) of the first stop line each agent
-        will hold before (one it can still stop for; ``inf`` where none)."""
+        """`domains`, and the route arc length (A,) of the first stop line each agent
+        will hold before (one it can still stop for; `inf` where none)."""
         allowed, line, _ = self._stop_lines(
             world, agents, self._front[agents], s_proj, uncontrolled
         )
         return allowed, line
 
     def _stop_lines(self, world: World, agents, front, s_proj, uncontrolled=None):
-        """(allowed, line, stops) of :func:`stop_line_kernels.stop_lines`: the stop lines each
-        of ``agents`` (fronts ``front``, m) must hold at (its light: red; yellow if it can
-        still brake comfortably, and so, with ``yield_to_pedestrians``, a walker's white
+        """(allowed, line, stops) of `stop_line_kernels.stop_lines`: the stop lines each
+        of `agents` (fronts `front`, m) must hold at (its light: red; yellow if it can
+        still brake comfortably, and so, with `yield_to_pedestrians`, a walker's white
         light that turns red before it would reach its crosswalk at its speed, or half a
         walking pace from rest, plus a planning period: the flashing "don't walk" crosswalk
-        lights lack; with ``yield_to_pedestrians``, a crosswalk with a walker on it ahead of
+        lights lack; with `yield_to_pedestrians`, a crosswalk with a walker on it ahead of
         a car, and for a walker the kerb while a car is committed to that crosswalk or a
         supervised car turning left is inside the junction on its way out across it, so that
         a car that yields is not cut off and a walker does not strand a car across the
-        oncoming lane; ``uncontrolled`` (N,) bool: the cars that do not count for that)."""
+        oncoming lane; `uncontrolled` (N,) bool: the cars that do not count for that)."""
         lights, routes, cw = world.lights, world.layout.routes, self._crosswalks
         if uncontrolled is None:
             uncontrolled = np.zeros(world.n, dtype=bool)
@@ -232,7 +232,7 @@ class VelocityPlanner:
         )
 
     def _light_stops(self, world: World, agents: np.ndarray, front: np.ndarray):
-        """Each agent's stop line where its light holds it (see :meth:`_stop_lines`), ``inf``
+        """Each agent's stop line where its light holds it (see `_stop_lines`), `inf`
         where none does; None when no light holds anyone."""
         horizon = np.zeros((len(agents), 1, 1))  # no candidate to prune: the lines only
         stops = self._stop_lines(world, agents, front, horizon)[2][0]
@@ -241,14 +241,14 @@ class VelocityPlanner:
     def conflicts(
         self, world: World, agents: np.ndarray, s_proj: np.ndarray
     ) -> tuple[np.ndarray, np.ndarray]:
-        """Pairs (P, 2) of positions in ``agents`` and conflict[p, a, b] per candidate pair.
+        """Pairs (P, 2) of positions in `agents` and conflict[p, a, b] per candidate pair.
 
         Only pairs with a car are checked (pedestrians step round each other). A pair already
         closer than its clearance conflicts only where it gets closer still, so that braking
         stays feasible for the CSP; the smaller car-pedestrian clearance applies once the
         walker is on the crossing (so a car can creep past it), a walker still at the kerb
         keeps the full one. The per-pair, per-candidate, per-time loop is compiled
-        (:func:`kernels.plan_conflicts`); the distance now between footprint circles stays
+        (`kernels.plan_conflicts`); the distance now between footprint circles stays
         numpy's complex arithmetic (its vectorised complex abs is the reference).
         """
         k = len(self.fractions)
@@ -289,8 +289,8 @@ class VelocityPlanner:
         hold_lines: np.ndarray | None = None,
     ) -> np.ndarray:
         """Unary constraints toward uncontrolled agents: allowed[a, k] is False where supervised
-        agent ``a``, holding candidate k until the next plan and braking then, could run into an
-        uncontrolled agent (``wild``, positions in ``agents``) that brakes as hard as it can
+        agent `a`, holding candidate k until the next plan and braking then, could run into an
+        uncontrolled agent (`wild`, positions in `agents`) that brakes as hard as it can
         now or at any of a few later steps before the next plan (holding its speed until then).
         Guarding against every uncontrolled agent keeping its speed was tried: supervised cars
         then hesitated so much that a supervisor-driven ego timed out in 1-2% of episodes; the
@@ -309,19 +309,19 @@ class VelocityPlanner:
         leader braking now, unless none helps any more.
 
         Giving way: toward an uncontrolled agent with the right of way over it by the rules that
-        assign fault (:mod:`..sim.fault`: it entered its shared zone first, rule 7, or it comes
+        assign fault (`..sim.fault`: it entered its shared zone first, rule 7, or it comes
         the other way and goes straight while the supervised one turns across its path, rule
         6), a candidate is safe if, holding it until the next plan and then braking, the agent
         stops short of that agent's path, or if, holding it, it clears the path before that
         agent gets there (gap acceptance), whether that agent keeps its speed or speeds up (at
         the controller's acceleration, to the fastest speed allowed to it; one at rest is taken
         to stay there, so that a waiting ego and a waiting car do not deadlock). Both scenarios
-        end at the agent's hold line (``hold_lines``: route arc lengths of the stop lines it
-        will hold before, as :meth:`plan` finds them with the domains; default: none): it does
+        end at the agent's hold line (`hold_lines`: route arc lengths of the stop lines it
+        will hold before, as `plan` finds them with the domains; default: none): it does
         not enter a crossing that it would have to stop in (don't block the box). Everything
-        is projected over :data:`GIVE_WAY_HORIZON`, long enough for a car turning from rest to
+        is projected over `GIVE_WAY_HORIZON`, long enough for a car turning from rest to
         clear a crossing, and going on it slows for the curves of the next
-        :data:`GIVE_WAY_LOOK_AHEAD` metres; the agent keeps a planning period to spare before
+        `GIVE_WAY_LOOK_AHEAD` metres; the agent keeps a planning period to spare before
         it brakes. Where no candidate keeps the full clearance both ways, the candidates that
         at least do not touch that agent either way are kept; an agent with none at all (it is
         already in the way) is left as it is. Braking now that is unsafe both ways (it cannot
@@ -329,7 +329,7 @@ class VelocityPlanner:
         one that keeps going) while going on clears that path: it clears the crossing rather
         than stop in it.
 
-        One compiled call (:func:`defensive_kernels.defensive_forbid`).
+        One compiled call (`defensive_kernels.defensive_forbid`).
         """
         self._bind(world)
         if hold_lines is None:
@@ -433,10 +433,10 @@ class VelocityPlanner:
     def plan_stepwise(
         self, world: World, uncontrolled: np.ndarray | None = None, choose=plan_choice
     ) -> np.ndarray:
-        """:meth:`plan` through its steps, one Python call each (:meth:`allowed_speed`,
-        :meth:`project`, :meth:`domains`, :meth:`defensive_domains`, :meth:`conflicts`, then
-        ``choose``, called as :func:`csp_kernels.plan_choice`). Slower; it equals :meth:`plan`
-        bit for bit (tested), and is where the tests and ``bench_planner_kernels.py`` see each
+        """`plan` through its steps, one Python call each (`allowed_speed`,
+        `project`, `domains`, `defensive_domains`, `conflicts`, then
+        `choose`, called as `csp_kernels.plan_choice`). Slower; it equals `plan`
+        bit for bit (tested), and is where the tests and `bench_planner_kernels.py` see each
         kernel's inputs."""
         self._bind(world)
         out = np.zeros(world.n)
@@ -459,12 +459,12 @@ class VelocityPlanner:
         return out
 
     def plan(self, world: World, uncontrolled: np.ndarray | None = None) -> np.ndarray:
-        """Target velocity (m/s) of every agent; 0 for inactive ones. ``uncontrolled`` (bool,
+        """Target velocity (m/s) of every agent; 0 for inactive ones. `uncontrolled` (bool,
         (N,)) marks agents that may not follow the plan; the others drive defensively toward
-        them (:meth:`defensive_domains`).
+        them (`defensive_domains`).
 
-        The steps are :meth:`plan_stepwise`'s, run as two compiled calls
-        (:mod:`.plan_kernels`)."""
+        The steps are `plan_stepwise`'s, run as two compiled calls
+        (`.plan_kernels`)."""
         self._bind(world)
         out = np.zeros(world.n)
         agents = world.active.nonzero()[0]

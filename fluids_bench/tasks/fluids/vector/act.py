@@ -1,13 +1,13 @@
 """Actions and labels at every level (behaviour, trajectory, velocity, control), for all worlds
 of a batch at once.
 
-``FluidsEnv._act`` world by world clips the ego's action, puts it in place of the supervisor's
+`FluidsEnv._act` world by world clips the ego's action, puts it in place of the supervisor's
 at its level, and advances the PID loops' memory for the controls it returns.
-:func:`act_batch` does the same with array operations over the stepping worlds, operation for
-operation the scalar env's (the clip as Python's ``min(max(v, lo), hi)``, signed zeros
-included), so each world's controls and memory are bit for bit what its own ``_act`` gives; at
+`act_batch` does the same with array operations over the stepping worlds, operation for
+operation the scalar env's (the clip as Python's `min(max(v, lo), hi)`, signed zeros
+included), so each world's controls and memory are bit for bit what its own `_act` gives; at
 the behaviour level a movement that changes the ego's route is taken world by world (a rare
-event: the supervisor plans again). :func:`label_batch` is ``FluidsEnv.supervisor_action`` of
+event: the supervisor plans again). `label_batch` is `FluidsEnv.supervisor_action` of
 the worlds whose supervisor just proposed, read from the batch's rows.
 """
 
@@ -30,8 +30,8 @@ from fluids_bench.tasks.fluids.supervisor.batch import (
 class Movements:
     """A layout's movements as tables: the route of each movement of each entry lane (E, M;
     -1 past a lane's count), each lane's count (E,), and each car route's movement (R; -1 for
-    walks), as :func:`~fluids_bench.tasks.fluids.supervisor.behavior.choose_movement` and
-    :func:`~fluids_bench.tasks.fluids.supervisor.behavior.movement_of` read them."""
+    walks), as `choose_movement` and
+    `movement_of` read them."""
 
     routes: np.ndarray
     counts: np.ndarray
@@ -50,7 +50,7 @@ class Movements:
 
 
 def clip(values: np.ndarray, low: np.ndarray, high: np.ndarray) -> np.ndarray:
-    """``min(max(v, lo), hi)`` elementwise, as Python's (which keeps ``v`` on ties)."""
+    """`min(max(v, lo), hi)` elementwise, as Python's (which keeps `v` on ties)."""
     values = np.where(low > values, low, values)
     return np.where(high < values, high, values)
 
@@ -64,10 +64,10 @@ def act_batch(
     supervisors: SupervisorBatch,
     scratch: dict,
 ) -> None:
-    """Write every stepping world's controls into ``worlds.controls`` and advance its PID
-    memory, as ``FluidsEnv._act`` of its clipped action would, at any action level;
-    ``bounds``: the action space's low and high (flat, float64; None at the behaviour level);
-    ``scratch``: what this function keeps between calls."""
+    """Write every stepping world's controls into `worlds.controls` and advance its PID
+    memory, as `FluidsEnv._act` of its clipped action would, at any action level;
+    `bounds`: the action space's low and high (flat, float64; None at the behaviour level);
+    `scratch`: what this function keeps between calls."""
     first = envs[0]
     level, world = first.action_level, first.world
     if level == "behavior":
@@ -108,11 +108,11 @@ def act_batch(
 
 
 def _choose_movements(envs, actions, stepping, worlds: WorldBatch, movements: Movements) -> None:
-    """``choose_movement`` of each stepping world's ego (while it drives) for its behaviour
+    """`choose_movement` of each stepping world's ego (while it drives) for its behaviour
     action: the route of that movement of its entry lane, taken where it differs from the
     current one and the ego has not reached the junction nor left its route's path; where it
     is taken, world by world (a rare event), the ego follows it, the supervisor plans and
-    proposes again and the env's route length is updated, as ``FluidsEnv._act``."""
+    proposes again and the env's route length is updated, as `FluidsEnv._act`."""
     route, s, offset = worlds["route"][:, 0], worlds["s"][:, 0], worlds["offset"][:, 0]
     w = worlds.worlds[0]
     routes = w.layout.routes
@@ -135,8 +135,8 @@ def _choose_movements(envs, actions, stepping, worlds: WorldBatch, movements: Mo
 
 
 def waypoints_ego_frame(worlds: WorldBatch, mask: np.ndarray, config) -> np.ndarray:
-    """``trajectory.waypoints_ego_frame`` of the ego of each world where ``mask`` (M, 2 W):
-    the next ``config.waypoints`` points of its path, ``config.waypoint_spacing`` m apart, in
+    """`trajectory.waypoints_ego_frame` of the ego of each world where `mask` (M, 2 W):
+    the next `config.waypoints` points of its path, `config.waypoint_spacing` m apart, in
     its own frame, the same array operations on every row (numpy's cos and sin of a contiguous
     array, as of the scalar)."""
     count = config.waypoints
@@ -162,10 +162,10 @@ def label_batch(
     labels: np.ndarray,
     movements: Movements | None = None,
 ) -> None:
-    """Write into ``labels`` ((B,) int64 at the behaviour level, else (B, 1) or (B, 2)
-    float32) the label of every world where ``going`` (its supervisor proposed in this step,
-    from the batch's rows), as ``levels.label`` gives it; the other rows are left alone.
-    ``movements``: the layout's (:class:`Movements`; built when not given)."""
+    """Write into `labels` ((B,) int64 at the behaviour level, else (B, 1) or (B, 2)
+    float32) the label of every world where `going` (its supervisor proposed in this step,
+    from the batch's rows), as `levels.label` gives it; the other rows are left alone.
+    `movements`: the layout's (`Movements`; built when not given)."""
     first = envs[0]
     level, world = first.action_level, first.world
     if level == "behavior":  # movement_of the route drawn for the ego at spawn

@@ -1,8 +1,8 @@
 """The batch of actions a FLUIDS vector env takes: one action per world, checked all at once.
 
-The checks are the scalar env's (:mod:`fluids_bench.core.actions`) over the whole batch, so a bad
+The checks are the scalar env's (`fluids_bench.core.actions`) over the whole batch, so a bad
 batch is refused before any world moves: strings, bools, complex numbers and objects; a shape
-other than ``(num_envs, *single_shape)``; NaN and infinities; a ``Discrete`` action that is not
+other than `(num_envs, *single_shape)`; NaN and infinities; a `Discrete` action that is not
 an integer in range. Box values out of bounds pass (each world clips, as the scalar env does).
 """
 
@@ -15,8 +15,8 @@ from gymnasium import spaces
 
 
 def check_batch(where: str, single: spaces.Space, n: int, actions: Any) -> np.ndarray:
-    """``actions`` as an array of ``n`` actions of ``single``'s space, or a ``ValueError`` naming
-    ``actions``, the problem and what is allowed."""
+    """`actions` as an array of `n` actions of `single`'s space, or a `ValueError` naming
+    `actions`, the problem and what is allowed."""
     a = actions if isinstance(actions, np.ndarray) else np.asarray(actions)
     if isinstance(single, spaces.Discrete):
         start, stop = int(single.start), int(single.start + single.n)

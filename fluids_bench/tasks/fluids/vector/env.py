@@ -1,4 +1,4 @@
-"""FLUIDS as a Gymnasium ``VectorEnv``: ``gym.make_vec(id, B, vectorization_mode="vector_entry_point")``."""
+"""FLUIDS as a Gymnasium `VectorEnv`: `gym.make_vec(id, B, vectorization_mode="vector_entry_point")`."""
 
 from __future__ import annotations
 
@@ -41,7 +41,7 @@ def _scalar_arguments() -> list[str]:
 
 
 def world_seeds(seed: Any, n: int) -> list[int | None]:
-    """Each of ``n`` worlds' reset seed: None, ``seed + i`` for an integer, or a list's i-th."""
+    """Each of `n` worlds' reset seed: None, `seed + i` for an integer, or a list's i-th."""
     seed = as_seed(seed)
     if seed is None:
         return [None] * n
@@ -53,14 +53,14 @@ def world_seeds(seed: Any, n: int) -> list[int | None]:
 
 
 def world_index(index: Any, n: int) -> int:
-    """A world's index among ``n``, as an int."""
+    """A world's index among `n`, as an int."""
     if not is_int(index) or not 0 <= index < n:
         fail(WHERE, "index", index, f"an integer in [0, {n - 1}]")
     return int(index)
 
 
 def check_reset_mask(mask: Any, n: int) -> np.ndarray:
-    """``options["reset_mask"]``: a bool array over the ``n`` worlds, some set."""
+    """`options["reset_mask"]`: a bool array over the `n` worlds, some set."""
     if (
         not isinstance(mask, np.ndarray)
         or mask.dtype != np.bool_
@@ -77,8 +77,8 @@ def check_reset_mask(mask: Any, n: int) -> np.ndarray:
 
 
 def attribute_values(values: Any, n: int) -> list | tuple:
-    """``set_attr``'s values: one per world from a list or tuple of ``n``, else ``values`` for
-    all (as ``SyncVectorEnv.set_attr``)."""
+    """`set_attr`'s values: one per world from a list or tuple of `n`, else `values` for
+    all (as `SyncVectorEnv.set_attr`)."""
     if not isinstance(values, list | tuple):
         values = [values] * n
     if len(values) != n:
@@ -87,73 +87,73 @@ def attribute_values(values: Any, n: int) -> list | tuple:
 
 
 class FluidsVectorEnv(VectorEnv):
-    """B independent FLUIDS worlds behind one Gymnasium 1.x ``VectorEnv``.
+    """B independent FLUIDS worlds behind one Gymnasium 1.x `VectorEnv`.
 
-    Build it with ``gym.make_vec("FLUIDS-v1", num_envs=B, vectorization_mode="vector_entry_point",
-    **kwargs)`` (every single-agent FLUIDS id registers it); ``kwargs`` are the scalar env's
-    (:class:`~fluids_bench.tasks.fluids.env.FluidsEnv`), checked by it with its errors.
+    Build it with `gym.make_vec("FLUIDS-v1", num_envs=B, vectorization_mode="vector_entry_point",
+    **kwargs)` (every single-agent FLUIDS id registers it); `kwargs` are the scalar env's
+    (`FluidsEnv`), checked by it with its errors.
 
-    **What it returns.** Batched spaces (``single_action_space`` and ``single_observation_space``
-    are the scalar env's); observations ``(B, ...)``, rewards, ``terminated`` and ``truncated``
-    ``(B,)``; infos as Gymnasium's dict of batched arrays with ``_key`` masks:
-    ``info["supervisor_action"]`` is ``(B, ...)`` (``(B,)`` integers at the behaviour level),
-    ``is_success`` is present (mask) in the worlds whose episode ended this step, ``collisions``
+    **What it returns.** Batched spaces (`single_action_space` and `single_observation_space`
+    are the scalar env's); observations `(B, ...)`, rewards, `terminated` and `truncated`
+    `(B,)`; infos as Gymnasium's dict of batched arrays with `_key` masks:
+    `info["supervisor_action"]` is `(B, ...)` (`(B,)` integers at the behaviour level),
+    `is_success` is present (mask) in the worlds whose episode ended this step, `collisions`
     holds each world's list of this step's collisions with their fault labels.
 
-    **Equal to the scalar env.** World ``i`` after ``reset(seed=s)`` is the scalar env (``gym.make``
-    of the same id and kwargs) reset with seed ``s + i`` (a list of seeds gives one per world, as
-    ``SyncVectorEnv``), and under the same actions it returns the same observations, rewards,
-    flags, labels and infos bit for bit; the whole batch equals ``SyncVectorEnv`` over the id.
-    ``max_episode_steps`` (the id's step limit, passed by ``make_vec``) truncates each world as
-    ``TimeLimit`` does. ``autoreset_mode``: ``"NextStep"`` (default, as ``metadata`` states),
-    ``"SameStep"`` (``final_obs``/``final_info`` in the info) or ``"Disabled"`` (reset ended
-    worlds with ``reset(options={"reset_mask": mask})``).
+    **Equal to the scalar env.** World `i` after `reset(seed=s)` is the scalar env (`gym.make`
+    of the same id and kwargs) reset with seed `s + i` (a list of seeds gives one per world, as
+    `SyncVectorEnv`), and under the same actions it returns the same observations, rewards,
+    flags, labels and infos bit for bit; the whole batch equals `SyncVectorEnv` over the id.
+    `max_episode_steps` (the id's step limit, passed by `make_vec`) truncates each world as
+    `TimeLimit` does. `autoreset_mode`: `"NextStep"` (default, as `metadata` states),
+    `"SameStep"` (`final_obs`/`final_info` in the info) or `"Disabled"` (reset ended
+    worlds with `reset(options={"reset_mask": mask})`).
 
-    **How it steps.** Each world is a scalar ``FluidsEnv`` (no wrapper stack; all share one
+    **How it steps.** Each world is a scalar `FluidsEnv` (no wrapper stack; all share one
     compiled layout) whose state is rows of batched arrays: every array of its world, fault
     tracker and supervisor, its clock and light lookup, its episode bookkeeping (each object's
     attribute is a view of its row). Its step is split in parts, each run for all worlds
     before the next:
 
     1. the controls of every world, at every action level (array operations and, at the
-       trajectory level, one compiled call: :func:`~.act.act_batch`);
+       trajectory level, one compiled call: `act_batch`);
     2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
        where a light changed, and one compiled call moves every world
-       (:class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`);
+       (`WorldBatch`);
     3. one records every world's step for fault labels
-       (:class:`~fluids_bench.tasks.fluids.sim.batch.FaultBatch`);
+       (`FaultBatch`);
     4. the steps are judged for all worlds at once (termination, the rewards' terms:
-       :func:`~.judge.judge_worlds`, ``FluidsEnv._judge_recorded``'s arithmetic on the rows);
+       `judge_worlds`, `FluidsEnv._judge_recorded`'s arithmetic on the rows);
     5. the supervisors plan (one call finds every world's cars off their routes, recovery
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls
-       (:class:`~fluids_bench.tasks.fluids.supervisor.batch.SupervisorBatch`);
-    6. the rewards and ``is_success`` of all worlds (:func:`~.judge.report_worlds`); with
-       ``driving_score`` (the v4 ids), each world whose episode ends here gets the driving
-       score's entries from its env's ``_episode_score`` (the one rule, in
-       ``fluids_bench.tasks.fluids.driving_score``);
+       (`SupervisorBatch`);
+    6. the rewards and `is_success` of all worlds (`report_worlds`); with
+       `driving_score` (the v4 ids), each world whose episode ends here gets the driving
+       score's entries from its env's `_episode_score` (the one rule, in
+       `fluids_bench.tasks.fluids.driving_score`);
     7. one observes every world (a noiseless explicit or quasi-LIDAR observation; others
        world by world);
     8. the infos and labels are read from the batched rows for all worlds at once
-       (:func:`~fluids_bench.tasks.fluids.vector.infos.step_infos`; with ``"SameStep"``
+       (`step_infos`; with `"SameStep"`
        autoresets, world by world).
 
     Only rare events run world by world: collisions (the exact check and fault labels), a
     light changing, a route changing, recovery planning and resets. The parts are the scalar
     env's own, so equality holds by construction. A batch of one
-    world steps with the scalar env's ``step`` itself (the phases' fixed costs would exceed it). The vector layer
+    world steps with the scalar env's `step` itself (the phases' fixed costs would exceed it). The vector layer
     checks the whole action batch before any world moves, writes observations into
     preallocated batched arrays and builds the batched infos key by key for all worlds at once.
 
-    **Snapshots.** ``snapshot(i)`` returns world ``i``'s state as
-    :func:`fluids_bench.core.snapshot.snapshot` returns it for a ``gym.make`` env (its step
-    count included, as ``TimeLimit``'s); ``restore(i, snap)`` puts such a snapshot, from this
-    env or from a scalar env of the same id and kwargs, into world ``i``.
+    **Snapshots.** `snapshot(i)` returns world `i`'s state as
+    `fluids_bench.core.snapshot.snapshot` returns it for a `gym.make` env (its step
+    count included, as `TimeLimit`'s); `restore(i, snap)` puts such a snapshot, from this
+    env or from a scalar env of the same id and kwargs, into world `i`.
 
-    ``render_mode="rgb_array"``: ``render()`` returns one frame per world. ``call``, ``get_attr``
-    and ``set_attr`` reach each world's ``FluidsEnv`` as ``SyncVectorEnv``'s reach its envs.
-    ``num_envs`` is an integer ≥ 1 and at most what the memory available now holds
-    (:mod:`fluids_bench.tasks.fluids.vector.bounds`); a bad value raises ``ValueError`` naming
+    `render_mode="rgb_array"`: `render()` returns one frame per world. `call`, `get_attr`
+    and `set_attr` reach each world's `FluidsEnv` as `SyncVectorEnv`'s reach its envs.
+    `num_envs` is an integer ≥ 1 and at most what the memory available now holds
+    (`fluids_bench.tasks.fluids.vector.bounds`); a bad value raises `ValueError` naming
     it.
     """
 
@@ -237,7 +237,7 @@ class FluidsVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
-        """Reset every world (or those of ``options["reset_mask"]``); see the class docstring
+        """Reset every world (or those of `options["reset_mask"]`); see the class docstring
         for seeds."""
         seeds = world_seeds(seed, self.num_envs)
         options = dict(options or {})
@@ -310,7 +310,7 @@ class FluidsVectorEnv(VectorEnv):
         return self._observations(), rewards, terminated, truncated, info
 
     def _step_alone(self, actions):
-        """:meth:`step` of a batch of one: the scalar env's own step (its action checked with
+        """`step` of a batch of one: the scalar env's own step (its action checked with
         the batch, then clipped), with the same autoresets and infos."""
         env, limit = self.envs[0], self.max_episode_steps
         rewards, terminated, truncated = [0.0], [False], [False]
@@ -333,24 +333,24 @@ class FluidsVectorEnv(VectorEnv):
         )
 
     def _episode_scores(self, ending, terminated, events, infos: dict[int, dict]) -> None:
-        """Each ``ending`` world's driving score entries into its own info, from its env's
-        ``_episode_score`` (the rule is the scalar env's; a world timed out when its env's
-        ``time_limit`` is reached, as in the scalar env)."""
+        """Each `ending` world's driving score entries into its own info, from its env's
+        `_episode_score` (the rule is the scalar env's; a world timed out when its env's
+        `time_limit` is reached, as in the scalar env)."""
         for i in ending.nonzero()[0].tolist():
             report = self.envs[i]._episode_score(events[i], bool(terminated[i]))
             if report:
                 infos.setdefault(i, {}).update(report)
 
     def _violations(self, faults: FaultBatch) -> np.ndarray:
-        """``FluidsEnv._violations`` of every world, from the fault trackers' rows."""
+        """`FluidsEnv._violations` of every world, from the fault trackers' rows."""
         env = self.envs[0]
         return int(env.obey_lights) * faults["ran_red"][:, 0].astype(np.int64) + int(
             env.yield_to_pedestrians
         ) * faults["failed_to_yield"][:, 0].astype(np.int64)
 
     def _act_all(self, actions, stepping, worlds, supervisors) -> None:
-        """Every stepping world's controls into ``worlds.controls``, in array operations for
-        all worlds at every level (:func:`~.act.act_batch`; the batch is checked)."""
+        """Every stepping world's controls into `worlds.controls`, in array operations for
+        all worlds at every level (`act_batch`; the batch is checked)."""
         act_batch(
             self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
             self._act_scratch,
@@ -358,7 +358,7 @@ class FluidsVectorEnv(VectorEnv):
 
     def _autoreset(self, stepping, terminated, truncated, infos) -> None:
         """Reset the worlds that ended on the previous step (next-step autoreset) or, with
-        ``"SameStep"``, on this one (their final observation and info kept in their info);
+        `"SameStep"`, on this one (their final observation and info kept in their info);
         record which ended."""
         mode = self.autoreset_mode
         ended = np.logical_or(terminated, truncated)
@@ -378,7 +378,7 @@ class FluidsVectorEnv(VectorEnv):
             self._ended = ended
 
     def render(self) -> tuple[np.ndarray, ...] | None:
-        """One frame per world (``render_mode="rgb_array"``)."""
+        """One frame per world (`render_mode="rgb_array"`)."""
         if self.render_mode is None:
             return self.envs[0].render()  # the scalar env's warning, and None
         return tuple(env.render() for env in self.envs)
@@ -388,8 +388,8 @@ class FluidsVectorEnv(VectorEnv):
             env.close()
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Each world's ``name`` (called with the arguments if it is a method), as
-        ``SyncVectorEnv.call`` gives it."""
+        """Each world's `name` (called with the arguments if it is a method), as
+        `SyncVectorEnv.call` gives it."""
         values = [getattr(env, name) for env in self.envs]
         self._stale[:] = True  # a method may have given an env new objects
         return tuple(v(*args, **kwargs) if callable(v) else v for v in values)
@@ -398,8 +398,8 @@ class FluidsVectorEnv(VectorEnv):
         return self.call(name)
 
     def set_attr(self, name: str, values: Any) -> None:
-        """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
-        else the same value on all (as ``SyncVectorEnv.set_attr``)."""
+        """Set `name` on every world: one value each from a list or tuple of `num_envs`,
+        else the same value on all (as `SyncVectorEnv.set_attr`)."""
         values = attribute_values(values, self.num_envs)
         for env, value in zip(self.envs, values, strict=True):
             setattr(env, name, value)
@@ -408,15 +408,15 @@ class FluidsVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ supervisor and state
     def supervisor_action(self) -> np.ndarray:
         """Every world's supervisor label in its current state, batched like
-        ``info["supervisor_action"]``."""
+        `info["supervisor_action"]`."""
         labels = [env.supervisor_action() for env in self.envs]
         return batch_infos([{SUPERVISOR_ACTION_KEY: a} for a in labels], self.num_envs)[
             SUPERVISOR_ACTION_KEY
         ]
 
     def snapshot(self, index: int) -> WrappedSnapshot:
-        """World ``index``'s state, as :func:`fluids_bench.core.snapshot.snapshot` gives it for a
-        ``gym.make`` env of the same id (restore it there, or here with :meth:`restore`)."""
+        """World `index`'s state, as `fluids_bench.core.snapshot.snapshot` gives it for a
+        `gym.make` env of the same id (restore it there, or here with `restore`)."""
         env = self.envs[world_index(index, self.num_envs)]
         counters = {
             "TimeLimit": {"_elapsed_steps": int(self._elapsed[index])},
@@ -427,8 +427,8 @@ class FluidsVectorEnv(VectorEnv):
         return WrappedSnapshot(env.snapshot(), tuple((k, counters[k]) for k in names))
 
     def restore(self, index: int, snap: WrappedSnapshot) -> None:
-        """Continue world ``index`` from ``snap`` (from :meth:`snapshot` or from
-        :func:`fluids_bench.core.snapshot.snapshot` of a ``gym.make`` env of the same id and
+        """Continue world `index` from `snap` (from `snapshot` or from
+        `fluids_bench.core.snapshot.snapshot` of a `gym.make` env of the same id and
         kwargs); its next step is the one that env would take."""
         env = self.envs[world_index(index, self.num_envs)]
         if not isinstance(snap, WrappedSnapshot):
@@ -448,7 +448,7 @@ class FluidsVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ helpers
     def _bound_batches(self) -> tuple[WorldBatch, FaultBatch, SupervisorBatch]:
         """The row storage of the worlds, their fault trackers and their supervisors, with
-        every one the envs now hold bound to it (a reset, a restore or a ``call`` gives an env
+        every one the envs now hold bound to it (a reset, a restore or a `call` gives an env
         new ones, bound here before they step)."""
         worlds, faults, supervisors = self._worlds, self._faults, self._supervisors
         for i in self._stale.nonzero()[0].tolist():
@@ -463,15 +463,15 @@ class FluidsVectorEnv(VectorEnv):
         return worlds, faults, supervisors
 
     def _valid(self, env: FluidsEnv, action: np.ndarray):
-        """World ``env``'s row of a checked batch as :func:`levels.validate` returns it."""
+        """World `env`'s row of a checked batch as `levels.validate` returns it."""
         if self._bounds is None:  # Discrete: an integer in range (check_batch)
             return int(action)
         values = action.reshape(-1).tolist()
         return levels.clip(env.action_level, values, self._bounds, env.world, env.action_scale)
 
     def _observe(self, stepping, index, worlds: WorldBatch, lights: np.ndarray) -> None:
-        """Write the observation of every world that stepped (``index``: where ``stepping``;
-        ``lights``: their light states) into the batch: one call for all when the observation
+        """Write the observation of every world that stepped (`index`: where `stepping`;
+        `lights`: their light states) into the batch: one call for all when the observation
         allows it, else world by world (a noisy or image observation, drawn with each world's
         own generator)."""
         observer = self.envs[0].observer
@@ -482,7 +482,7 @@ class FluidsVectorEnv(VectorEnv):
             self._write(i, self.envs[i]._observe())
 
     def _read(self, i: int) -> Any:
-        """World ``i``'s row of the batched observation, as the scalar env returns it."""
+        """World `i`'s row of the batched observation, as the scalar env returns it."""
         if self._dict_obs:
             return {key: value[i].copy() for key, value in self._obs.items()}
         return self._obs[i].copy()

@@ -1,14 +1,14 @@
 """Batched infos in Gymnasium's vector layout, built key by key for all worlds at once.
 
-``batch_infos(infos, n)`` gives what ``VectorEnv._add_info`` gives when called world after world
-(what ``SyncVectorEnv`` returns): every key holds an array over the ``n`` worlds with a boolean
-mask ``_key`` saying which worlds have it. A key's array is typed by the first world that has it:
-Python ``int``/``float``/``bool`` and numpy numbers as that dtype, numpy arrays stacked as
-``(n, *shape)`` of their dtype, dicts batched recursively, anything else (lists, strings) as an
-object array with ``None`` where a world lacks the key. ``final_obs`` is always an object array.
+`batch_infos(infos, n)` gives what `VectorEnv._add_info` gives when called world after world
+(what `SyncVectorEnv` returns): every key holds an array over the `n` worlds with a boolean
+mask `_key` saying which worlds have it. A key's array is typed by the first world that has it:
+Python `int`/`float`/`bool` and numpy numbers as that dtype, numpy arrays stacked as
+`(n, *shape)` of their dtype, dicts batched recursively, anything else (lists, strings) as an
+object array with `None` where a world lacks the key. `final_obs` is always an object array.
 
-:func:`step_infos` builds the same result for a step in which every world has the scalar env's
-info keys (``FluidsEnv._info``), reading most of them from the batched rows instead of per-world
+`step_infos` builds the same result for a step in which every world has the scalar env's
+info keys (`FluidsEnv._info`), reading most of them from the batched rows instead of per-world
 dicts.
 """
 
@@ -26,7 +26,7 @@ _SCALARS = (int, float, bool)
 
 
 def _empty(value: Any, n: int) -> np.ndarray:
-    """The array ``_add_info`` creates for a key whose first value is ``value``."""
+    """The array `_add_info` creates for a key whose first value is `value`."""
     kind = type(value)
     if kind in _SCALARS or issubclass(kind, np.number):
         return np.zeros(n, dtype=kind)
@@ -41,8 +41,8 @@ def _all_true(n: int) -> np.ndarray:
 
 
 def batch_infos(infos: list[dict[str, Any] | None] | dict[int, dict], n: int) -> dict[str, Any]:
-    """The vector info of ``infos``: one dict per world (``None`` for a world without one), or
-    ``{world: dict}`` for the worlds with one."""
+    """The vector info of `infos`: one dict per world (`None` for a world without one), or
+    `{world: dict}` for the worlds with one."""
     # one pass: each key's (world, value) pairs, keys in first appearance world by world (the
     # order _add_info inserts them)
     by_key: dict[str, list[tuple[int, Any]]] = {}
@@ -87,15 +87,15 @@ def _colour_table(kinds: tuple[str, ...]) -> np.ndarray:
 def step_infos(
     envs, worlds, faults, lights, own: dict[int, dict], events: list, labels=None
 ) -> dict:
-    """:func:`batch_infos` of ``FluidsEnv._info`` of every env, merged with ``own`` (the other
-    keys of the worlds that have some, e.g. ``is_success``, or a whole info for a world that
+    """`batch_infos` of `FluidsEnv._info` of every env, merged with `own` (the other
+    keys of the worlds that have some, e.g. `is_success`, or a whole info for a world that
     was reset: its values replace the batched ones).
 
-    ``worlds`` and ``faults`` are the envs' bound
-    :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch` and ``FaultBatch``, ``lights``
-    each world's light states (B, L) and ``events`` each world's new collisions. ``labels``:
+    `worlds` and `faults` are the envs' bound
+    `WorldBatch` and `FaultBatch`, `lights`
+    each world's light states (B, L) and `events` each world's new collisions. `labels`:
     (labels (B, ...), mask) with the label of each world where the mask is set (from
-    ``act.label_batch``); the other worlds' labels come from their envs."""
+    `act.label_batch`); the other worlds' labels come from their envs."""
     n, w = len(envs), envs[0].world
     out: dict[str, Any] = {}
 
@@ -135,7 +135,7 @@ def step_infos(
 
 
 def _stack(labels: list) -> np.ndarray:
-    """The labels as :func:`batch_infos` batches them (ints, or arrays stacked)."""
+    """The labels as `batch_infos` batches them (ints, or arrays stacked)."""
     first = labels[0]
     if isinstance(first, np.ndarray):
         return np.stack(labels)
@@ -145,7 +145,7 @@ def _stack(labels: list) -> np.ndarray:
 
 
 def _overwrite(out: dict, info: dict, i: int) -> None:
-    """World ``i``'s entries of ``out`` set to ``info``'s (nested dicts too)."""
+    """World `i`'s entries of `out` set to `info`'s (nested dicts too)."""
     for key, value in info.items():
         if isinstance(value, dict):
             _overwrite(out[key], value, i)

@@ -1,11 +1,11 @@
-"""Termination, rewards and ``is_success`` of every world of a batch, as arrays.
+"""Termination, rewards and `is_success` of every world of a batch, as arrays.
 
-:func:`judge_worlds` is ``FluidsEnv._judge_recorded`` and :func:`report_worlds` the reward and
-``is_success`` of ``FluidsEnv._report`` for all stepping worlds at once, read from the batch's
+`judge_worlds` is `FluidsEnv._judge_recorded` and `report_worlds` the reward and
+`is_success` of `FluidsEnv._report` for all stepping worlds at once, read from the batch's
 rows with the same float operations in the same order (so each world's reward has the bits the
-scalar env gives it). Each env's episode bookkeeping (``_last_s``, ``_ended``,
-``_route_length``: what its snapshots hold) is read and written in its rows of the vector
-env's ``_progress`` and ``_done`` arrays.
+scalar env gives it). Each env's episode bookkeeping (`_last_s`, `_ended`,
+`_route_length`: what its snapshots hold) is read and written in its rows of the vector
+env's `_progress` and `_done` arrays.
 """
 
 from __future__ import annotations
@@ -36,9 +36,9 @@ class Judged:
 def judge_worlds(
     envs, stepping: np.ndarray, worlds: WorldBatch, episodes: Rows, events: list, broken
 ) -> Judged:
-    """``FluidsEnv._judge_recorded`` of the worlds where ``stepping``, with ``events`` their
-    new collisions and ``broken`` the rules their egos broke; ``episodes``: the envs'
-    ``_progress`` and ``_done`` rows."""
+    """`FluidsEnv._judge_recorded` of the worlds where `stepping`, with `events` their
+    new collisions and `broken` the rules their egos broke; `episodes`: the envs'
+    `_progress` and `_done` rows."""
     env, rows = envs[0], worlds.rows
     any_hit, ego_hit = worlds.hit.copy(), np.zeros(len(envs), np.bool_)
     for i in any_hit.nonzero()[0].tolist():
@@ -64,9 +64,9 @@ def judge_worlds(
 def report_worlds(
     envs, judged: Judged, worlds: WorldBatch, faults: FaultBatch, episodes: Rows
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Each world's reward (B,) and ``is_success`` (B,; meaningful where it terminated), as
-    ``FluidsEnv._report`` gives them (:func:`~fluids_bench.tasks.fluids.scenario.step_reward`
-    and ``step_reward_v1``)."""
+    """Each world's reward (B,) and `is_success` (B,; meaningful where it terminated), as
+    `FluidsEnv._report` gives them (`step_reward`
+    and `step_reward_v1`)."""
     env, rows = envs[0], worlds.rows
     if env.done_when == "ego":
         success = rows["reached"][:, 0] & ~rows["collided"][:, 0]

@@ -1,15 +1,15 @@
 """FLUIDS batched over worker processes: each of W slices of the worlds is one
-:class:`~fluids_bench.tasks.fluids.vector.env.FluidsVectorEnv`, the first in the calling
+`FluidsVectorEnv`, the first in the calling
 process and the others in W − 1 worker processes.
 
-``gym.make_vec(id, num_envs=B, vectorization_mode="vector_entry_point", num_workers=W)`` builds
-it (``num_workers=1``, the default, builds the single-process env). One step sends every worker
+`gym.make_vec(id, num_envs=B, vectorization_mode="vector_entry_point", num_workers=W)` builds
+it (`num_workers=1`, the default, builds the single-process env). One step sends every worker
 its actions, steps the first slice here, then gathers the workers' results, so the W batches
 step at once, one per core; beyond that the caller only slices actions and concatenates
 results. Observations, rewards, flags and infos are
-those of one ``FluidsVectorEnv`` of B worlds bit for bit: a worker's worlds get the seeds the
+those of one `FluidsVectorEnv` of B worlds bit for bit: a worker's worlds get the seeds the
 single-process env would give them, and the infos of the slices merge into the layout
-``VectorEnv._add_info`` gives (:func:`merge_infos`).
+`VectorEnv._add_info` gives (`merge_infos`).
 """
 
 from __future__ import annotations
@@ -53,9 +53,9 @@ def make_vector_env(
     worker_timeout: float | None = DEFAULT_WORKER_TIMEOUT,
     **kwargs: Any,
 ) -> VectorEnv:
-    """The FLUIDS ids' vector entry point: B worlds in this process (``num_workers=1``; a
-    ``context`` and ``worker_timeout`` are then unused) or spread over ``num_workers`` worker
-    processes started by ``context`` (:class:`FluidsWorkerVectorEnv`)."""
+    """The FLUIDS ids' vector entry point: B worlds in this process (`num_workers=1`; a
+    `context` and `worker_timeout` are then unused) or spread over `num_workers` worker
+    processes started by `context` (`FluidsWorkerVectorEnv`)."""
     if not is_int(num_workers) or num_workers < 1:
         fail(WHERE, "num_workers", num_workers, "an integer in [1, num_envs]")
     _check_context(context)
@@ -89,9 +89,9 @@ def split(num_envs: int, num_workers: int) -> list[int]:
 
 def merge_infos(parts: list[dict[str, Any]], starts: list[int]) -> dict[str, Any]:
     """One vector info from the infos of consecutive slices of the worlds (slice w: worlds
-    ``starts[w]`` … ``starts[w + 1] - 1``): as the single-process env builds it, a key's array
-    is typed by the first slice that has it and is zero (``None`` for objects) where a slice
-    lacks it; its mask ``_key`` is False there; dicts merge key by key."""
+    `starts[w]` … `starts[w + 1] - 1`): as the single-process env builds it, a key's array
+    is typed by the first slice that has it and is zero (`None` for objects) where a slice
+    lacks it; its mask `_key` is False there; dicts merge key by key."""
     n = starts[-1]
     keys: dict[str, None] = {}  # in first appearance, slice by slice (as world by world)
     for part in parts:
@@ -161,7 +161,7 @@ def _run(env: FluidsVectorEnv, name: str, args: tuple) -> Any:
 
 class _InProcess:
     """Slice 0, stepped by the calling process while the workers step theirs: a connection
-    whose ``recv`` runs the command ``send`` left (the parent sends to every worker, then
+    whose `recv` runs the command `send` left (the parent sends to every worker, then
     gathers from slice 0 first)."""
 
     def __init__(self, env: FluidsVectorEnv) -> None:
@@ -182,21 +182,21 @@ class _InProcess:
 
 
 class FluidsWorkerVectorEnv(VectorEnv):
-    """B FLUIDS worlds in W slices, each stepped as a :class:`FluidsVectorEnv`, the first by
+    """B FLUIDS worlds in W slices, each stepped as a `FluidsVectorEnv`, the first by
     this process and the others by W − 1 worker processes; the same API, spaces, metadata and
-    results as one ``FluidsVectorEnv`` of B worlds.
+    results as one `FluidsVectorEnv` of B worlds.
 
-    ``num_workers``: slices, this process's included (an integer in [1, num_envs]; the entry
-    point builds this class from 2 on); ``context``: the
-    ``multiprocessing`` start method (``"fork"``, ``"spawn"``, ``"forkserver"``; default: the
-    platform's). Every other argument is ``FluidsVectorEnv``'s and is checked there (its error
+    `num_workers`: slices, this process's included (an integer in [1, num_envs]; the entry
+    point builds this class from 2 on); `context`: the
+    `multiprocessing` start method (`"fork"`, `"spawn"`, `"forkserver"`; default: the
+    platform's). Every other argument is `FluidsVectorEnv`'s and is checked there (its error
     is raised here). Each slice keeps one core busy for the whole step: use at most one per
-    core. ``close()`` (or leaving a ``with`` block) stops the workers; a worker that died
-    raises ``RuntimeError`` naming it at the next call (within ``POLL_INTERVAL``), and so does
-    a worker that has not answered a call after ``worker_timeout`` seconds (None: wait for
+    core. `close()` (or leaving a `with` block) stops the workers; a worker that died
+    raises `RuntimeError` naming it at the next call (within `POLL_INTERVAL`), and so does
+    a worker that has not answered a call after `worker_timeout` seconds (None: wait for
     ever; default 600 s, room for a cold compile of the kernels in a spawned worker), e.g. one
     stopped by SIGSTOP. After a call interrupted by Ctrl-C the
-    slices may be a step apart: every later call raises ``RuntimeError`` until the env is
+    slices may be a step apart: every later call raises `RuntimeError` until the env is
     closed (make a new one).
     """
 
@@ -262,8 +262,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
 
     # ------------------------------------------------------------------ Gymnasium API
     def reset(self, *, seed: int | list[int | None] | None = None, options: dict | None = None):
-        """Reset every world (or those of ``options["reset_mask"]``); world i gets the seed the
-        single-process env gives it (``seed + i``, or the list's i-th)."""
+        """Reset every world (or those of `options["reset_mask"]`); world i gets the seed the
+        single-process env gives it (`seed + i`, or the list's i-th)."""
         seeds = world_seeds(seed, self.num_envs)
         options = dict(options or {})
         mask = options.pop("reset_mask", None)
@@ -316,7 +316,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
         )
 
     def render(self) -> tuple[np.ndarray, ...] | None:
-        """One frame per world (``render_mode="rgb_array"``)."""
+        """One frame per world (`render_mode="rgb_array"`)."""
         frames = self._all("render", ())
         if self.render_mode is None:
             return frames[0]
@@ -345,8 +345,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
                 pipe.close()
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
-        """Each world's ``name`` (called with the arguments if it is a method), as
-        ``SyncVectorEnv.call`` gives it."""
+        """Each world's `name` (called with the arguments if it is a method), as
+        `SyncVectorEnv.call` gives it."""
         parts = self._all("call", (name, args, kwargs))
         return tuple(value for part in parts for value in part)
 
@@ -354,8 +354,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
         return self.call(name)
 
     def set_attr(self, name: str, values: Any) -> None:
-        """Set ``name`` on every world: one value each from a list or tuple of ``num_envs``,
-        else the same value on all (as ``SyncVectorEnv.set_attr``)."""
+        """Set `name` on every world: one value each from a list or tuple of `num_envs`,
+        else the same value on all (as `SyncVectorEnv.set_attr`)."""
         values = attribute_values(values, self.num_envs)
         for w, (a, b) in enumerate(self._slices()):
             self._send(w, "set_attr", (name, list(values[a:b])))
@@ -364,17 +364,17 @@ class FluidsWorkerVectorEnv(VectorEnv):
     # ------------------------------------------------------------------ supervisor and state
     def supervisor_action(self) -> np.ndarray:
         """Every world's supervisor label in its current state, batched like
-        ``info["supervisor_action"]``."""
+        `info["supervisor_action"]`."""
         return np.concatenate(self._all("supervisor_action", ()))
 
     def snapshot(self, index: int):
-        """World ``index``'s state (:meth:`FluidsVectorEnv.snapshot`)."""
+        """World `index`'s state (`FluidsVectorEnv.snapshot`)."""
         w, local = self._owner(index)
         self._send(w, "snapshot", (local,))
         return self._gather([w])[0]
 
     def restore(self, index: int, snap) -> None:
-        """Continue world ``index`` from ``snap`` (:meth:`FluidsVectorEnv.restore`)."""
+        """Continue world `index` from `snap` (`FluidsVectorEnv.restore`)."""
         w, local = self._owner(index)
         self._send(w, "restore", (local, snap))
         self._gather([w])
@@ -386,7 +386,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
         return list(zip(self.starts[:-1], self.starts[1:], strict=True))
 
     def _owner(self, index: Any) -> tuple[int, int]:
-        """The slice holding world ``index``, and the world's index in it."""
+        """The slice holding world `index`, and the world's index in it."""
         index = world_index(index, self.num_envs)
         w = int(np.searchsorted(self.starts, index, side="right")) - 1
         return w, index - self.starts[w]
@@ -409,7 +409,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
             raise
 
     def _gather(self, workers: list[int] | None = None) -> list[Any]:
-        """Each worker's answer (all of them, or ``workers``'), in order; a worker's exception
+        """Each worker's answer (all of them, or `workers`'), in order; a worker's exception
         is raised here, as it was raised there."""
         workers = list(range(self.num_workers)) if workers is None else workers
         answers, failure = [], None
@@ -433,8 +433,8 @@ class FluidsWorkerVectorEnv(VectorEnv):
         return answers
 
     def _wait(self, w: int) -> None:
-        """Until worker ``w`` has answered (or died: the pipe then reads EOF); RuntimeError
-        naming it after ``worker_timeout`` seconds without an answer."""
+        """Until worker `w` has answered (or died: the pipe then reads EOF); RuntimeError
+        naming it after `worker_timeout` seconds without an answer."""
         pipe = self._pipes[w]
         if isinstance(pipe, _InProcess):
             return

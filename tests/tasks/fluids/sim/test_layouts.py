@@ -655,7 +655,7 @@ def test_mutated_layout_loads_valid_or_raises_value_error(d):
     _load_and_compile(d)
 
 
-@pytest.mark.slow
+@pytest.mark.fuzz_full
 @settings(max_examples=600, deadline=None)
 @given(d=_mutated())
 def test_mutated_layout_loads_valid_or_raises_value_error_full(d):

@@ -1,7 +1,7 @@
 """Layout builders: a four-way intersection, a T-junction and a roundabout.
 
-All are built from "arms": straight roads meeting at the origin, each with ``lanes`` inbound and
-``lanes`` outbound lanes (right-hand traffic). Inbound lanes end at a stop line just before the
+All are built from "arms": straight roads meeting at the origin, each with `lanes` inbound and
+`lanes` outbound lanes (right-hand traffic). Inbound lanes end at a stop line just before the
 arm's crosswalk; outbound lanes start just after it. Distances in metres, times in seconds.
 """
 
@@ -30,7 +30,7 @@ def _unit(deg: float) -> np.ndarray:
 
 
 def _right(deg: float) -> np.ndarray:
-    """Unit normal to the right of heading ``deg``."""
+    """Unit normal to the right of heading `deg`."""
     return np.array([math.sin(math.radians(deg)), -math.cos(math.radians(deg))])
 
 
@@ -52,7 +52,7 @@ def _signal_lights(arm_angles, phase_of, green, yellow, all_red, crosswalk_light
     """Two-phase signal: arms with phase 0 go, then arms with phase 1.
 
     Each phase is green then yellow then an all-red clearance. A crosswalk across an arm shows
-    white while that arm's own traffic is stopped by red, and turns red ``all_red + yellow``
+    white while that arm's own traffic is stopped by red, and turns red `all_red + yellow`
     seconds before that red ends, so walkers clear before the arm's cars move.
     """
     half = green + yellow + all_red
@@ -84,8 +84,8 @@ def _signal_lights(arm_angles, phase_of, green, yellow, all_red, crosswalk_light
 
 
 def _corner_arc(src: float, dst: float, offset: float, corner: float, left: bool):
-    """A turn concentric with the kerb between arms ``src`` and ``dst``: it starts where the kerb
-    starts curving (``corner`` m from the centre), ``offset`` m from the road's centre line, so
+    """A turn concentric with the kerb between arms `src` and `dst`: it starts where the kerb
+    starts curving (`corner` m from the centre), `offset` m from the road's centre line, so
     the car keeps its lane's distance from the kerb all the way round."""
     centre = corner * (_unit(src) + _unit(dst))
     start = corner * _unit(src) + offset * _right(src + 180)
@@ -112,7 +112,7 @@ def _arms(
     core,
     turn_via=None,
 ):
-    """Lanes, routes, crosswalks and walks for arms at ``arm_angles`` (degrees)."""
+    """Lanes, routes, crosswalks and walks for arms at `arm_angles` (degrees)."""
     hw = lanes * lane_width  # road half-width
     cw_mid = core + curb_radius + crosswalk_width / 2  # crosswalk centre, from the origin
     stop = core + curb_radius + crosswalk_width + 0.5  # stop line distance from the origin
@@ -252,8 +252,8 @@ def four_way(
     yellow: float = 3.0,
     all_red: float = 2.0,
 ) -> LayoutSpec:
-    """A four-way intersection, ``lanes`` (1 or 2) per direction, with sidewalks, crosswalks and
-    (if ``lights``) a two-phase signal: east-west green, then north-south green."""
+    """A four-way intersection, `lanes` (1 or 2) per direction, with sidewalks, crosswalks and
+    (if `lights`) a two-phase signal: east-west green, then north-south green."""
     return _junction(
         "four_way",
         (0, 90, 180, 270),
@@ -280,7 +280,7 @@ def t_junction(
     yellow: float = 3.0,
     all_red: float = 2.0,
 ) -> LayoutSpec:
-    """A T-junction: an east-west road with a southern arm; signalised like :func:`four_way`."""
+    """A T-junction: an east-west road with a southern arm; signalised like `four_way`."""
     return _junction(
         "t_junction",
         (0, 180, 270),
@@ -355,7 +355,7 @@ BUILDERS = {"four_way": four_way, "t_junction": t_junction, "roundabout": rounda
 
 
 def build_layout(name: str, **kwargs) -> LayoutSpec:
-    """Build the layout ``name`` (one of :data:`BUILDERS`) with builder ``kwargs``."""
+    """Build the layout `name` (one of `BUILDERS`) with builder `kwargs`."""
     if name not in BUILDERS:
         raise ValueError(f"layout: '{name}' is unknown; allowed: {sorted(BUILDERS)}")
     return BUILDERS[name](**kwargs)

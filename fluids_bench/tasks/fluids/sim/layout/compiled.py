@@ -1,8 +1,8 @@
-"""Turn a :class:`LayoutSpec` into the static geometry and route arrays the simulator runs on.
+"""Turn a `LayoutSpec` into the static geometry and route arrays the simulator runs on.
 
 Compiled once per spec and cached (specs are frozen and hashable): drivable area, sidewalks,
 crosswalk polygons, terrain, and a route table in which every car route and pedestrian walk is a
-path resampled every ``PATH_SPACING`` metres and padded into one array, so that all agents can be
+path resampled every `PATH_SPACING` metres and padded into one array, so that all agents can be
 projected along their paths with array indexing.
 """
 
@@ -31,10 +31,10 @@ CAR, PEDESTRIAN = 0, 1
 class RouteTable:
     """All paths of a layout, cars first then walks, padded to a common length.
 
-    ``enter_s`` is where the shared zone begins (a lane's end, the kerb before a crosswalk);
-    ``stop_s`` is the same place when a light governs it (else ``inf``); ``clear_s`` is where the
+    `enter_s` is where the shared zone begins (a lane's end, the kerb before a crosswalk);
+    `stop_s` is the same place when a light governs it (else `inf`); `clear_s` is where the
     agent has left the shared zone (an exit lane's start, the far kerb). Arc lengths are metres
-    along the path; ``inf`` when absent.
+    along the path; `inf` when absent.
     """
 
     names: tuple[str, ...]
@@ -87,7 +87,7 @@ class Layout:
         return xy[:, 0] + 1j * xy[:, 1]
 
     def road_clearance(self, points: np.ndarray) -> np.ndarray:
-        """Distance (m) from each of ``points`` (P, 2) to the edge of the grown drivable area:
+        """Distance (m) from each of `points` (P, 2) to the edge of the grown drivable area:
         positive inside it, negative outside."""
         g = self.drivable_tolerant
         d = shapely.distance(g.boundary, shapely.points(points))
@@ -95,7 +95,7 @@ class Layout:
 
     @functools.cached_property
     def route_clearance(self) -> np.ndarray:
-        """:meth:`road_clearance` of every point of every route path (R, M)."""
+        """`road_clearance` of every point of every route path (R, M)."""
         path = self.routes.path
         return self.road_clearance(path.reshape(-1, 2)).reshape(path.shape[:2])
 
@@ -108,7 +108,7 @@ class Layout:
         return self.spec.bounds
 
     def routes_from_entry(self, entry: int) -> np.ndarray:
-        """Car route indices starting at entry lane ``entry``, in spec order (read-only)."""
+        """Car route indices starting at entry lane `entry`, in spec order (read-only)."""
         return self._routes_by_entry[entry]
 
     @functools.cached_property
@@ -152,7 +152,7 @@ def _car_path(
 ) -> tuple[np.ndarray, float, float]:
     """Resampled path of a route, the stop line's arc length and the exit lane's start.
 
-    ``middle`` replaces the junction part (entry lane end to exit lane start) when given.
+    `middle` replaces the junction part (entry lane end to exit lane start) when given.
     """
     entry, exit_ = spec.lane(route.entry), spec.lane(route.exit)
     a = np.asarray(entry.centerline)
@@ -198,7 +198,7 @@ def _pad(arrays: list[np.ndarray], width: int) -> np.ndarray:
 
 @functools.lru_cache(maxsize=32)
 def compile_layout(spec: LayoutSpec) -> Layout:
-    """Derive geometry and routes from ``spec`` (cached: every world on a spec shares one)."""
+    """Derive geometry and routes from `spec` (cached: every world on a spec shares one)."""
     bounds_box = box(*spec.bounds)
     for group in ("areas", "islands"):
         for i, pts in enumerate(getattr(spec, group)):
@@ -255,7 +255,7 @@ def _check_islands(spec: LayoutSpec, table: RouteTable) -> None:
 
 
 def with_route_middles(layout: Layout, middles: dict[int, np.ndarray]) -> Layout:
-    """A copy of ``layout`` whose car routes ``middles`` (route index → polyline from the entry
+    """A copy of `layout` whose car routes `middles` (route index → polyline from the entry
     lane's end to the exit lane's start) replace the default junction curves."""
     table = _route_table(layout.spec, layout.crosswalks, middles)
     return Layout(

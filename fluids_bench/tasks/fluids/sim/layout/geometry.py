@@ -13,7 +13,7 @@ PATH_SPACING = 0.5  # m between consecutive samples of every stored path
 
 
 def de_casteljau(control: np.ndarray, t: np.ndarray) -> np.ndarray:
-    """Evaluate the Bézier curve with ``control`` points (n, 2) at parameters ``t`` (m,).
+    """Evaluate the Bézier curve with `control` points (n, 2) at parameters `t` (m,).
 
     De Casteljau's algorithm: repeated linear interpolation between neighbouring control
     points, vectorised over all parameters at once. Returns (m, 2).
@@ -45,10 +45,10 @@ def connector(p0, h0: float, p1, h1: float, samples: int = 64) -> np.ndarray:
 
 
 def resample(polyline: np.ndarray, spacing: float = PATH_SPACING) -> np.ndarray:
-    """Resample a polyline (n, 2) at uniform arc-length ``spacing``.
+    """Resample a polyline (n, 2) at uniform arc-length `spacing`.
 
-    Samples sit at exact multiples of ``spacing`` (the remainder under one spacing at the end is
-    dropped), so the arc length of sample ``k`` is ``k * spacing`` on every path.
+    Samples sit at exact multiples of `spacing` (the remainder under one spacing at the end is
+    dropped), so the arc length of sample `k` is `k * spacing` on every path.
     """
     pts = np.asarray(polyline, float)
     seg = np.hypot(*np.diff(pts, axis=0).T)

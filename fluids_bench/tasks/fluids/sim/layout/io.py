@@ -1,20 +1,20 @@
-"""The layout file format: a :class:`LayoutSpec` as JSON (read and written) or TOML (read only).
+"""The layout file format: a `LayoutSpec` as JSON (read and written) or TOML (read only).
 
-A file is one object with ``"format_version": 1`` and the fields of :class:`LayoutSpec`; each
+A file is one object with `"format_version": 1` and the fields of `LayoutSpec`; each
 element (lane, sidewalk, crosswalk, light, route, walk) is an object with its dataclass's fields,
-points are ``[x, y]`` pairs in metres, light phases ``[state, seconds]`` pairs. Fields with a
-default may be left out (TOML has no ``null``: leave out a ``light`` that is absent). Every error
-is a ``ValueError`` naming the element and the field at fault, for example
-``lanes[2] ('north_in_0'): field 'width' is -1; allowed: a finite number > 0``.
+points are `[x, y]` pairs in metres, light phases `[state, seconds]` pairs. Fields with a
+default may be left out (TOML has no `null`: leave out a `light` that is absent). Every error
+is a `ValueError` naming the element and the field at fault, for example
+`lanes[2] ('north_in_0'): field 'width' is -1; allowed: a finite number > 0`.
 
-Limits (see :mod:`fluids_bench.tasks.fluids.sim.layout.spec`): ``bounds`` within ±1 km of the
-origin, every point (lights included) within ``bounds`` grown by 1 km; lanes must not cross
+Limits (see `fluids_bench.tasks.fluids.sim.layout.spec`): `bounds` within ±1 km of the
+origin, every point (lights included) within `bounds` grown by 1 km; lanes must not cross
 themselves or overlap each other, and no route may exit by a lane some route enters by; areas and
-islands are simple polygons; ``curb_radius`` is at most 50 m and a quarter of the smaller side of
-``bounds``; a light holds each state 0.1 s to 1 h, and its offset lies within one loop. An island
+islands are simple polygons; `curb_radius` is at most 50 m and a quarter of the smaller side of
+`bounds`; a light holds each state 0.1 s to 1 h, and its offset lies within one loop. An island
 across a car route is refused when the layout is compiled.
 
-``save_layout(spec, path)`` then ``load_layout(path)`` gives back an equal spec.
+`save_layout(spec, path)` then `load_layout(path)` gives back an equal spec.
 """
 
 from __future__ import annotations
@@ -143,7 +143,7 @@ def _convert(value: Any, shape: str) -> Any:
 
 
 def _element_name(key: str, d: Any) -> str | None:
-    """The name the spec gives an element (a route's is ``entry->exit``), if ``d`` has one."""
+    """The name the spec gives an element (a route's is `entry->exit`), if `d` has one."""
     if not isinstance(d, dict):
         return None
     if key == "routes":
@@ -153,7 +153,7 @@ def _element_name(key: str, d: Any) -> str | None:
 
 
 def _fields(cls: type, d: Any, where: str, skip: tuple[str, ...] = ()) -> dict[str, Any]:
-    """Check ``d`` against the fields of dataclass ``cls``; return the converted keyword args."""
+    """Check `d` against the fields of dataclass `cls`; return the converted keyword args."""
     if not isinstance(d, dict):
         raise ValueError(
             f"{where}: is {_short(d)}; allowed: an object with fields of {cls.__name__}"
@@ -183,7 +183,7 @@ def _fields(cls: type, d: Any, where: str, skip: tuple[str, ...] = ()) -> dict[s
 
 
 def _relabel(err: ValueError, labels: dict[str, str]) -> ValueError:
-    """Rewrite the spec's ``lane 'x': ...`` prefix of ``err`` into the file's ``lanes[2] ('x')``."""
+    """Rewrite the spec's `lane 'x': ...` prefix of `err` into the file's `lanes[2] ('x')`."""
     msg = str(err)
     for spec_where, label in labels.items():
         if msg.startswith(spec_where + ": "):
@@ -192,7 +192,7 @@ def _relabel(err: ValueError, labels: dict[str, str]) -> ValueError:
 
 
 def layout_from_dict(d: Any) -> LayoutSpec:
-    """Build and validate a :class:`LayoutSpec` from the parsed contents of a layout file."""
+    """Build and validate a `LayoutSpec` from the parsed contents of a layout file."""
     if not isinstance(d, dict):
         raise ValueError(f"layout: is {_short(d)}; allowed: an object with 'format_version': 1")
     where = f"layout '{d['name']}'" if isinstance(d.get("name"), str) else "layout"
@@ -238,7 +238,7 @@ def _plain(value: Any) -> Any:
 
 
 def layout_to_dict(spec: LayoutSpec) -> dict[str, Any]:
-    """The file contents for ``spec``: ``format_version`` first, then every field, in order."""
+    """The file contents for `spec`: `format_version` first, then every field, in order."""
     out: dict[str, Any] = {"format_version": FORMAT_VERSION}
     for f in dataclasses.fields(spec):
         value = getattr(spec, f.name)
@@ -257,7 +257,7 @@ _FLAT_LIST = re.compile(r"\[\n\s*([^\[\]{}\n]+(?:\n\s*[^\[\]{}\n]+)*)\n\s*\]")
 
 
 def save_layout(spec: LayoutSpec, path: str | os.PathLike) -> None:
-    """Write ``spec`` to ``path`` as JSON, atomically (a temporary file, then a rename)."""
+    """Write `spec` to `path` as JSON, atomically (a temporary file, then a rename)."""
     path = Path(path)
     text = json.dumps(layout_to_dict(spec), indent=2, allow_nan=False)
     text = _FLAT_LIST.sub(lambda m: "[" + " ".join(map(str.strip, m[1].split("\n"))) + "]", text)
@@ -276,7 +276,7 @@ def save_layout(spec: LayoutSpec, path: str | os.PathLike) -> None:
 
 
 def _no_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
-    """A JSON object whose keys are unique (``json`` would keep the last of two silently)."""
+    """A JSON object whose keys are unique (`json` would keep the last of two silently)."""
     out: dict[str, Any] = {}
     for key, value in pairs:
         if key in out:
@@ -286,7 +286,7 @@ def _no_duplicate_keys(pairs: list[tuple[str, Any]]) -> dict[str, Any]:
 
 
 def load_layout(path: str | os.PathLike) -> LayoutSpec:
-    """Read a layout file (``.toml``: TOML, anything else: JSON); errors name the file."""
+    """Read a layout file (`.toml`: TOML, anything else: JSON); errors name the file."""
     path = Path(path)
     try:
         if path.suffix.lower() == ".toml":

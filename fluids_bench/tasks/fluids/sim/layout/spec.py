@@ -1,17 +1,17 @@
 """The declarative description of an intersection: pure data, validated, JSON round-trippable.
 
-A :class:`LayoutSpec` says what is where (lanes, sidewalks, crosswalks, lights, extra drivable
-areas, car routes and pedestrian walks). :mod:`fluids_bench.tasks.fluids.sim.layout.compiled` turns it into the
+A `LayoutSpec` says what is where (lanes, sidewalks, crosswalks, lights, extra drivable
+areas, car routes and pedestrian walks). `fluids_bench.tasks.fluids.sim.layout.compiled` turns it into the
 geometry and route arrays the simulator uses. Coordinates are metres, headings radians, durations
 seconds. Errors name the element and field at fault.
 
-Limits: ``bounds`` lie within ±:data:`COORD_LIMIT` (1 km) of the origin and every point within
-``bounds`` grown by :data:`POINT_SLACK` (1 km), so compiled paths (sampled every 0.5 m) stay
+Limits: `bounds` lie within ±`COORD_LIMIT` (1 km) of the origin and every point within
+`bounds` grown by `POINT_SLACK` (1 km), so compiled paths (sampled every 0.5 m) stay
 small. Geometrically impossible layouts are refused: a lane whose centreline crosses itself,
 two lanes whose corridors (centreline ± width/2) overlap instead of meeting at their edges, a
 route whose exit lane is some route's entry lane, a self-intersecting area or island, a kerb
-radius that fills the space between the roads (:data:`MAX_CURB_RADIUS`), and light timings no
-clock can keep (:data:`PHASE_RANGE`, an offset beyond one loop).
+radius that fills the space between the roads (`MAX_CURB_RADIUS`), and light timings no
+clock can keep (`PHASE_RANGE`, an offset beyond one loop).
 """
 
 from __future__ import annotations
@@ -70,7 +70,7 @@ def _check_length(where: str, name: str, pts: tuple[Point, ...]) -> None:
 
 
 def _check_in(where: str, name: str, value, lo: float, hi: float) -> float:
-    """A finite number in ``(lo, hi]`` (``lo`` excluded: widths and speeds are positive)."""
+    """A finite number in `(lo, hi]` (`lo` excluded: widths and speeds are positive)."""
     v = _check_positive(where, name, value)
     if not lo < v <= hi:
         _fail(where, name, value, f"a number in ({lo:g}, {hi:g}]")
@@ -97,7 +97,7 @@ def _check_positive(where: str, name: str, value) -> float:
 
 
 def _check_polygons(where: str, group: str, polygons) -> None:
-    """Every polygon of ``group`` (``areas``, ``islands``) must be valid: a self-intersecting
+    """Every polygon of `group` (`areas`, `islands`) must be valid: a self-intersecting
     one is refused when the layout is loaded, not when it is compiled."""
     if not polygons:
         return
@@ -116,7 +116,7 @@ def _check_polygons(where: str, group: str, polygons) -> None:
 
 @dataclass(frozen=True)
 class Lane:
-    """A directed lane: cars drive along ``centerline`` from its first to its last point."""
+    """A directed lane: cars drive along `centerline` from its first to its last point."""
 
     name: str
     centerline: tuple[Point, ...]
@@ -155,7 +155,7 @@ class Sidewalk:
 
 @dataclass(frozen=True)
 class Crosswalk:
-    """A pedestrian crossing from ``start`` to ``end`` across a road, ``width`` wide."""
+    """A pedestrian crossing from `start` to `end` across a road, `width` wide."""
 
     name: str
     start: Point
@@ -174,7 +174,7 @@ class Crosswalk:
 
 @dataclass(frozen=True)
 class Light:
-    """A looping light. ``phases`` is a sequence of (state, seconds); ``offset`` shifts the loop.
+    """A looping light. `phases` is a sequence of (state, seconds); `offset` shifts the loop.
 
     Traffic lights cycle through green/yellow/red, crosswalk lights through white/red, each state
     held for its duration, so any synchronisation scheme is a choice of durations and offsets.
@@ -224,7 +224,7 @@ class Light:
 
 @dataclass(frozen=True)
 class CarRoute:
-    """A legal movement: drive ``entry`` to its end, optionally through ``via``, then ``exit``."""
+    """A legal movement: drive `entry` to its end, optionally through `via`, then `exit`."""
 
     entry: str
     exit: str
@@ -256,10 +256,10 @@ class Walk:
 
 @dataclass(frozen=True)
 class LayoutSpec:
-    """Everything static about a scene. ``areas`` are extra drivable polygons (junction cores);
-    ``curb_radius`` rounds the concave corners of the road network; ``islands`` are non-drivable
-    polygons cut out of it (a roundabout's centre); ``sidewalk_width`` > 0 borders every road with
-    a sidewalk band (``sidewalks`` adds explicit ones)."""
+    """Everything static about a scene. `areas` are extra drivable polygons (junction cores);
+    `curb_radius` rounds the concave corners of the road network; `islands` are non-drivable
+    polygons cut out of it (a roundabout's centre); `sidewalk_width` > 0 borders every road with
+    a sidewalk band (`sidewalks` adds explicit ones)."""
 
     name: str
     bounds: tuple[float, float, float, float]  # xmin, ymin, xmax, ymax
@@ -347,7 +347,7 @@ class LayoutSpec:
             _fail(where, "sidewalk_width", self.sidewalk_width, "a number in [0, 50) metres")
 
     def _check_inside_bounds(self) -> None:
-        """Every point must lie within ``bounds`` (grown by 1 km of slack for kerbs and walks):
+        """Every point must lie within `bounds` (grown by 1 km of slack for kerbs and walks):
         a stray coordinate would otherwise make compiling allocate without limit."""
         xmin, ymin, xmax, ymax = self.bounds
         slack = POINT_SLACK

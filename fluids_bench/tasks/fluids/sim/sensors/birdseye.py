@@ -1,8 +1,8 @@
 """The bird's-eye view of ch. 7: a top-down RGB image (uint8, H × W × 3) of the scene around the
-ego (or the whole layout), drawn by :mod:`fluids_bench.tasks.fluids.sim.draw`.
+ego (or the whole layout), drawn by `fluids_bench.tasks.fluids.sim.draw`.
 
 Each step only the dynamic elements are drawn over a copy of the cached static raster (global
-frame) or over a ``cv2.warpAffine`` crop of it centred on the ego (ego frames, optionally
+frame) or over a `cv2.warpAffine` crop of it centred on the ego (ego frames, optionally
 rotated).
 
 Noise: with variance λ_p > 0, zero-mean Gaussian noise of variance λ_p is added to every pixel
@@ -33,7 +33,7 @@ FRAMES = ("ego", "ego_rotated", "global")
 
 
 def add_pixel_noise(img: np.ndarray, std: float, rng: np.random.Generator) -> np.ndarray:
-    """``img`` plus zero-mean Gaussian noise of standard deviation ``std`` (drawn from ``rng``),
+    """`img` plus zero-mean Gaussian noise of standard deviation `std` (drawn from `rng`),
     rounded to the nearest integer and saturated to [0, 255] by OpenCV."""
     noise = rng.standard_normal(img.shape, dtype=np.float32)
     noise *= std
@@ -42,11 +42,11 @@ def add_pixel_noise(img: np.ndarray, std: float, rng: np.random.Generator) -> np
 
 # ----------------------------------------------------------------------------- the sensor
 class BirdsEyeSensor:
-    """Top-down RGB image of ``size`` × ``size`` pixels.
+    """Top-down RGB image of `size` × `size` pixels.
 
-    ``frame="ego"``: a north-up square of side ``fov`` metres centred on the ego;
-    ``"ego_rotated"``: the same square turned so that the ego faces up; ``"global"``: the whole
-    layout (its bounds' enclosing square; ``fov`` unused). ``noise_var`` is λ_p.
+    `frame="ego"`: a north-up square of side `fov` metres centred on the ego;
+    `"ego_rotated"`: the same square turned so that the ego faces up; `"global"`: the whole
+    layout (its bounds' enclosing square; `fov` unused). `noise_var` is λ_p.
     """
 
     def __init__(
@@ -78,13 +78,13 @@ class BirdsEyeSensor:
         self.painter = AgentPainter(self.ppm)
 
     def view(self, world, ego: int = 0) -> np.ndarray:
-        """The world → output-pixel affine (2×3) for the current state. In the ``"ego"`` frame
+        """The world → output-pixel affine (2×3) for the current state. In the `"ego"` frame
         the view is a crop of the static raster moved by whole pixels, so the ego sits within
         half a pixel of the image centre (and the background needs no resampling)."""
         return self._view(world, ego)[0]
 
     def _view(self, world, ego: int) -> tuple[np.ndarray, tuple[int, int] | None]:
-        """:meth:`view` and, for a crop, the raster (row, column) of its top-left pixel."""
+        """`view` and, for a crop, the raster (row, column) of its top-left pixel."""
         if self.frame == "global":
             return self.layer.to_pixels, None
         ex, ey, th, _ = world.state[ego].tolist()
@@ -102,7 +102,7 @@ class BirdsEyeSensor:
         return np.column_stack([lin, [c, c] - lin @ (ex, ey)]), None
 
     def _background(self, affine: np.ndarray, corner: tuple[int, int] | None) -> np.ndarray:
-        """The static raster seen through ``affine``: a copy of it (global), a crop (ego frame
+        """The static raster seen through `affine`: a copy of it (global), a crop (ego frame
         inside the raster), else a resampling."""
         image = self.layer.image
         if self.frame == "global":
@@ -125,7 +125,7 @@ class BirdsEyeSensor:
 
     def render(self, world, ego: int = 0) -> np.ndarray:
         """The noiseless image: the static raster, then the ego's route, the light bars and the
-        agents. All their points go through the view in one :func:`to_fixed` call (each point's
+        agents. All their points go through the view in one `to_fixed` call (each point's
         pixel does not depend on what else is in the call)."""
         affine, corner = self._view(world, ego)
         img = self._background(affine, corner)

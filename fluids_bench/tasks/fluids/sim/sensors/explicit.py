@@ -5,12 +5,12 @@ Layout, all in SI units, positions and headings of others in the ego's frame (x 
 * ego (5): x, y (m, world frame), cos θ, sin θ, v (m/s)
 * goal (3): goal position in the ego frame (m), path length left to it (m)
 * k nearest other agents (7 each): dx, dy, cos Δθ, sin Δθ, v, is_pedestrian, present
-  (absent slots are all zero; ``present`` is the mask)
+  (absent slots are all zero; `present` is the mask)
 * light (5): one-hot of go / caution / stop / none for the ego's own signal, and the distance
   from the ego's front to its stop line (m, 0 once past it or without a light)
 
-The noiseless vector is filled in one compiled pass (:func:`kernels.fill_explicit`). Optional
-zero-mean Gaussian noise with variance ``noise_var`` is added to every continuous entry
+The noiseless vector is filled in one compiled pass (`kernels.fill_explicit`). Optional
+zero-mean Gaussian noise with variance `noise_var` is added to every continuous entry
 (not to masks or one-hots), drawn from the generator passed in.
 """
 
@@ -75,8 +75,8 @@ def fill_explicit_worlds(
     out, stepping, state, active, kind, path_z, path_len, s, offset, length, route,
     route_light, stop_s, light_state, k, spacing,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`fill_explicit` of agent 0 on row ``b`` of every per-world array, into the zeroed
-    row ``out[b]``, where ``stepping[b]``."""
+    """`fill_explicit` of agent 0 on row `b` of every per-world array, into the zeroed
+    row `out[b]`, where `stepping[b]`."""
     for b in range(len(stepping)):
         if stepping[b]:
             out[b] = 0.0

@@ -13,10 +13,10 @@ that touch each value once, an order of magnitude faster.
 The arithmetic is the numpy version's, operation for operation and in the same precision
 (float64, a multiply by the reciprocal where numpy multiplied by one, no fused multiply-add, no
 fastmath), and the minimum and maximum keep numpy's rules (NaN propagates, the second operand on
-a tie). numba's ``math.sin``/``cos``/``hypot`` are the C library's scalar functions, which
+a tie). numba's `math.sin`/`cos`/`hypot` are the C library's scalar functions, which
 numpy's vectorised ones may differ from in the last bit on some CPUs, so readings equal the
-numpy version's to that (``tests/tasks/fluids/sim/qlidar_reference.py`` keeps the reference and
-``tests/tasks/fluids/sim/test_sensor_kernels.py`` compares, see ``tests/kernel_compare.py``).
+numpy version's to that (`tests/tasks/fluids/sim/qlidar_reference.py` keeps the reference and
+`tests/tasks/fluids/sim/test_sensor_kernels.py` compares, see `tests/kernel_compare.py`).
 """
 
 from __future__ import annotations
@@ -35,7 +35,7 @@ EGO, GOAL, PER_AGENT, LIGHT = 5, 3, 7, 5
 
 @njit(cache=True, nogil=True)
 def _minimum(a, b):  # pragma: no cover (compiled)
-    """``np.minimum(a, b)``: NaN if either is NaN, ``b`` on a tie (so min(-0.0, 0.0) is 0.0)."""
+    """`np.minimum(a, b)`: NaN if either is NaN, `b` on a tie (so min(-0.0, 0.0) is 0.0)."""
     if a != a:
         return a
     if b != b:
@@ -45,7 +45,7 @@ def _minimum(a, b):  # pragma: no cover (compiled)
 
 @njit(cache=True, nogil=True)
 def _maximum(a, b):  # pragma: no cover (compiled)
-    """``np.maximum(a, b)``: NaN if either is NaN, ``b`` on a tie."""
+    """`np.maximum(a, b)`: NaN if either is NaN, `b` on a tie."""
     if a != a:
         return a
     if b != b:
@@ -72,7 +72,7 @@ def qlidar_cast(
     labels,
     out,
 ):  # pragma: no cover (compiled)
-    """Fill ``out`` (m, 4) with the noiseless quasi-LIDAR reading of agent ``ego``.
+    """Fill `out` (m, 4) with the noiseless quasi-LIDAR reading of agent `ego`.
 
     state: (N, 4) [x, y, θ, v] of all agents; active, is_car: (N,) bool; length, width: (N,)
     (m); cos_k, sin_k: (m,) cos and sin of each ray's offset from the ego's heading; edge_a,
@@ -80,9 +80,9 @@ def qlidar_cast(
     edge_half: (S,) its direction (rad) and half-length (m); labels: the label codes
     [nothing, car, pedestrian, road edge].
 
-    Each ray keeps the nearest hit closer than ``max_range`` (the first one on ties: agents
+    Each ray keeps the nearest hit closer than `max_range` (the first one on ties: agents
     before segments, then by index) and reads [distance, label, relative angle, relative
-    speed]; with no such hit it reads ``max_range``, the "nothing" label, 0 and 0.
+    speed]; with no such hit it reads `max_range`, the "nothing" label, 0 and 0.
     """
     x, y, th, v = state[ego, 0], state[ego, 1], state[ego, 2], state[ego, 3]
     ct, st = math.cos(th), math.sin(th)
@@ -172,10 +172,10 @@ def qlidar_cast(
 
 @njit(cache=True, nogil=True)
 def qlidar_noise(reading, noise, dropped, max_range, speed_bound):  # pragma: no cover (compiled)
-    """Apply drawn noise to a quasi-LIDAR ``reading`` (m, 4), in place: ``noise`` (m, 3) is added
+    """Apply drawn noise to a quasi-LIDAR `reading` (m, 4), in place: `noise` (m, 3) is added
     to distance (then clipped to [0, max_range]), angle (wrapped to [-π, π)) and speed (clipped
-    to ±speed_bound); rays where ``dropped`` (m,) read as empty. Either may be empty (m = 0
-    rows: that source is off). ``np.clip``'s rules, so bit-identical to the array version."""
+    to ±speed_bound); rays where `dropped` (m,) read as empty. Either may be empty (m = 0
+    rows: that source is off). `np.clip`'s rules, so bit-identical to the array version."""
     for r in range(len(noise)):
         reading[r, 0] = _minimum(_maximum(reading[r, 0] + noise[r, 0], 0.0), max_range)
         reading[r, 2] = (reading[r, 2] + noise[r, 1] + math.pi) % (2 * math.pi) - math.pi
@@ -209,7 +209,7 @@ def fill_explicit(
     k,
     spacing,
 ):  # pragma: no cover (compiled)
-    """Writes the noiseless observation of agent ``ego`` into ``out`` (zeros, float64)."""
+    """Writes the noiseless observation of agent `ego` into `out` (zeros, float64)."""
     x, y, th, v = state[ego, 0], state[ego, 1], state[ego, 2], state[ego, 3]
     c, sn = math.cos(th), math.sin(th)
     goal = path_z[ego, np.int64(np.rint(path_len[ego] / spacing))]
@@ -257,10 +257,10 @@ def fill_explicit(
 def qlidar_segments(
     out, x, y, th, v, cos_k, sin_k, seg_a, seg_e, seg_angle, seg_label
 ):  # pragma: no cover (compiled)
-    """Let the first ``len(cos_k)`` rays of a cast reading ``out`` also stop at extra segments
+    """Let the first `len(cos_k)` rays of a cast reading `out` also stop at extra segments
     (the quasi-LIDAR v1's stop lines of red and yellow lights and occupied crosswalks' edges):
     where a ray crosses segment i nearer than its current hit, it reads [distance,
-    ``seg_label[i]``, the segment's direction relative to the ego folded to [−π/2, π/2), −v].
+    `seg_label[i]`, the segment's direction relative to the ego folded to [−π/2, π/2), −v].
 
     x, y, th, v: the ego's pose and speed; seg_a, seg_e: (S, 2) start and vector of each
     segment; seg_angle: (S,) its direction (rad, folded to [−π/2, π/2)).
@@ -316,9 +316,9 @@ def qlidar_v1_extras(
     goal_y,
     max_range,
 ):  # pragma: no cover (compiled)
-    """Everything the quasi-LIDAR v1 adds to a cast reading ``out`` (m + 1, 4), in one pass:
-    the stop lines whose light shows ``stop_code`` or ``caution_code`` and the edges of every
-    crosswalk with an active pedestrian on it join the obstacles (:func:`qlidar_segments`),
+    """Everything the quasi-LIDAR v1 adds to a cast reading `out` (m + 1, 4), in one pass:
+    the stop lines whose light shows `stop_code` or `caution_code` and the edges of every
+    crosswalk with an active pedestrian on it join the obstacles (`qlidar_segments`),
     and row m becomes the goal row towards (goal_x, goal_y).
 
     line_*: (L, ...) stop lines (start, vector, folded direction, light index); cw_a, cw_e,

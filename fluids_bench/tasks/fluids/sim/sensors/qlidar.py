@@ -1,38 +1,38 @@
-"""The quasi-LIDAR observation of ch. 7: ``m`` rays around the ego, each reporting what it hits.
+"""The quasi-LIDAR observation of ch. 7: `m` rays around the ego, each reporting what it hits.
 
-Ray ``k`` (k = 0 … m−1) leaves the ego's centre at angle ``θ_ego + 2πk/m`` (counter-clockwise,
+Ray `k` (k = 0 … m−1) leaves the ego's centre at angle `θ_ego + 2πk/m` (counter-clockwise,
 ray 0 straight ahead; equal spacing over 360° with no duplicated ray at ±180°). Each ray reads a
-row ``[d, label, ψ_r, v_r]`` of the float32 observation of shape (m, 4):
+row `[d, label, ψ_r, v_r]` of the float32 observation of shape (m, 4):
 
-* ``d``: distance (m) to the nearest hit, ``max_range`` when nothing is within range;
-* ``label``: what was hit, :data:`LABELS` (0 nothing, 1 car, 2 pedestrian, 3 road edge);
-* ``ψ_r``: the hit object's heading minus the ego's, wrapped to [-π, π) (rad); for a road edge,
+* `d`: distance (m) to the nearest hit, `max_range` when nothing is within range;
+* `label`: what was hit, `LABELS` (0 nothing, 1 car, 2 pedestrian, 3 road edge);
+* `ψ_r`: the hit object's heading minus the ego's, wrapped to [-π, π) (rad); for a road edge,
   the direction of the kerb segment relative to the ego's heading, folded to [-π/2, π/2);
-* ``v_r``: the hit object's speed minus the ego's (m/s); a road edge is still (0 − v_ego).
+* `v_r`: the hit object's speed minus the ego's (m/s); a road edge is still (0 − v_ego).
 
-A ray that hits nothing reads ``[max_range, 0, 0, 0]``. Road edges are the boundary of the
+A ray that hits nothing reads `[max_range, 0, 0, 0]`. Road edges are the boundary of the
 drivable area (kerbs to sidewalks, terrain and islands), not the edge of the map.
 
 Noise (ch. 7): with variance λ_l > 0, zero-mean Gaussian noise of variance λ_l is added to
-``d``, ``ψ_r`` and ``v_r`` of every ray (d is then clipped to [0, max_range], ψ_r wrapped to
+`d`, `ψ_r` and `v_r` of every ray (d is then clipped to [0, max_range], ψ_r wrapped to
 [-π, π), v_r clipped to the space); then each ray is independently dropped, i.e. read as empty,
-with probability ε. All draws come from the generator passed to :meth:`QLidarSensor.observe`.
+with probability ε. All draws come from the generator passed to `QLidarSensor.observe`.
 
-Version 1 (``version=1``; the ``lidar_version`` option, the default of the FLUIDS-v1 ids) also
+Version 1 (`version=1`; the `lidar_version` option, the default of the FLUIDS-v1 ids) also
 sees what a driver must respect, and where to go:
 
-* the stop line of every traffic light that shows red (label 4, ``red_light``) or yellow
-  (label 5, ``yellow_light``) is an obstacle: a segment across its lane(s) at the lane's end;
+* the stop line of every traffic light that shows red (label 4, `red_light`) or yellow
+  (label 5, `yellow_light`) is an obstacle: a segment across its lane(s) at the lane's end;
   its ψ_r is the line's direction (folded to [-π/2, π/2)), its v_r is −v_ego (it is still);
 * a crosswalk with a pedestrian on it is an obstacle labelled as a pedestrian (2): its
   rectangle's edges stop rays (ψ_r the edge's direction, folded; v_r = −v_ego);
 * one extra row (index m) reads the direction to the next waypoint of the ego's route, the point
-  :data:`WAYPOINT_AHEAD` metres further along its path (its goal when nearer):
-  ``[distance (m, at most max_range), 6 (goal), its bearing from the ego's heading (rad, in
-  [-π, π)), −v_ego]``. It is exact: noise and dropout apply to the m rays only, with the same
+  `WAYPOINT_AHEAD` metres further along its path (its goal when nearer):
+  `[distance (m, at most max_range), 6 (goal), its bearing from the ego's heading (rad, in
+  [-π, π)), −v_ego]`. It is exact: noise and dropout apply to the m rays only, with the same
   draws as version 0, so a v1 reading's rays differ from v0's only where v1 sees more.
 
-Ray casting is a compiled loop (:func:`fluids_bench.tasks.fluids.sim.sensors.kernels.qlidar_cast`): each ray
+Ray casting is a compiled loop (`fluids_bench.tasks.fluids.sim.sensors.kernels.qlidar_cast`): each ray
 against the oriented rectangles of the agents within reach (slab test in each rectangle's frame)
 and against the road-edge segments within reach (segments precomputed once per layout).
 """
@@ -68,7 +68,7 @@ _LABEL_CODES = np.array([NOTHING, CAR_HIT, PEDESTRIAN_HIT, EDGE_HIT], dtype=floa
 
 @dataclass(frozen=True, eq=False)
 class RoadEdges:
-    """Straight segments of a layout's drivable boundary: start ``a`` (S, 2), vector ``e``
+    """Straight segments of a layout's drivable boundary: start `a` (S, 2), vector `e`
     (S, 2), direction (rad, folded to [-π/2, π/2)), midpoint and half-length (for culling)."""
 
     a: np.ndarray
@@ -80,7 +80,7 @@ class RoadEdges:
 
 @functools.lru_cache(maxsize=32)
 def road_edges(layout: Layout) -> RoadEdges:
-    """The kerb segments of ``layout`` (cached per layout). Segments lying on the layout's
+    """The kerb segments of `layout` (cached per layout). Segments lying on the layout's
     bounds (where roads leave the map) are left out: rays pass through the map's edge."""
     x0, y0, x1, y1 = layout.bounds
     starts, ends = [], []
@@ -111,9 +111,9 @@ def _fold(e: np.ndarray) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False)
 class RespectGeometry:
-    """What version 1 adds, per layout: stop lines (start ``line_a``, vector ``line_e``, folded
-    direction ``line_angle``, governing light ``line_light``) and crosswalk rectangles (their
-    four edges ``cw_a``/``cw_e``/``cw_angle``, (C, 4, ...); centre, unit axis, half length and
+    """What version 1 adds, per layout: stop lines (start `line_a`, vector `line_e`, folded
+    direction `line_angle`, governing light `line_light`) and crosswalk rectangles (their
+    four edges `cw_a`/`cw_e`/`cw_angle`, (C, 4, ...); centre, unit axis, half length and
     half width for the occupancy test)."""
 
     line_a: np.ndarray
@@ -170,9 +170,9 @@ def respect_geometry(layout: Layout) -> RespectGeometry:
 
 
 class QLidarSensor:
-    """``rays`` rays of ``max_range`` metres; ``noise_var`` is λ_l and ``dropout`` is ε.
+    """`rays` rays of `max_range` metres; `noise_var` is λ_l and `dropout` is ε.
 
-    ``max_speed`` (m/s) bounds the agents' speeds, so relative speeds lie in ±``max_speed``;
+    `max_speed` (m/s) bounds the agents' speeds, so relative speeds lie in ±`max_speed`;
     the space allows twice that, to leave room for noise (values beyond are clipped).
     """
 
@@ -216,9 +216,9 @@ class QLidarSensor:
     def cast(self, world, ego: int = 0) -> np.ndarray:
         """The noiseless reading (m, 4) float64.
 
-        Each ray keeps its nearest hit closer than ``max_range``, the first one on ties
+        Each ray keeps its nearest hit closer than `max_range`, the first one on ties
         (agents before road edges, then by index), and reads its attributes; a hit at exactly
-        ``max_range`` reads as nothing.
+        `max_range` reads as nothing.
         """
         ed = self.edges
         out = np.empty(self.shape)
@@ -246,9 +246,9 @@ class QLidarSensor:
         )  # fmt: skip
 
     def cast_worlds(self, stepping: np.ndarray, worlds, lights: np.ndarray) -> np.ndarray:
-        """:meth:`cast` of the ego of each world of ``worlds`` (a
-        :class:`~fluids_bench.tasks.fluids.sim.batch.WorldBatch`) where ``stepping``, as rows
-        (B, m, 4) in one compiled call; ``lights``: each world's light states (B, L). Rows of
+        """`cast` of the ego of each world of `worlds` (a
+        `WorldBatch`) where `stepping`, as rows
+        (B, m, 4) in one compiled call; `lights`: each world's light states (B, L). Rows of
         the other worlds are left as they were."""
         w, rows, ed = worlds.worlds[0], worlds.rows, self.edges
         # version 0 passes version 1's tables unused (one compiled signature for both)
@@ -297,8 +297,8 @@ def qlidar_cast_worlds(
     line_a, line_e, line_angle, line_light, light_state, stop_code, caution_code,
     cw_a, cw_e, cw_angle, cw_centre, cw_axis, cw_half, v1_labels, goal_x, goal_y, out,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """:func:`kernels.qlidar_cast` (and with ``v1`` :func:`kernels.qlidar_v1_extras`) of agent
-    0 on row ``b`` of the per-world arrays, into ``out[b]``, where ``stepping[b]``."""
+    """`kernels.qlidar_cast` (and with `v1` `kernels.qlidar_v1_extras`) of agent
+    0 on row `b` of the per-world arrays, into `out[b]`, where `stepping[b]`."""
     for b in range(len(stepping)):
         if stepping[b]:
             qlidar_cast(
