@@ -58,8 +58,8 @@ from fluids_bench.algos.learners.protocol import (
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.parallel import TaskSession, worker_env
+from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.supervisor import has_supervisor
 from fluids_bench.registration import ENV_SPECS
 

@@ -23,7 +23,7 @@ _EXPORTS = {
     "OODSet": "suite",
     "FLUIDS_ID": "suite",
     "TASK_NAMES": "suite",
-        "evaluate": "evaluator",
+    "evaluate": "evaluator",
 }
 __all__ = sorted(_EXPORTS)
 

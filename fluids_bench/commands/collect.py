@@ -33,6 +33,7 @@ import threading
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.arguments import key_value
 
 INCOMPLETE_FILE = "fluids_bench_incomplete.json"  # in a dataset an interrupted run exported

@@ -35,6 +35,7 @@ import time
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.demo_output import (
     SNAPSHOT_NAME,
     Recorder,
@@ -55,7 +56,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     p = subparsers.add_parser(
         "demo",
         help="run a seeded episode under the supervisor (default FLUIDS-v4); write an MP4 and a PNG",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     p.add_argument(

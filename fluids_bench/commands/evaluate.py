@@ -22,6 +22,8 @@ import shlex
 import sys
 from pathlib import Path
 
+from fluids_bench.commands import plain_text
+
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     from fluids_bench.benchmark.suite import TASK_NAMES
@@ -29,7 +31,7 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser = subparsers.add_parser(
         "evaluate",
         help="evaluate a policy on the benchmark's test and OOD sets; write a scorecard",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument(

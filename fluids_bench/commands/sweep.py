@@ -37,6 +37,7 @@ import sys
 import time
 from pathlib import Path
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.arguments import key_value
 
 

@@ -20,6 +20,7 @@ import datetime
 import json
 import sys
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.arguments import key_value
 
 

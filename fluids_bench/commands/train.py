@@ -27,6 +27,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.commands import plain_text
 from fluids_bench.commands.arguments import key_value
 
 # option -> (config field, type, help); the field decides which algorithms accept it

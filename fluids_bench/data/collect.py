@@ -39,8 +39,8 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.parallel import BACKENDS, START_METHODS, run_tasks, worker_env
+from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.validation import check_choice, check_float, check_int
 
 PROVENANCES = ("supervisor", "noise", "learner")

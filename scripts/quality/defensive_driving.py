@@ -39,7 +39,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 from fluids_bench.core.parallel import one_blas_thread
-from fluids_bench.core.provenance import announce
+from fluids_bench.core.provenance import announce, relative_paths
 
 POLICIES = ("supervisor", "stop", "crawl", "random", "noisy")
 LAYOUTS = ("four_way", "t_junction", "roundabout")

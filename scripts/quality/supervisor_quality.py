@@ -28,6 +28,7 @@ from tqdm import tqdm
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.jsonl import read_rows
 from fluids_bench.core.parallel import one_blas_thread
+from fluids_bench.core.provenance import relative_paths
 from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 

@@ -37,6 +37,7 @@ from fluids_bench.algos.policies import PolicySpec
 from fluids_bench.algos.registry import run_algorithm
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.core.parallel import one_blas_thread
+from fluids_bench.core.provenance import relative_paths
 
 ENV_ID = "FLUIDS-Sensitivity-v0"
 ALGOS: dict[str, dict[str, Any]] = {

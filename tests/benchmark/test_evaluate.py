@@ -12,9 +12,9 @@ import pytest
 from benchmark_policies import BatchOnly, Counter
 
 from fluids_bench.benchmark.evaluator import evaluate
-from fluids_bench.core.splits import OOD_START, TEST_START
 from fluids_bench.benchmark.suite import SUITE
 from fluids_bench.cli import main
+from fluids_bench.core.splits import OOD_START, TEST_START
 
 GRID = SUITE.select(episodes=3, tasks=["gridworld"])  # 2 sets (test, slippery) x 3 episodes
 

@@ -9,6 +9,7 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos import harness as harness_module
 from fluids_bench.algos.actors import SUPERVISOR
 from fluids_bench.algos.registry import run_algorithm
+from fluids_bench.benchmark.suite import SUITE, TASK_NAMES
 from fluids_bench.core import splits
 from fluids_bench.core.splits import (
     HELD_OUT_START,
@@ -20,7 +21,6 @@ from fluids_bench.core.splits import (
     split_of,
     split_seeds,
 )
-from fluids_bench.benchmark.suite import SUITE, TASK_NAMES
 from fluids_bench.data.collect import collect
 
 
