@@ -254,8 +254,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     * ``failure_penalty``: the weight of reward version 1's collision, red-light and
       failure-to-yield terms (default 1, 3 in the v3 ids; see Rewards).
     Numbers may be Python or numpy scalars. A bad value raises ``ValueError`` naming the
-    argument, the value and what is allowed; an unknown argument raises ``ValueError`` listing
-    the allowed ones.
+    argument, the value and what is allowed; an unknown argument raises ``TypeError`` (also a
+    ``ValueError``) listing the allowed ones.
 
     ## Version History
     * v3: v2 with the reward's failure terms weighted 3 (``failure_penalty=3.0``;

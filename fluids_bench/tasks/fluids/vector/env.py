@@ -12,7 +12,7 @@ from gymnasium.vector.utils import batch_space, create_empty_array
 
 from fluids_bench.core.snapshot import WrappedSnapshot
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import as_seed, check_int, fail, is_int
+from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unknown_arguments
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
@@ -185,10 +185,7 @@ class FluidsVectorEnv(VectorEnv):
         allowed = _scalar_arguments()
         unknown = sorted(set(kwargs) - set(allowed))
         if unknown:
-            raise ValueError(
-                f"{WHERE}: unknown argument(s) {', '.join(map(repr, unknown))}; allowed: "
-                f"{sorted([*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])}"
-            )
+            raise unknown_arguments(WHERE, unknown, [*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         # the first world checks the kwargs (the scalar env's errors); the compiled layout is
