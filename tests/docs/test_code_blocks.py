@@ -3,13 +3,17 @@
 ```python blocks run as scripts in a fresh interpreter; ```bash blocks run line by line; a block
 preceded by ``<!-- test: COMMAND -->`` runs COMMAND instead (the documented shortened variant
 of a long command); ``<!-- test: ci -->`` marks the set-up commands, which .ci/run runs
-literally. Other languages (text, json, ...) are output and are not run. Env cards' doctest
+literally; ``<!-- test: needs MODULE -->`` runs the block where MODULE imports (an optional
+client such as torchrl) and skips it with the reason otherwise (a failure where
+``FLUIDS_BENCH_CLIENT_TESTS=1``, as in CI, unless MODULE lives in its own environment: listed in
+``OWN_ENVIRONMENT``, always skipped here; its script's results file is what the docs read). Other languages (text, json, ...) are output and are not run. Env cards' doctest
 examples run too.
 """
 
 from __future__ import annotations
 
 import doctest
+import importlib.util
 import os
 import re
 import subprocess
@@ -107,10 +111,25 @@ def sandbox(tmp_path):
     return tmp_path, env
 
 
+# clients whose pins conflict with the suite's (docs/ecosystem.md): tested in their own venvs
+OWN_ENVIRONMENT = {"d3rlpy", "lerobot"}
+
+
+def _needs(marker: str | None) -> None:
+    """Skip (or fail, under FLUIDS_BENCH_CLIENT_TESTS=1) a block whose client is missing."""
+    module = marker[len("needs ") :].strip() if marker and marker.startswith("needs ") else None
+    if module is None or importlib.util.find_spec(module) is not None:
+        return
+    if module in OWN_ENVIRONMENT or os.environ.get("FLUIDS_BENCH_CLIENT_TESTS") != "1":
+        pytest.skip(f"needs the optional client {module} (docs/ecosystem.md says how to install)")
+    pytest.fail(f"FLUIDS_BENCH_CLIENT_TESTS=1 but {module} is missing")
+
+
 @pytest.mark.parametrize("block", RUN_BLOCKS, ids=lambda b: b.name)
 def test_code_block_runs(block, sandbox):
     folder, env = sandbox
-    if block.marker is not None:
+    _needs(block.marker)
+    if block.marker is not None and not block.marker.startswith("needs "):
         cmd = ["bash", "-euo", "pipefail", "-c", block.marker]
     elif block.language == "python":
         script = folder / "block.py"
