@@ -52,8 +52,8 @@ def main() -> None:
     parser.add_argument("--env", default="Hopper-IL-v0")
     parser.add_argument("--dataset", default="clients/hopper-d3rlpy-v0")
     parser.add_argument("--episodes", type=int, default=10)
-    parser.add_argument("--steps", type=int, default=3000)
-    parser.add_argument("--eval-episodes", type=int, default=5)
+    parser.add_argument("--steps", type=int, default=1000)
+    parser.add_argument("--eval-episodes", type=int, default=3)
     parser.add_argument("--out", default=str(ROOT / "docs/results/client_d3rlpy.json"))
     args = parser.parse_args()
 
