@@ -3,9 +3,11 @@ lerobot's own ``LeRobotDataset(repo_id, root=...)`` and iterates (video frames d
 states and supervisor labels as tensors). Writes ``docs/results/client_lerobot.json`` (read by
 docs/ecosystem.md).
 
-lerobot 0.4.4 pins ``torch<2.11`` (only CUDA builds of those on this index), so it runs in its own
-environment with lerobot installed over torch 2.13.0+cpu (see docs/ecosystem.md). The export is
-made with the suite's own interpreter beforehand::
+lerobot 0.4.4 pins ``torch<2.11`` (only CUDA builds of those on this index: ``pip install
+lerobot==0.4.4`` in its own venv pulls torch 2.10.0+cu128, about 5 GB, which runs on CPU; torch
+2.13.0+cpu with torchvision 0.28 does not work, that torchvision being a CUDA build). Its default
+video decoder, torchcodec, needs the system's FFmpeg libraries, so this reads videos with pyav.
+The export is made with the suite's own interpreter beforehand::
 
     export MINARI_DATASETS_PATH=/tmp/lerobot-minari
     fluids-bench collect --env FLUIDS-v3 --episodes 2 --max-steps 40 --dataset clients/bev-v0 \
@@ -17,6 +19,7 @@ made with the suite's own interpreter beforehand::
 from __future__ import annotations
 
 import argparse
+import importlib.util
 import json
 import os
 import sys
@@ -24,15 +27,22 @@ import tempfile
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
-sys.path.insert(0, str(ROOT))
-
-from fluids_bench.core.provenance import command_line, machine  # noqa: E402
+# the suite's provenance helpers, read without importing fluids_bench (not installed in this venv)
+_spec = importlib.util.spec_from_file_location(
+    "provenance", ROOT / "fluids_bench/core/provenance.py"
+)
+provenance = importlib.util.module_from_spec(_spec)
+_spec.loader.exec_module(provenance)
+command_line, machine = provenance.command_line, provenance.machine
 
 
 def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("root", help="the exported LeRobotDataset folder")
     parser.add_argument("--out", default=str(ROOT / "docs/results/client_lerobot.json"))
+    # lerobot's default decoder, torchcodec, needs the system's FFmpeg libraries (libavutil ...);
+    # pyav ships its own
+    parser.add_argument("--video-backend", default="pyav", choices=["pyav", "torchcodec"])
     args = parser.parse_args()
 
     import numpy as np
@@ -42,7 +52,7 @@ def main() -> None:
     from lerobot.datasets.lerobot_dataset import LeRobotDataset
 
     root = Path(args.root)
-    ds = LeRobotDataset("fluids-bench/export", root=root)
+    ds = LeRobotDataset("fluids-bench/export", root=root, video_backend=args.video_backend)
     info = json.loads((root / "meta/info.json").read_text())
     frames = pq.read_table(root / "data/chunk-000/file-000.parquet").to_pydict()
     video_keys = list(ds.meta.video_keys)

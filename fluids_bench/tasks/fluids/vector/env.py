@@ -3,11 +3,25 @@
 from __future__ import annotations
 
 import inspect
+from enum import Enum
 from typing import Any
 
 import numpy as np
 from gymnasium.spaces import Box
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import VectorEnv
+
+try:
+    from gymnasium.vector import AutoresetMode
+except ImportError:  # Gymnasium 1.0 (added in 1.1): the same enum, whose default 1.0 implies
+
+    class AutoresetMode(Enum):
+        """Gymnasium 1.1's ``gymnasium.vector.AutoresetMode``, for Gymnasium 1.0."""
+
+        NEXT_STEP = "NextStep"
+        SAME_STEP = "SameStep"
+        DISABLED = "Disabled"
+
+
 from gymnasium.vector.utils import batch_space, create_empty_array
 
 from fluids_bench.core.snapshot import WrappedSnapshot
@@ -362,7 +376,9 @@ class FluidsVectorEnv(VectorEnv):
         return tuple(env.render() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
-        for env in self.envs:
+        # an env whose __init__ refused its arguments has no worlds (Gymnasium 1.0's __del__
+        # still closes it)
+        for env in getattr(self, "envs", ()):
             env.close()
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:
