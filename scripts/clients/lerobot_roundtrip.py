@@ -10,7 +10,7 @@ video decoder, torchcodec, needs the system's FFmpeg libraries, so this reads vi
 The export is made with the suite's own interpreter beforehand::
 
     export MINARI_DATASETS_PATH=/tmp/lerobot-minari
-    fluids-bench collect --env FLUIDS-v3 --episodes 2 --max-steps 40 --dataset clients/bev-v0 \
+    fluids-bench collect --env FLUIDS-v3 --episodes 2 --max-steps 30 --dataset clients/bev-v0 \
         --env-kwarg 'obs_type=["birdseye","explicit"]'
     fluids-bench export --to lerobot clients/bev-v0 /tmp/lerobot-bev
     /work/venvs/lerobot/bin/python scripts/clients/lerobot_roundtrip.py /tmp/lerobot-bev

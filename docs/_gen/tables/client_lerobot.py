@@ -15,6 +15,6 @@ def render(data, **_):
     ]
     return (
         "\n".join(rows) + f"\n\nlerobot {v['lerobot']} on torch {v['torch']}, video backend"
-        f" `{data['video_backend']}`. {data.get('environment', '')} Machine: {data['machine']}."
+        f" `{data['video_backend']}`. Machine: {data['machine']}."
         f" Command: `{data['command']}`."
     )
