@@ -26,6 +26,7 @@ COMMAND_MODULES = (
     "fluids_bench.commands.sweep",
     "fluids_bench.commands.teleop",
     "fluids_bench.commands.relabel",
+    "fluids_bench.commands.export",
 )
 
 

@@ -35,6 +35,12 @@ def pytest_configure(config):
     )
     config.addinivalue_line(
         "markers",
+        "client_extra: needs an optional client library (TorchRL, ...; tests/client_extra.py); "
+        "skipped without it unless FLUIDS_BENCH_CLIENT_TESTS=1 (then it fails); .ci/run's "
+        "second phase runs these",
+    )
+    config.addinivalue_line(
+        "markers",
         f"browser: {train_extra.BROWSER_REASON}; skipped without it unless "
         f"{train_extra.BROWSER_ENV}=1 (then it fails); .ci/run's second phase runs these",
     )

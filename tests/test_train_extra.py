@@ -1,6 +1,6 @@
 """The markers for tests that need an optional piece (tests/train_extra.py): without the piece
 they skip with the stated reason, under CI's variable they fail, and an unmarked test that needs
-the train extra fails (CI's second phase, `-m "train_extra or browser"`, would never run it)."""
+the train extra fails (CI's second phase, `-m "train_extra or browser or client_extra"`, would never run it)."""
 
 from __future__ import annotations
 

@@ -6,7 +6,7 @@ A test that needs the `train` extra (torch and stable-baselines3) is marked
 `REASON` / `BROWSER_REASON`, so the README's test command passes on a fresh install; where CI has
 installed it and set `FLUIDS_BENCH_TRAIN_TESTS=1` / `FLUIDS_BENCH_BROWSER_TESTS=1`, a missing
 piece fails the test instead, so these tests can never be skipped silently there. `.ci/run`'s
-second phase selects exactly these tests with `-m "train_extra or browser"`.
+second phase selects exactly these tests with `-m "train_extra or browser or client_extra"`.
 
 `require_sb3()` and `require_torch()` return their module inside a marked test; called from an
 unmarked one they fail, since CI's second phase would never run that test.

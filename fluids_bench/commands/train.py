@@ -105,8 +105,8 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument(
         "--policy",
         default="tree",
-        help="a scikit-learn family (tree, linear_svm, ...), or module:factory, a zero-argument "
-        "callable returning a learner (fit/predict), e.g. "
+        help=f"a scikit-learn family ({', '.join(POLICY_FAMILIES)}; default: tree), or "
+        "module:factory, a callable returning a learner (fit/predict), e.g. "
         "fluids_bench.algos.learners:MLPLearner; --policy-param K=V are its keyword arguments",
     )
     parser.add_argument(

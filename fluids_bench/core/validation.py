@@ -1,7 +1,9 @@
 """Small checks for typed configs and env kwargs.
 
 Every failure raises `ValueError` naming where it happened, the field, the value and what is
-allowed, in the same shape across the suite: `"<where>: field 'x' is 3; allowed: [0, 1]"`.
+allowed, in the same shape across the suite: `"<where>: field 'x' is 3; allowed: [0, 1]"`; an
+unknown keyword argument raises `UnknownArgumentError`, a `TypeError` that is also a
+`ValueError`.
 """
 
 from __future__ import annotations
@@ -96,10 +98,31 @@ def check_choice(where: str, name: str, value: Any, choices: Iterable[Any]) -> A
     return value
 
 
+class UnknownArgumentError(TypeError, ValueError):
+    """An unknown keyword argument to an env (a misspelling, or a wrapper probing for an option).
+
+    A `TypeError`, as Python raises for an unexpected keyword argument and as wrappers that probe
+    constructors expect (TorchRL's `GymEnv` retries without `frameskip` when the message says
+    "unexpected keyword argument 'frameskip'"); also a `ValueError`, for code that catches the
+    suite's other argument errors."""
+
+
+def unknown_arguments(where: str, unknown: Iterable[str], allowed: Iterable[str]) -> Exception:
+    """The error for unknown keyword arguments `unknown` (`allowed` are the accepted ones):
+    ``"<where>: unknown argument(s) 'x'; allowed: [...] (__init__() got an unexpected keyword
+    argument 'x')"``, the last part in Python's own words for the first unknown name."""
+    names = sorted(unknown)
+    listed = ", ".join(repr(k) for k in names)
+    return UnknownArgumentError(
+        f"{where}: unknown argument(s) {listed}; allowed: {sorted(allowed)} "
+        f"(__init__() got an unexpected keyword argument {names[0]!r})"
+    )
+
+
 def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
     """Decorate an env's `__init__` so a misspelled keyword argument (`action_levle=...`, as
-    `gym.make` passes them) raises `ValueError` naming it and listing the allowed ones, instead
-    of Python's bare `TypeError`."""
+    `gym.make` passes them) raises `UnknownArgumentError` (a `TypeError` and a `ValueError`)
+    naming it and listing the allowed ones, instead of Python's bare `TypeError`."""
     params = inspect.signature(init).parameters.values()
     allowed = [
         p.name
@@ -109,12 +132,9 @@ def reject_unknown_kwargs(init: Callable[..., None]) -> Callable[..., None]:
 
     @functools.wraps(init)
     def checked(self, *args: Any, **kwargs: Any) -> None:
-        unknown = sorted(set(kwargs) - set(allowed))
+        unknown = set(kwargs) - set(allowed)
         if unknown:
-            names = ", ".join(repr(k) for k in unknown)
-            raise ValueError(
-                f"{type(self).__name__}: unknown argument(s) {names}; allowed: {sorted(allowed)}"
-            )
+            raise unknown_arguments(type(self).__name__, unknown, allowed)
         init(self, *args, **kwargs)
 
     return checked

@@ -4,14 +4,19 @@
 preceded by ``<!-- test: COMMAND -->`` runs COMMAND instead (the documented shortened variant
 of a long command); ``<!-- test: ci -->`` marks the set-up commands, which .ci/run runs
 literally. A block that needs the `train` extra (torch, stable-baselines3) is preceded by
-``<!-- needs: train -->`` (above or below its test marker): it is marked ``train_extra``, so it
-skips without the extra and runs in .ci/run's second phase. Other languages (text, json, ...) are
+`<!-- needs: train -->` (above or below its test marker): it is marked `train_extra`, so it
+skips without the extra and runs in .ci/run's second phase. `<!-- test: needs MODULE -->` runs
+the block where MODULE (an optional client such as torchrl) imports: it is marked `client_extra`
+and skips with the reason otherwise (a failure where `FLUIDS_BENCH_CLIENT_TESTS=1`, as in CI's
+second phase), unless MODULE lives in its own environment (`OWN_ENVIRONMENT`: always skipped
+here; its script's results file is what the docs read). Other languages (text, json, ...) are
 output and are not run. Env cards' doctest examples run too.
 """
 
 from __future__ import annotations
 
 import doctest
+import importlib.util
 import os
 import re
 import subprocess
@@ -115,6 +120,8 @@ def _param(block: Block):
     marks = [EXTRAS[n] for n in block.needs if n in EXTRAS]
     if needs_torch(block) and pytest.mark.train_extra not in marks:
         marks.append(pytest.mark.train_extra)  # run by .ci/run's second phase, with torch
+    if block.marker and block.marker.startswith("needs "):
+        marks.append(pytest.mark.client_extra)  # likewise, with the client installed
     return pytest.param(block, marks=marks, id=block.name)
 
 
@@ -141,14 +148,29 @@ def sandbox(tmp_path):
     return tmp_path, env
 
 
+# clients whose pins conflict with the suite's (docs/ecosystem.md): tested in their own venvs
+OWN_ENVIRONMENT = {"d3rlpy", "lerobot"}
+
+
+def _needs(marker: str | None) -> None:
+    """Skip (or fail, under FLUIDS_BENCH_CLIENT_TESTS=1) a block whose client is missing."""
+    module = marker[len("needs ") :].strip() if marker and marker.startswith("needs ") else None
+    if module is None or importlib.util.find_spec(module) is not None:
+        return
+    if module in OWN_ENVIRONMENT or os.environ.get("FLUIDS_BENCH_CLIENT_TESTS") != "1":
+        pytest.skip(f"needs the optional client {module} (docs/ecosystem.md says how to install)")
+    pytest.fail(f"FLUIDS_BENCH_CLIENT_TESTS=1 but {module} is missing")
+
+
 @pytest.mark.parametrize("block", [_param(b) for b in RUN_BLOCKS])
 def test_code_block_runs(block, sandbox):
     folder, env = sandbox
+    _needs(block.marker)
     if needs_torch(block):
         from train_extra import require_torch
 
         require_torch()
-    if block.marker is not None:
+    if block.marker is not None and not block.marker.startswith("needs "):
         cmd = ["bash", "-euo", "pipefail", "-c", block.marker]
     elif block.language == "python":
         script = folder / "block.py"

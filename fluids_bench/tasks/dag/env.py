@@ -72,7 +72,7 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     | `render_mode` | str   | None    | None or "rgb_array" (the graph, the robot's node filled)  |
 
     Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
-    is allowed, an unknown argument `ValueError` listing the allowed ones.
+    is allowed, an unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ## Version History
 

@@ -262,8 +262,8 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       default: never). The v4 ids set it to their `max_episode_steps` (600); give both when
       you change one, so that the score lands on `TimeLimit`'s truncating step.
     Numbers may be Python or numpy scalars. A bad value raises `ValueError` naming the
-    argument, the value and what is allowed; an unknown argument raises `ValueError` listing
-    the allowed ones.
+    argument, the value and what is allowed; an unknown argument raises `TypeError` (also a
+    `ValueError`) listing the allowed ones.
 
     ## Version History
     * v4: the benchmark id for imitation and RL alike (`FLUIDS-v4`,

@@ -101,7 +101,7 @@ class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
     | `render_mode`      | str   | None    | None or "rgb_array"                                    |
 
     Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
-    is allowed, an unknown argument `ValueError` listing the allowed ones.
+    is allowed, an unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ```python
     >>> import gymnasium as gym, fluids_bench

@@ -3,16 +3,30 @@
 from __future__ import annotations
 
 import inspect
+from enum import Enum
 from typing import Any
 
 import numpy as np
 from gymnasium.spaces import Box
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import VectorEnv
+
+try:
+    from gymnasium.vector import AutoresetMode
+except ImportError:  # Gymnasium 1.0 (added in 1.1): the same enum, whose default 1.0 implies
+
+    class AutoresetMode(Enum):
+        """Gymnasium 1.1's ``gymnasium.vector.AutoresetMode``, for Gymnasium 1.0."""
+
+        NEXT_STEP = "NextStep"
+        SAME_STEP = "SameStep"
+        DISABLED = "Disabled"
+
+
 from gymnasium.vector.utils import batch_space, create_empty_array
 
 from fluids_bench.core.snapshot import WrappedSnapshot
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import as_seed, check_int, fail, is_int
+from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unknown_arguments
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
@@ -192,10 +206,7 @@ class FluidsVectorEnv(VectorEnv):
         allowed = _scalar_arguments()
         unknown = sorted(set(kwargs) - set(allowed))
         if unknown:
-            raise ValueError(
-                f"{WHERE}: unknown argument(s) {', '.join(map(repr, unknown))}; allowed: "
-                f"{sorted([*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])}"
-            )
+            raise unknown_arguments(WHERE, unknown, [*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         # the first world checks the kwargs (the scalar env's errors); the compiled layout is
@@ -384,7 +395,9 @@ class FluidsVectorEnv(VectorEnv):
         return tuple(env.render() for env in self.envs)
 
     def close_extras(self, **kwargs: Any) -> None:
-        for env in self.envs:
+        # an env whose __init__ refused its arguments has no worlds (Gymnasium 1.0's __del__
+        # still closes it)
+        for env in getattr(self, "envs", ()):
             env.close()
 
     def call(self, name: str, *args: Any, **kwargs: Any) -> tuple[Any, ...]:

@@ -21,7 +21,7 @@ import traceback
 from typing import Any
 
 import numpy as np
-from gymnasium.vector import AutoresetMode, VectorEnv
+from gymnasium.vector import VectorEnv
 from gymnasium.vector.utils import batch_space
 
 from fluids_bench.core.validation import check_int, fail, is_int
@@ -33,6 +33,7 @@ from fluids_bench.tasks.fluids.vector.bounds import (
     process_state,
 )
 from fluids_bench.tasks.fluids.vector.env import (
+    AutoresetMode,
     FluidsVectorEnv,
     attribute_values,
     check_reset_mask,
