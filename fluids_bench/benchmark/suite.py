@@ -17,10 +17,10 @@ from typing import Any
 
 from fluids_bench.core.splits import split_seeds
 
-SUITE_VERSION = "0"  # bump when a task, a kwarg, a split or an OOD set changes
-# The FLUIDS entry of the suite, in one place. FLUIDS-v4 (v3's spaces and reward plus a driving
-# score in info and Markov labels) replaces it when it lands.
-FLUIDS_ID = "FLUIDS-v3"
+SUITE_VERSION = "1"  # bump when a task, a kwarg, a split or an OOD set changes
+# The FLUIDS entry of the suite, in one place: FLUIDS-v4, v3's spaces and reward plus the driving
+# score in info and Markov labels, the learner acting at the trajectory level (its defaults)
+FLUIDS_ID = "FLUIDS-v4"
 TEST_EPISODES = 500
 MUJOCO_TEST_EPISODES = 100  # 1,000-step episodes
 OOD_EPISODES = 200
@@ -201,9 +201,9 @@ TASKS: tuple[Task, ...] = (
         name="fluids",
         family="fluids",
         env_id=FLUIDS_ID,
-        env_kwargs={"action_level": "velocity"},
-        action_level="the ego's target velocity (normalised to [-1, 1]); the supervisor plans "
-        "the trajectory and the controls below it",
+        env_kwargs={},
+        action_level="the ego's next 5 waypoints in its own frame (Box(-1, 1, (10,)), times "
+        "50 m); the velocity planner and the PID controller below follow them",
         observation="explicit: the ego's state and goal, the 8 nearest agents in its frame, its "
         "light (69 values scaled to [-1, 1])",
         ood=(
