@@ -149,6 +149,7 @@ def test_train_runs_evaluation_seeds_are_the_harness_ones():
         assert harness.eval_seeds == harness_eval_seeds(config)
 
 
+@pytest.mark.train_extra
 def test_an_sb3_model_file(tmp_path):
     from train_extra import require_sb3
 
