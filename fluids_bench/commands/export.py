@@ -1,9 +1,9 @@
-"""``fluids-bench export --to lerobot DATASET OUT``: write a Minari dataset as a LeRobotDataset.
+"""`fluids-bench export --to lerobot DATASET OUT`: write a Minari dataset as a LeRobotDataset.
 
 The LeRobot v3.0 layout, written without lerobot (see `fluids_bench.data.lerobot_export`):
-parquet frames, one lossless mp4 per image observation and episode, ``meta/info.json``
-(features, fps, shapes), episode and task tables. The supervisor's labels are the ``action``
-feature. Load it with ``LeRobotDataset(repo_id, root=OUT)``. Example::
+parquet frames, one lossless mp4 per image observation and episode, `meta/info.json`
+(features, fps, shapes), episode and task tables. The supervisor's labels are the `action`
+feature. Load it with `LeRobotDataset(repo_id, root=OUT)`. Example:
 
     fluids-bench export --to lerobot fluids/bev-v0 exports/fluids-bev
 """
@@ -13,12 +13,14 @@ from __future__ import annotations
 import argparse
 import json
 
+from fluids_bench.commands import plain_text
+
 
 def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) -> None:
     parser = subparsers.add_parser(
         "export",
         help="write a Minari dataset in another library's format (LeRobot)",
-        description=__doc__,
+        description=plain_text(__doc__),
         formatter_class=argparse.RawDescriptionHelpFormatter,
     )
     parser.add_argument("--to", choices=["lerobot"], required=True, help="target format")

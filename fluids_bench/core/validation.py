@@ -109,8 +109,8 @@ class UnknownArgumentError(TypeError, ValueError):
 
 def unknown_arguments(where: str, unknown: Iterable[str], allowed: Iterable[str]) -> Exception:
     """The error for unknown keyword arguments `unknown` (`allowed` are the accepted ones):
-    ``"<where>: unknown argument(s) 'x'; allowed: [...] (__init__() got an unexpected keyword
-    argument 'x')"``, the last part in Python's own words for the first unknown name."""
+    `"<where>: unknown argument(s) 'x'; allowed: [...] (__init__() got an unexpected keyword
+    argument 'x')"`, the last part in Python's own words for the first unknown name."""
     names = sorted(unknown)
     listed = ", ".join(repr(k) for k in names)
     return UnknownArgumentError(

@@ -1,26 +1,26 @@
 """A Minari dataset of the suite as a LeRobotDataset (LeRobot's v3.0 layout), without lerobot.
 
-``export_lerobot(dataset, out)`` writes, under ``out``:
+`export_lerobot(dataset, out)` writes, under `out`:
 
-* ``data/chunk-000/file-000.parquet``: one row per step ``t`` of every episode, with the
-  observation of ``observations[t]``, ``action`` = the supervisor's label for that state (the
-  Minari dataset's ``actions``), ``next.reward``, ``next.done``, ``timestamp`` (``t / fps``, s),
-  ``frame_index`` (``t``), ``episode_index``, ``index`` (global row) and ``task_index`` (0);
-* ``videos/<key>/chunk-CCC/file-EEE.mp4``: one video per image observation and episode
-  (``EEE = episode % 1000``, ``CCC = episode // 1000``), encoded losslessly (H.264 RGB,
-  ``libx264rgb -crf 0``), so decoded frames equal the observed ones;
-* ``meta/info.json`` (codebase version, fps, paths, features with dtypes and shapes),
-  ``meta/tasks.parquet`` (one task: the env id) and ``meta/episodes/chunk-000/file-000.parquet``
+* `data/chunk-000/file-000.parquet`: one row per step `t` of every episode, with the
+  observation of `observations[t]`, `action` = the supervisor's label for that state (the
+  Minari dataset's `actions`), `next.reward`, `next.done`, `timestamp` (`t / fps`, s),
+  `frame_index` (`t`), `episode_index`, `index` (global row) and `task_index` (0);
+* `videos/<key>/chunk-CCC/file-EEE.mp4`: one video per image observation and episode
+  (`EEE = episode % 1000`, `CCC = episode // 1000`), encoded losslessly (H.264 RGB,
+  `libx264rgb -crf 0`), so decoded frames equal the observed ones;
+* `meta/info.json` (codebase version, fps, paths, features with dtypes and shapes),
+  `meta/tasks.parquet` (one task: the env id) and `meta/episodes/chunk-000/file-000.parquet`
   (per episode: length, row range, data and video file indices, video time range).
 
-Observation keys follow LeRobot's names: a Box image (``uint8``, ``(H, W, 3)``) is
-``observation.image``, any other Box ``observation.state``; a Dict observation's images are
-``observation.images.<key>`` and its other entries ``observation.<key>``. A Discrete value is an
-``int64`` of shape ``(1,)``. The final observation of each episode (after the last action) has
-no label and is not exported. ``fps`` is the env's ``render_fps`` unless given.
+Observation keys follow LeRobot's names: a Box image (`uint8`, `(H, W, 3)`) is
+`observation.image`, any other Box `observation.state`; a Dict observation's images are
+`observation.images.<key>` and its other entries `observation.<key>`. A Discrete value is an
+`int64` of shape `(1,)`. The final observation of each episode (after the last action) has
+no label and is not exported. `fps` is the env's `render_fps` unless given.
 
 Writing is atomic: everything is built in a hidden sibling folder, renamed into place at the
-end. An existing ``out`` is refused unless ``overwrite``.
+end. An existing `out` is refused unless `overwrite`.
 """
 
 from __future__ import annotations
@@ -47,7 +47,7 @@ VIDEO_INFO = {"video.codec": "h264", "video.pix_fmt": "rgb24", "video.is_depth_m
 
 
 def is_image(space: spaces.Space) -> bool:
-    """A ``uint8`` Box of shape ``(H, W, 3)``: stored as video."""
+    """A `uint8` Box of shape `(H, W, 3)`: stored as video."""
     return (
         isinstance(space, spaces.Box)
         and space.dtype == np.uint8
@@ -132,13 +132,13 @@ def _fps(env_id: str) -> int:
 def export_lerobot(
     dataset: Any, out: str | os.PathLike, *, fps: int | None = None, overwrite: bool = False
 ) -> dict[str, Any]:
-    """Write ``dataset`` (a ``minari.MinariDataset``, or a dataset id to load) as a
-    LeRobotDataset under ``out``; returns its ``meta/info.json`` content.
+    """Write `dataset` (a `minari.MinariDataset`, or a dataset id to load) as a
+    LeRobotDataset under `out`; returns its `meta/info.json` content.
 
     Raises:
-        FileExistsError: ``out`` exists and ``overwrite`` is false.
+        FileExistsError: `out` exists and `overwrite` is false.
         ValueError: a space the format cannot hold (Box and Discrete only, or a Dict of them),
-            or no ``fps`` known.
+            or no `fps` known.
     """
     if isinstance(dataset, str):
         import minari

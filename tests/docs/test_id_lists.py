@@ -35,8 +35,8 @@ def test_the_id_tables_name_every_registered_id(render):
 
 
 def test_family_ids_are_newest_first():
-    assert reference.family("fluids").ids[:2] == ("FLUIDS-v3", "FLUIDS-Sensitivity-v3")
-    assert reference.family("fluids-multi-agent").parallel_ids[0] == "FLUIDS-MultiAgent-v3"
+    assert reference.family("fluids").ids[:2] == ("FLUIDS-v4", "FLUIDS-Sensitivity-v4")
+    assert reference.family("fluids-multi-agent").parallel_ids[0] == "FLUIDS-MultiAgent-v4"
 
 
 def test_a_newly_registered_id_appears_in_every_list_by_itself(monkeypatch):

@@ -15,7 +15,7 @@ try:
 except ImportError:  # Gymnasium 1.0 (added in 1.1): the same enum, whose default 1.0 implies
 
     class AutoresetMode(Enum):
-        """Gymnasium 1.1's ``gymnasium.vector.AutoresetMode``, for Gymnasium 1.0."""
+        """Gymnasium 1.1's `gymnasium.vector.AutoresetMode`, for Gymnasium 1.0."""
 
         NEXT_STEP = "NextStep"
         SAME_STEP = "SameStep"
