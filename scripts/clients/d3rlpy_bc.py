@@ -17,10 +17,8 @@ from __future__ import annotations
 
 import argparse
 import json
-import os
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 import numpy as np
@@ -28,6 +26,7 @@ import numpy as np
 ROOT = Path(__file__).resolve().parents[2]
 sys.path.insert(0, str(ROOT))
 
+from fluids_bench.algos.results import write_json_atomic  # noqa: E402
 from fluids_bench.core.provenance import command_line, machine  # noqa: E402
 
 EVAL_SEED = 100_000
@@ -103,11 +102,7 @@ def main() -> None:
         "command": command_line(),
         "machine": machine(),
     }
-    out = Path(args.out)
-    with tempfile.NamedTemporaryFile("w", dir=out.parent, suffix=".tmp", delete=False) as f:
-        json.dump(result, f, indent=2)
-        f.write("\n")
-    os.replace(f.name, out)
+    write_json_atomic(args.out, result)
     print(json.dumps(result["mean_return"]))
     if not result["bc_beats_random"]:
         sys.exit("d3rlpy BC did not beat random actions")
