@@ -5,7 +5,7 @@ seeds. Writes ``docs/results/client_d3rlpy.json`` (read by docs/ecosystem.md).
 d3rlpy 2.8.1 pins ``gymnasium==1.0.0``, so this runs in its own environment (the suite's lowest
 supported Gymnasium); see docs/ecosystem.md for the venv's set-up. Run from the repository::
 
-    MINARI_DATASETS_PATH=/tmp/d3rlpy-minari PYTHONPATH=. /work/venvs/d3rlpy/bin/python \
+    MINARI_DATASETS_PATH=runs/d3rlpy-minari PYTHONPATH=. .venv-d3rlpy/bin/python \
         scripts/clients/d3rlpy_bc.py
 
 It collects the dataset first (``--episodes`` supervisor episodes, seeds 0 ... N-1) unless it

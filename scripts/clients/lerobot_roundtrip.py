@@ -9,11 +9,11 @@ lerobot==0.4.4`` in its own venv pulls torch 2.10.0+cu128, about 5 GB, which run
 video decoder, torchcodec, needs the system's FFmpeg libraries, so this reads videos with pyav.
 The export is made with the suite's own interpreter beforehand::
 
-    export MINARI_DATASETS_PATH=/tmp/lerobot-minari
+    export MINARI_DATASETS_PATH=runs/lerobot-minari
     fluids-bench collect --env FLUIDS-v3 --episodes 2 --max-steps 30 --dataset clients/bev-v0 \
         --env-kwarg 'obs_type=["birdseye","explicit"]'
-    fluids-bench export --to lerobot clients/bev-v0 /tmp/lerobot-bev
-    /work/venvs/lerobot/bin/python scripts/clients/lerobot_roundtrip.py /tmp/lerobot-bev
+    fluids-bench export --to lerobot clients/bev-v0 runs/lerobot-bev
+    .venv-lerobot/bin/python scripts/clients/lerobot_roundtrip.py runs/lerobot-bev
 """
 
 from __future__ import annotations
