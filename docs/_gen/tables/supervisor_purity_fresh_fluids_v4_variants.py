@@ -24,5 +24,7 @@ def render(data: dict, **_) -> str:
     return (
         "\n".join(lines)
         + "\n\n<small>From `docs/results/supervisor_purity_fresh_fluids_v4_variants.json`, "
-        + "written by " + "; ".join(commands) + ".</small>"
+        + "written by "
+        + "; ".join(commands)
+        + ".</small>"
     )
