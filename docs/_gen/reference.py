@@ -375,28 +375,27 @@ def _check_every_id_has_a_family() -> None:
         family_of(env_id)  # raises for an id no page would show
 
 
-def gallery(root: str = "") -> str:
-    """The families side by side: picture, ids (every registered id, newest first), one line.
-    `root`: the docs root relative to the calling page ("" top level, "../" one folder down)."""
+def _tasks_table(picture, link_root: str) -> str:
+    """The families side by side: `picture(family)` (the cell's image markup), ids (every
+    registered id, newest first) and one line, pages linked under `link_root`."""
     _check_every_id_has_a_family()
     rows = ["| | family | ids |", "|---|---|---|"]
     for f in FAMILIES:
         ids = ", ".join(f"`{i}`" for i in _family_ids(f))
-        picture = f"![{f.title}]({root}{f.image}){{ width=160 }}"
-        rows.append(f"| {picture} | [{f.title}]({root}tasks/{f.slug}.md): {f.blurb} | {ids} |")
+        rows.append(f"| {picture(f)} | [{f.title}]({link_root}{f.slug}.md): {f.blurb} | {ids} |")
     return "\n".join(rows)
+
+
+def gallery(root: str = "") -> str:
+    """The families side by side on a docs page. `root`: the docs root relative to the calling
+    page ("" top level, "../" one folder down)."""
+    return _tasks_table(lambda f: f"![{f.title}]({root}{f.image}){{ width=160 }}", f"{root}tasks/")
 
 
 def readme_tasks_table() -> str:
     """The README's task table (GitHub renders no macros: tests/docs check that the README holds
     exactly this; `python docs/_gen/reference.py --readme` prints it)."""
-    _check_every_id_has_a_family()
-    rows = ["| | family | ids |", "|---|---|---|"]
-    for f in FAMILIES:
-        ids = ", ".join(f"`{i}`" for i in _family_ids(f))
-        picture = f'<img src="docs/{f.image}" width="140">'
-        rows.append(f"| {picture} | [{f.title}](docs/tasks/{f.slug}.md): {f.blurb} | {ids} |")
-    return "\n".join(rows)
+    return _tasks_table(lambda f: f'<img src="docs/{f.image}" width="140">', "docs/tasks/")
 
 
 def registry_table(root: str = "") -> str:
