@@ -9,15 +9,14 @@ tests can never be skipped silently in CI.
 from __future__ import annotations
 
 import importlib
-import os
+import importlib.util
 
-import pytest
+from train_extra import skip_or_fail
+
+CLIENT_ENV = "FLUIDS_BENCH_CLIENT_TESTS"
 
 
 def require_client(module: str, install: str):
-    try:
-        return importlib.import_module(module)
-    except ImportError:
-        if os.environ.get("FLUIDS_BENCH_CLIENT_TESTS") == "1":
-            pytest.fail(f"FLUIDS_BENCH_CLIENT_TESTS=1 but {module} is missing: {install}")
-        pytest.skip(f"needs the optional client {module}: {install}")
+    if importlib.util.find_spec(module) is None:
+        skip_or_fail(f"needs the optional client {module}", CLIENT_ENV, install)
+    return importlib.import_module(module)
