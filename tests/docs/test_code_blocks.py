@@ -3,13 +3,13 @@
 ```python blocks run as scripts in a fresh interpreter; ```bash blocks run line by line; a block
 preceded by ``<!-- test: COMMAND -->`` runs COMMAND instead (the documented shortened variant
 of a long command); ``<!-- test: ci -->`` marks the set-up commands, which .ci/run runs
-literally. A block that needs the `train` extra (torch, stable-baselines3) is preceded by
-`<!-- needs: train -->` (above or below its test marker): it is marked `train_extra`, so it
-skips without the extra and runs in .ci/run's second phase. `<!-- test: needs MODULE -->` runs
-the block where MODULE (an optional client such as torchrl) imports: it is marked `client_extra`
-and skips with the reason otherwise (a failure where `FLUIDS_BENCH_CLIENT_TESTS=1`, as in CI's
-second phase), unless MODULE lives in its own environment (`OWN_ENVIRONMENT`: always skipped
-here; its script's results file is what the docs read). Other languages (text, json, ...) are
+literally. A block that needs an optional piece is preceded by `<!-- needs: NAME ... -->` (above
+or below its test marker): `train` (torch, stable-baselines3) marks it `train_extra`; a client
+module (`CLIENTS`, e.g. torchrl) marks it `client_extra` and the block runs where the module
+imports. Without the piece it skips with the reason (a failure under CI's second phase, which
+sets `FLUIDS_BENCH_TRAIN_TESTS=1` / `FLUIDS_BENCH_CLIENT_TESTS=1`), except for clients that live
+in their own environment (`OWN_ENVIRONMENT`: always skipped here; their script's results file
+is what the docs read). Other languages (text, json, ...) are
 output and are not run. Env cards' doctest examples run too.
 """
 
@@ -53,7 +53,11 @@ class Block:
 FENCE = re.compile(r"^(\s*)```(\w*)[^\n]*$")
 MARKER = re.compile(r"^\s*<!--\s*test:\s*(.*?)\s*-->\s*$")
 NEEDS = re.compile(r"^\s*<!--\s*needs:\s*(.*?)\s*-->\s*$")
-EXTRAS = {"train": pytest.mark.train_extra}  # what a <!-- needs: ... --> may name
+EXTRAS = {"train": pytest.mark.train_extra}  # the package extras a <!-- needs: ... --> may name
+# optional client libraries a <!-- needs: ... --> may name (docs/ecosystem.md)
+CLIENTS = {"torch", "torchrl", "stable_baselines3", "d3rlpy", "lerobot"}
+# clients whose pins conflict with the suite's: tested in their own venvs
+OWN_ENVIRONMENT = {"d3rlpy", "lerobot"}
 
 
 def blocks_of(path: Path) -> list[Block]:
@@ -103,8 +107,9 @@ def test_every_block_has_a_known_language():
 
 
 def test_every_needs_marker_names_a_known_extra():
-    unknown = [f"{b.name} ({n!r})" for b in ALL_BLOCKS for n in b.needs if n not in EXTRAS]
-    assert not unknown, f"<!-- needs: ... --> names no known extra {sorted(EXTRAS)}: {unknown}"
+    known = set(EXTRAS) | CLIENTS
+    unknown = [f"{b.name} ({n!r})" for b in ALL_BLOCKS for n in b.needs if n not in known]
+    assert not unknown, f"<!-- needs: ... --> names nothing known {sorted(known)}: {unknown}"
 
 
 def test_the_set_up_commands_need_no_extra():
@@ -120,7 +125,7 @@ def _param(block: Block):
     marks = [EXTRAS[n] for n in block.needs if n in EXTRAS]
     if needs_torch(block) and pytest.mark.train_extra not in marks:
         marks.append(pytest.mark.train_extra)  # run by .ci/run's second phase, with torch
-    if block.marker and block.marker.startswith("needs "):
+    if any(n in CLIENTS for n in block.needs):
         marks.append(pytest.mark.client_extra)  # likewise, with the client installed
     return pytest.param(block, marks=marks, id=block.name)
 
@@ -148,29 +153,26 @@ def sandbox(tmp_path):
     return tmp_path, env
 
 
-# clients whose pins conflict with the suite's (docs/ecosystem.md): tested in their own venvs
-OWN_ENVIRONMENT = {"d3rlpy", "lerobot"}
-
-
-def _needs(marker: str | None) -> None:
+def _needs_clients(block: Block) -> None:
     """Skip (or fail, under FLUIDS_BENCH_CLIENT_TESTS=1) a block whose client is missing."""
-    module = marker[len("needs ") :].strip() if marker and marker.startswith("needs ") else None
-    if module is None or importlib.util.find_spec(module) is not None:
-        return
-    if module in OWN_ENVIRONMENT or os.environ.get("FLUIDS_BENCH_CLIENT_TESTS") != "1":
-        pytest.skip(f"needs the optional client {module} (docs/ecosystem.md says how to install)")
-    pytest.fail(f"FLUIDS_BENCH_CLIENT_TESTS=1 but {module} is missing")
+    for module in block.needs:
+        if module not in CLIENTS or importlib.util.find_spec(module) is not None:
+            continue
+        reason = f"needs the optional client {module} (docs/ecosystem.md says how to install)"
+        if module in OWN_ENVIRONMENT or os.environ.get("FLUIDS_BENCH_CLIENT_TESTS") != "1":
+            pytest.skip(reason)
+        pytest.fail(f"FLUIDS_BENCH_CLIENT_TESTS=1 but this block {reason}")
 
 
 @pytest.mark.parametrize("block", [_param(b) for b in RUN_BLOCKS])
 def test_code_block_runs(block, sandbox):
     folder, env = sandbox
-    _needs(block.marker)
+    _needs_clients(block)
     if needs_torch(block):
         from train_extra import require_torch
 
         require_torch()
-    if block.marker is not None and not block.marker.startswith("needs "):
+    if block.marker is not None:
         cmd = ["bash", "-euo", "pipefail", "-c", block.marker]
     elif block.language == "python":
         script = folder / "block.py"
