@@ -12,6 +12,7 @@ from pathlib import Path
 
 sys.path.insert(0, str(Path(__file__).resolve().parent))
 
+import architecture  # noqa: E402
 import benchmark_pages  # noqa: E402
 import reference  # noqa: E402
 import results  # noqa: E402
@@ -27,6 +28,7 @@ def define_env(env) -> None:
     env.macro(reference.id_guide)
     env.macro(reference.cli_reference)
     env.macro(results.table)
+    env.macro(architecture.architecture)
     env.macro(benchmark_pages.benchmark_definition)
     env.macro(benchmark_pages.seed_splits)
     env.macro(benchmark_pages.benchmark_fluids_id)
