@@ -68,6 +68,10 @@ def test_each_env_holds_its_checked_config():
     vec = gym.make_vec("FLUIDS-v1", 2, vectorization_mode="vector_entry_point", num_cars=1)
     assert vec.unwrapped.config == gym.make("FLUIDS-v1", num_cars=1).unwrapped.config
     vec.close()
+    kwargs = {"vectorization_mode": "vector_entry_point", "num_workers": 2, "num_cars": 1}
+    workers = gym.make_vec("FLUIDS-v1", 2, **kwargs)
+    assert workers.unwrapped.config == vec.unwrapped.config
+    workers.close()
 
 
 def test_errors_name_the_env_or_the_config():
