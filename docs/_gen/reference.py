@@ -2,7 +2,8 @@
 
 Used by the site's macros (`docs/_gen/macros.py`) and by the docs tests, so a page cannot say
 something the code does not. Nothing here is hand-copied: the ids come from
-`fluids_bench.registration`, the arguments from each entry point's signature, what a
+`fluids_bench.registration`, the arguments from each entry point's signature and their
+descriptions from its `__init__`'s `Args:` (FLUIDS': `FluidsConfig`'s field docs), what a
 value may be from the entry point's own validation (it is called with a value no check accepts
 and the `allowed:` part of its error is shown), the spaces from the built env.
 """
@@ -24,6 +25,7 @@ import gymnasium as gym
 import numpy as np
 
 import fluids_bench  # noqa: F401  (registers every id)
+from fluids_bench.core.docstrings import section_entries
 from fluids_bench.registration import ENV_SPECS, PARALLEL_ENV_SPECS
 
 _VERSION = re.compile(r"-v(\d+)$")
@@ -249,14 +251,18 @@ def card_sections(env_id: str) -> dict[str, str]:
     return {k: v for k, v in sections.items() if v}
 
 
-def _card_argument_notes(env_id: str) -> dict[str, str]:
-    """The card's own one-line description of each argument, from its Arguments table."""
-    notes: dict[str, str] = {}
-    for line in card_sections(env_id).get("Arguments", "").splitlines():
-        cells = [c.strip() for c in line.strip().strip("|").split("|")]
-        if len(cells) >= 2 and cells[0].startswith("`"):
-            notes[cells[0].strip("`")] = cells[-1]
-    return notes
+def argument_docs(env_id: str) -> dict[str, str]:
+    """Each keyword argument's description: its entry in the `Args:` section of the entry
+    point's `__init__` docstring (Google style). The FLUIDS envs' list every option of
+    `FluidsConfig` there, from the config's own field docs."""
+    init = _card_owner(env_id).__init__
+    return section_entries(inspect.getdoc(init), "Args")
+
+
+def undocumented_arguments(env_id: str) -> list[str]:
+    """The keyword arguments of `env_id` without a description (none, for every id)."""
+    docs = argument_docs(env_id)
+    return [p.name for p in _signature_params(env_id) if not docs.get(p.name, "").strip()]
 
 
 def _md_cell(text: object) -> str:
@@ -265,10 +271,10 @@ def _md_cell(text: object) -> str:
 
 def kwargs_table(env_id: str) -> str:
     """Every keyword argument: the signature's default, the id's registered value, what the
-    validation allows, and the card's description."""
+    validation allows, and its description (`argument_docs`)."""
     _, registered = _entry_point(env_id)
     allowed = allowed_values(env_id)
-    notes = _card_argument_notes(env_id)
+    notes = argument_docs(env_id)
     rows = ["| argument | default | allowed | description |", "|---|---|---|---|"]
     for p in _signature_params(env_id):
         default = repr(registered[p.name]) if p.name in registered else repr(p.default)

@@ -43,7 +43,7 @@ PARAMETERS: dict[str, tuple[str, float, float, str]] = {
     "lidar_noise": ("float", 0.0, 100.0, "quasi-LIDAR noise variance λ_l"),
     "lidar_dropout": ("float", 0.0, 1.0, "quasi-LIDAR omission probability ε"),
     "lights": ("bool", 0, 1, "traffic lights on (1) or off (0)"),
-    # the env's range (fluids_bench.tasks.fluids.scenario.CAR_MASS_RANGE)
+    # the env's range (fluids_bench.tasks.fluids.config.CAR_MASS_RANGE)
     "car_mass": ("float", 500.0, 5000.0, "true car mass, kg (the supervisor assumes 1500)"),
 }
 ORDER = tuple(PARAMETERS)  # the canonical order of columns and of the row-major numbering

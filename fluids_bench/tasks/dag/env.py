@@ -66,13 +66,9 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
 
     ## Arguments
 
-    | Parameter     | Type  | Default | Description                                               |
-    |---------------|-------|---------|-----------------------------------------------------------|
-    | `mu`          | float | 0.25    | chance that L at the root slips to the right child, [0, 1] |
-    | `render_mode` | str   | None    | None or "rgb_array" (the graph, the robot's node filled)  |
-
-    Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
-    is allowed, an unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
+    The keyword arguments of `__init__`, each described in its `Args:`. Numbers may be Python
+    or numpy scalars; a bad value raises `ValueError` naming it and what is allowed, an
+    unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ## Version History
 
@@ -85,6 +81,12 @@ class DAGEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
 
     @reject_unknown_kwargs
     def __init__(self, mu: float = 0.25, render_mode: str | None = None) -> None:
+        """Build the DAG.
+
+        Args:
+            mu: Chance that L at the root slips to the right child.
+            render_mode: `None` or `"rgb_array"` (the graph, the robot's node filled).
+        """
         self.mu = check_float(WHERE, "mu", mu, 0.0, 1.0)
         self.render_mode = check_choice(WHERE, "render_mode", render_mode, [None, "rgb_array"])
         self.action_space = spaces.Discrete(2)

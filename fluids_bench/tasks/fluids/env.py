@@ -9,21 +9,13 @@ import numpy as np
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import (
-    as_seed,
-    check_bool,
-    check_choice,
-    check_int,
-    reject_unknown_kwargs,
-)
+from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.config import SINGLE_AGENT
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
-    DONE_WHEN,
-    REWARD_VERSIONS,
     build_scenario,
-    check_failure_penalty,
     is_success,
     progress,
     step_reward,
@@ -190,77 +182,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
       every light's state.
 
     ## Arguments
-    * `layout`: `"four_way"` (default), `"t_junction"` or `"roundabout"`.
-    * `lanes`: 1 or 2 lanes per direction (four-way, T-junction).
-    * `lights`: traffic and crosswalk lights on (default) or off.
-    * `num_cars`: background cars besides the ego (default 3; at most the layout's capacity
-      less one, see Starting State).
-    * `num_pedestrians`: 0 to 32 and at most the layout's walk slots (default 2).
-    * `action_level`: `"behavior"`, `"trajectory"`, `"velocity"` or `"control"` (default).
-    * `obs_type`: `"explicit"` (default), `"birdseye"`, `"qlidar"` or a list of them.
-    * `obs_noise`: variance of the explicit observation's noise, 0 to 100 (default 0).
-    * `k_nearest`: other agents in the explicit observation, 0 to 64 (default 8).
-    * `birdseye_size`: image side in pixels, 64 to 512 (default 84).
-    * `birdseye_fov`: side of the square seen in ego frames, metres, 5 to 1000 (default 40).
-    * `birdseye_frame`: `"ego"` (default), `"ego_rotated"` or `"global"`.
-    * `pixel_noise`: λ_p, per-pixel noise variance, 0 to 10000 (default 0).
-    * `lidar_rays`: m, 1 to 4096 (default 64).
-    * `lidar_range`: metres, 1 to 1000 (default 30).
-    * `lidar_noise`: λ_l, noise variance on distance, angle and velocity, 0 to 100 (default 0).
-    * `lidar_dropout`: ε, per-ray dropout probability, 0 to 1 (default 0).
-    * `render_mode`: `None`, `"rgb_array"` (a global view: routes, light states, this
-      step's collisions outlined in red, time and step) or `"human"` (that view in a pygame
-      window; needs `pip install "fluids-bench[human]"`: without it, asking for it raises an
-      ImportError that says so).
-    * `waypoints`, `waypoint_spacing`: trajectory-level size, 1 to 50 points, 0.5 to 20 m
-      apart (default 5 points, 2 m apart).
-    * `car_mass`: the cars' true mass in kg, 500 to 5000 (default 1500); the supervisor's
-      controller assumes 1500, and far from it (1 kg, 1e5 kg) it oscillates into collisions or
-      never arrives, so the range stops at 1/3x and 10/3x of it.
-    * `pedestrian_speed`: pedestrians' top walking speed in m/s, 0.1 to 5 (default 1.4).
-    * `light_cycle_scale`: every traffic and crosswalk light phase lasts this many times its
-      layout's duration (offsets too), 0.25 to 4 (default 1: the layout's timing).
-    * `trajectory_planner`: `"bezier"` (default: de Casteljau curves through lane-end
-      waypoints) or `"ompl"` (every route's junction part planned as OMPL Dubins curves).
-    * `done_when`: `"ego"` (default) or `"all"` (see Episode End).
-    * `planner_period`: steps between velocity-planner runs, 1 to 50 (default 5: 0.5 s); the
-      plan, and the velocity-level label, is held in between.
-    * `dt`: seconds per step, 0.01 to 0.5 (default 0.1).
-    * `defensive`: background agents treat the ego as a driver that may brake as hard as it
-      can at any time: they only take a target speed from which, holding it until their next
-      plan and braking then, they stop short of wherever the ego can stop (default False;
-      True in the v1 ids). A supervised car then never runs into the ego unless the ego cuts
-      in inside its stopping distance. Where the ego has the right of way (it entered the
-      junction first, or goes straight or turns right while they turn left across it), they
-      also give way to it driving on: they turn or enter only through a gap it cannot close,
-      counting on slowing for the curves ahead, and do not enter a crossing they would have to
-      stop in (a red light or an occupied crosswalk beyond it).
-    * `lidar_version`: 0 (default) or 1 (the v1 ids): see Observation Space.
-    * `obey_lights`: success also requires that the ego never entered its junction against
-      a red light (`info["ego_ran_red_light"]`; default False, True in the v1 ids).
-    * `yield_to_pedestrians`: a pedestrian on a crosswalk has the right of way: supervised
-      cars wait before a crosswalk with a pedestrian on it (unless they can no longer stop),
-      and success also requires that the ego never drove onto one that it could have stopped
-      for (`info["ego_failed_to_yield"]`; default False, True in the v1 ids). Supervised
-      walkers wait at the kerb while a car is committed to their crosswalk (too close to stop,
-      or a background car turning left, inside the junction on its way out across it) and do
-      not step out on a white light that turns red before they would reach the crosswalk.
-    * `action_scale`: `"physical"` (default) or `"normalized"` (the v2 ids): see Action
-      Space.
-    * `reward_version`: 0 (default) or 1 (the v2 ids): see Rewards.
-    * `obs_scale`: `"physical"` (default) or `"normalized"` (the v2 ids): see Observation
-      Space.
-    * `end_on_violation`: end the episode when the ego breaks a rule that fails
-      `is_success` (default False): see Episode End.
-    * `failure_penalty`: the weight of reward version 1's collision, red-light and
-      failure-to-yield terms (default 1, 3 in the v3 and v4 ids; see Rewards).
-    * `driving_score`: report the CARLA-style driving score in the info of every episode's
-      last step (default False, True in the v4 ids): `info["driving_score"]` (in [0, 1]),
-      `info["route_completion"]` (in [0, 1]) and `info["infractions"]` (counts by name);
-      the rule and its coefficients are in `fluids_bench.tasks.fluids.driving_score`.
-    * `time_limit`: the step at which an unfinished episode is scored as a timeout (0, the
-      default: never). The v4 ids set it to their `max_episode_steps` (600); give both when
-      you change one, so that the score lands on `TimeLimit`'s truncating step.
+    Every keyword argument but `render_mode` is a field of
+    `fluids_bench.tasks.fluids.config.FluidsConfig`, described there and in `__init__`'s
+    `Args:`; the env keeps the checked ones as `env.config` (and each as an attribute).
     Numbers may be Python or numpy scalars. A bad value raises `ValueError` naming the
     argument, the value and what is allowed; an unknown argument raises `TypeError` (also a
     `ValueError`) listing the allowed ones.
@@ -298,48 +222,18 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         "success_on_termination": True,
     }
 
-    @reject_unknown_kwargs
-    def __init__(
-        self,
-        layout: str = "four_way",
-        lanes: int = 1,
-        lights: bool = True,
-        num_cars: int = 3,
-        num_pedestrians: int = 2,
-        action_level: str = "control",
-        obs_type: str | list[str] = "explicit",
-        obs_noise: float = 0.0,
-        k_nearest: int = 8,
-        birdseye_size: int = 84,
-        birdseye_fov: float = 40.0,
-        birdseye_frame: str = "ego",
-        pixel_noise: float = 0.0,
-        lidar_rays: int = 64,
-        lidar_range: float = 30.0,
-        lidar_noise: float = 0.0,
-        lidar_dropout: float = 0.0,
-        waypoints: int = 5,
-        waypoint_spacing: float = 2.0,
-        car_mass: float = 1500.0,
-        planner_period: int = 5,
-        trajectory_planner: str = "bezier",
-        done_when: str = "ego",
-        dt: float = 0.1,
-        render_mode: str | None = None,
-        defensive: bool = False,
-        lidar_version: int = 0,
-        obey_lights: bool = False,
-        yield_to_pedestrians: bool = False,
-        pedestrian_speed: float = 1.4,
-        light_cycle_scale: float = 1.0,
-        action_scale: str = "physical",
-        reward_version: int = 0,
-        obs_scale: str = "physical",
-        end_on_violation: bool = False,
-        failure_penalty: float = 1.0,
-        driving_score: bool = False,
-        time_limit: int = 0,
-    ) -> None:
+    @SINGLE_AGENT.document
+    def __init__(self, *, render_mode: str | None = None, **options: Any) -> None:
+        """Build the env from its options, the fields of `FluidsConfig` (`config`; each is
+        also an attribute of the env).
+
+        Args:
+            render_mode: `None` (default), `"rgb_array"` (a global view: routes, light
+                states, this step's collisions outlined in red, time and step) or `"human"`
+                (that view in a pygame window; needs `pip install "fluids-bench[human]"`:
+                without it, asking for it raises an ImportError that says so).
+        """
+        SINGLE_AGENT.check_names(options)
         if render_mode == "human":
             from fluids_bench.tasks.fluids.sim.render import require_pygame
 
@@ -349,68 +243,20 @@ class FluidsEnv(SnapshotMixin, gym.Env):
                 f"FluidsEnv: field 'render_mode' is {render_mode!r}; "
                 f"allowed: {self.metadata['render_modes']} or None"
             )
-        self.done_when = check_choice("FluidsEnv", "done_when", done_when, DONE_WHEN)
-        self.defensive = check_bool("FluidsEnv", "defensive", defensive)
-        self.obey_lights = check_bool("FluidsEnv", "obey_lights", obey_lights)
-        self.yield_to_pedestrians = check_bool(
-            "FluidsEnv", "yield_to_pedestrians", yield_to_pedestrians
-        )
-        self.action_scale = check_choice(
-            "FluidsEnv", "action_scale", action_scale, levels.ACTION_SCALES
-        )
-        self.reward_version = check_int("FluidsEnv", "reward_version", reward_version, 0, 1)
-        self.end_on_violation = check_bool("FluidsEnv", "end_on_violation", end_on_violation)
-        self.failure_penalty = check_failure_penalty(
-            "FluidsEnv", failure_penalty, self.reward_version
-        )
-        assert self.reward_version in REWARD_VERSIONS
-        self.report_score = check_bool("FluidsEnv", "driving_score", driving_score)
-        self.time_limit = check_int("FluidsEnv", "time_limit", time_limit, 0, 10**9)
-        scenario = build_scenario(
-            "FluidsEnv",
-            controlled_cars=None,
-            num_cars=num_cars,
-            layout=layout,
-            lanes=lanes,
-            lights=lights,
-            num_pedestrians=num_pedestrians,
-            action_level=action_level,
-            obs_type=obs_type,
-            sensor_options={
-                "obs_noise": obs_noise,
-                "k_nearest": k_nearest,
-                "birdseye_size": birdseye_size,
-                "birdseye_fov": birdseye_fov,
-                "birdseye_frame": birdseye_frame,
-                "pixel_noise": pixel_noise,
-                "lidar_rays": lidar_rays,
-                "lidar_range": lidar_range,
-                "lidar_noise": lidar_noise,
-                "lidar_dropout": lidar_dropout,
-                "lidar_version": lidar_version,
-                "obs_scale": obs_scale,
-            },
-            waypoints=waypoints,
-            waypoint_spacing=waypoint_spacing,
-            car_mass=car_mass,
-            planner_period=planner_period,
-            trajectory_planner=trajectory_planner,
-            dt=dt,
-            defensive=self.defensive,
-            yield_to_pedestrians=self.yield_to_pedestrians,
-            pedestrian_speed=pedestrian_speed,
-            light_cycle_scale=light_cycle_scale,
-        )
+        self.config = SINGLE_AGENT.config(options)
+        # every option also as an attribute, read by the step code (copies of the config's)
+        vars(self).update(SINGLE_AGENT.attributes(self.config))
+        self.report_score = self.config.driving_score
+        scenario = build_scenario("FluidsEnv", self.config, multi_agent=False)
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor
-        self.action_level = action_level
         self.render_mode = render_mode
         self._renderer = self._window = None
         self.world = World(self.scene, scenario.layout)
         self.observer = Observer(scenario.observation, self.world)
         self.observation_space = self.observer.space
         self.action_space = levels.action_space(
-            action_level, self.world, self.supervisor_config.waypoints, self.action_scale
+            self.action_level, self.world, self.supervisor_config.waypoints, self.action_scale
         )
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.faults = FaultTracker(self.world)

@@ -19,20 +19,13 @@ from pettingzoo import ParallelEnv
 
 from fluids_bench.core.snapshot import SnapshotMixin
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.core.validation import (
-    as_seed,
-    check_bool,
-    check_choice,
-    check_int,
-    reject_unknown_kwargs,
-)
+from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.config import MULTI_AGENT
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
-    MAX_CARS,
     build_scenario,
-    check_failure_penalty,
     is_success,
     progress,
     step_reward,
@@ -214,31 +207,12 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     snapshot.
 
     ## Arguments
-    * `controlled_cars`: learner-controlled cars (agents), default 4.
-    * `num_cars`: supervised background cars besides them (default 0).
-    * `max_cycles`: steps before truncation (default 400 = 40 s).
-    * `layout`, `lanes`, `lights`, `num_pedestrians`, `action_level`, `obs_type`,
-      the sensor options (`obs_noise`, `k_nearest`, `birdseye_*`, `pixel_noise`,
-      `lidar_*`), `waypoints`, `waypoint_spacing`, `car_mass`, `planner_period`,
-      `trajectory_planner`, `dt`: as `FLUIDS-v0` (same ranges).
-    * `defensive`: background agents treat every controlled car (the agents) as one that may
-      brake at its limit at any time and keep the distance to stop for it, and give way to
-      one with the right of way driving on (default False; True in `FLUIDS-MultiAgent-v1`);
-      see `FLUIDS-v1`.
-    * `yield_to_pedestrians`: background cars wait before a crosswalk with a pedestrian on it
-      (default False; True in `FLUIDS-MultiAgent-v1`); the agents' success does not depend
-      on it.
-    * `black_death`: keep finished agents in the episode (see Episode End; default False).
-    * `action_scale`, `reward_version`, `obs_scale`: as `FLUIDS-v0` (`"physical"`, 0,
-      `"physical"` by default; `"normalized"`, 1, `"normalized"` in
-      `FLUIDS-MultiAgent-v2`); `failure_penalty`: as `FLUIDS-v0` (the weight of
-      reward version 1's collision term, default 1).
-    * `render_mode`: `None` or `"rgb_array"` (`FLUIDS-v0`'s global view, the first live
-      agent highlighted).
-
-    * `driving_score`: report the driving score in each agent's last info, as
-      `FLUIDS-v4` does for the ego (a truncation at `max_cycles` is its timeout; default
-      False, True in `FLUIDS-MultiAgent-v4`).
+    Every keyword argument but `render_mode` is a field of
+    `fluids_bench.tasks.fluids.config.FluidsConfig` (`FLUIDS-v0`'s options less
+    `pedestrian_speed`, `light_cycle_scale`, `done_when`, `obey_lights`,
+    `end_on_violation` and `time_limit`, plus `controlled_cars`, `max_cycles` and
+    `black_death`), described there and in `__init__`'s `Args:`; the env keeps the checked
+    ones as `env.config` (and each as an attribute). Errors as `FLUIDS-v0`'s.
 
     ## Version History
     * v4: v3 with the driving score, the velocity planner at every step (Markov labels) and
@@ -275,99 +249,32 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     def _snapshot_static(self) -> dict[str, Any]:
         return {"layout": self.world.layout}
 
-    @reject_unknown_kwargs
-    def __init__(
-        self,
-        controlled_cars: int = 4,
-        num_cars: int = 0,
-        max_cycles: int = 400,
-        layout: str = "four_way",
-        lanes: int = 1,
-        lights: bool = True,
-        num_pedestrians: int = 2,
-        action_level: str = "control",
-        obs_type: str | list[str] = "explicit",
-        waypoints: int = 5,
-        waypoint_spacing: float = 2.0,
-        car_mass: float = 1500.0,
-        planner_period: int = 5,
-        trajectory_planner: str = "bezier",
-        dt: float = 0.1,
-        render_mode: str | None = None,
-        obs_noise: float = 0.0,
-        k_nearest: int = 8,
-        birdseye_size: int = 84,
-        birdseye_fov: float = 40.0,
-        birdseye_frame: str = "ego",
-        pixel_noise: float = 0.0,
-        lidar_rays: int = 64,
-        lidar_range: float = 30.0,
-        lidar_noise: float = 0.0,
-        lidar_dropout: float = 0.0,
-        lidar_version: int = 0,
-        defensive: bool = False,
-        yield_to_pedestrians: bool = False,
-        black_death: bool = False,
-        action_scale: str = "physical",
-        reward_version: int = 0,
-        obs_scale: str = "physical",
-        failure_penalty: float = 1.0,
-        driving_score: bool = False,
-    ) -> None:
+    @MULTI_AGENT.document
+    def __init__(self, *, render_mode: str | None = None, **options: Any) -> None:
+        """Build the env from its options, the fields of `FluidsConfig` that it takes
+        (`config`; each is also an attribute of the env).
+
+        Args:
+            render_mode: `None` (default) or `"rgb_array"` (`FLUIDS-v0`'s global view,
+                the first live agent highlighted).
+        """
+        MULTI_AGENT.check_names(options)
         if render_mode not in (None, *self.metadata["render_modes"]):
             raise ValueError(
                 f"{WHERE}: field 'render_mode' is {render_mode!r}; allowed: "
                 f"{self.metadata['render_modes']} or None"
             )
-        max_cycles = check_int(WHERE, "max_cycles", max_cycles, 1, 10**9)
-        # None means "the single-agent env's ego" to build_scenario, never a user's value here
-        controlled_cars = check_int(WHERE, "controlled_cars", controlled_cars, 1, MAX_CARS)
-        self.defensive = check_bool(WHERE, "defensive", defensive)
-        self.yield_to_pedestrians = check_bool(WHERE, "yield_to_pedestrians", yield_to_pedestrians)
-        self.black_death = check_bool(WHERE, "black_death", black_death)
-        self.action_scale = check_choice(WHERE, "action_scale", action_scale, levels.ACTION_SCALES)
-        self.reward_version = check_int(WHERE, "reward_version", reward_version, 0, 1)
-        self.failure_penalty = check_failure_penalty(WHERE, failure_penalty, self.reward_version)
-        self.report_score = check_bool(WHERE, "driving_score", driving_score)
-        scenario = build_scenario(
-            WHERE,
-            controlled_cars=controlled_cars,
-            num_cars=num_cars,
-            layout=layout,
-            lanes=lanes,
-            lights=lights,
-            num_pedestrians=num_pedestrians,
-            action_level=action_level,
-            obs_type=obs_type,
-            sensor_options={
-                "obs_noise": obs_noise,
-                "k_nearest": k_nearest,
-                "birdseye_size": birdseye_size,
-                "birdseye_fov": birdseye_fov,
-                "birdseye_frame": birdseye_frame,
-                "pixel_noise": pixel_noise,
-                "lidar_rays": lidar_rays,
-                "lidar_range": lidar_range,
-                "lidar_noise": lidar_noise,
-                "lidar_dropout": lidar_dropout,
-                "lidar_version": lidar_version,
-                "obs_scale": obs_scale,
-            },
-            waypoints=waypoints,
-            waypoint_spacing=waypoint_spacing,
-            car_mass=car_mass,
-            planner_period=planner_period,
-            trajectory_planner=trajectory_planner,
-            dt=dt,
-            defensive=self.defensive,
-            yield_to_pedestrians=self.yield_to_pedestrians,
-        )
+        self.config = MULTI_AGENT.config(options)
+        # every option also as an attribute, read by the step code (copies of the config's;
+        # PettingZoo's tests set max_cycles)
+        vars(self).update(MULTI_AGENT.attributes(self.config))
+        self.report_score = self.config.driving_score
+        controlled_cars = self.config.controlled_cars
+        scenario = build_scenario(WHERE, self.config, multi_agent=True)
         self.scene = scenario.scene
         self.supervisor_config = scenario.supervisor
-        self.action_level = action_level
         self.render_mode = render_mode
         self._renderer = None
-        self.max_cycles = max_cycles
         self.world = World(self.scene, scenario.layout)
         self.supervisor = DrivingSupervisor(self.world, self.supervisor_config)
         self.faults = FaultTracker(self.world)

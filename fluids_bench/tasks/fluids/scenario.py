@@ -1,7 +1,7 @@
-"""A FLUIDS scenario, shared by `FLUIDS-v0` and the multi-agent env: the env kwargs checked and
-turned into the scene, supervisor and observation configs and the compiled layout, and the
-per-step rules both envs apply to each controlled car (progress reward, collision penalty,
-termination, success).
+"""A FLUIDS scenario, shared by `FLUIDS-v0` and the multi-agent env: an env's checked options
+(`fluids_bench.tasks.fluids.config.FluidsConfig`) turned into the scene, supervisor and
+observation configs and the compiled layout, and the per-step rules both envs apply to each
+controlled car (progress reward, collision penalty, termination, success).
 
 Argument errors name the user's argument (`car_mass`, `planner_period`, `num_cars`), never
 an internal config field, and are raised at construction, counts included.
@@ -26,21 +26,12 @@ Info fields, one meaning each (both env cards point here):
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Any
 
 import numpy as np
 
-from fluids_bench.core.validation import (
-    check_bool,
-    check_choice,
-    check_float,
-    check_int,
-    fail,
-    finite_float,
-)
+from fluids_bench.tasks.fluids.config import FluidsConfig
 from fluids_bench.tasks.fluids.observations import ObservationConfig
 from fluids_bench.tasks.fluids.sim.config import (
-    LAYOUTS,
     CarConfig,
     PedestrianConfig,
     SceneConfig,
@@ -49,29 +40,14 @@ from fluids_bench.tasks.fluids.sim.layout.compiled import Layout, compile_layout
 from fluids_bench.tasks.fluids.sim.spawn import capacity
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.control import PIDConfig
-from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, SupervisorConfig
+from fluids_bench.tasks.fluids.supervisor.stack import SupervisorConfig
 from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
 
 COLLISION_PENALTY = 1.0  # subtracted from a car's reward in a step where it is in a collision
-# reward_version=1 (the v2 ids): a reward that agrees with is_success
-REWARD_VERSIONS = (0, 1)
 SUCCESS_BONUS = 1.0  # paid on the step that ends an episode (an agent's) with is_success
 VIOLATION_PENALTY = 1.0  # a red light run or a failure to yield, once each, when it happens
-TRAJECTORY_PLANNERS = ("bezier", "ompl")
-DONE_WHEN = ("ego", "all")
 ASSUMED_MASS = CarConfig().mass  # kg: the supervisor's PID assumes the default car's mass
-MAX_CARS = 64  # every car of a scene, controlled ones included
-
-# The cars' true mass, kg. The supervisor's controller assumes 1500 kg (ASSUMED_MASS); outside
-# 1/3x to 10/3x of that its accelerations are off by more than the PID corrects: at 1 kg it
-# oscillates into 26 collisions in 37 steps, at 1e5 kg no car arrives in an episode. The
-# sensitivity sweep's values (750 to 3000 kg) lie inside.
-CAR_MASS_RANGE = (500.0, 5000.0)
-CAR_MASS_ALLOWED = (
-    f"a finite number of kg in [{CAR_MASS_RANGE[0]}, {CAR_MASS_RANGE[1]}] (the supervisor's "
-    "controller assumes 1500 kg; much lighter or heavier cars make it collide or never arrive)"
-)
 
 
 @dataclass(frozen=True)
@@ -85,96 +61,54 @@ class Scenario:
     action_level: str
 
 
-def build_scenario(
-    where: str,
-    *,
-    controlled_cars: int | None,
-    num_cars: Any,
-    layout: Any,
-    lanes: Any,
-    lights: Any,
-    num_pedestrians: Any,
-    action_level: Any,
-    obs_type: Any,
-    sensor_options: dict[str, Any],
-    waypoints: Any,
-    waypoint_spacing: Any,
-    car_mass: Any,
-    planner_period: Any,
-    trajectory_planner: Any,
-    dt: Any,
-    defensive: bool = False,
-    yield_to_pedestrians: bool = False,
-    pedestrian_speed: Any = 1.4,
-    light_cycle_scale: Any = 1.0,
-) -> Scenario:
-    """Check the env's arguments (`where` names the env in errors) and build its scenario.
+def build_scenario(where: str, config: FluidsConfig, *, multi_agent: bool) -> Scenario:
+    """The scenario of a checked `config` (`where` names the env in errors): its layout
+    compiled, and the one check that needs it made (the cars fit the layout's entry slots).
 
-    `controlled_cars=None` is `FLUIDS-v0`: one ego car, not a user argument. numpy scalars
-    are accepted like the Python numbers they hold. `defensive`: the supervised agents treat
-    the controlled cars (agents `0 .. controlled - 1`) as drivers that may brake at their limit
-    at any time (see `SupervisorConfig`).
-    `yield_to_pedestrians`: supervised cars wait before a crosswalk with a pedestrian on it
-    (`domains`)."""
-    check_choice(where, "action_level", action_level, LEVELS)
-    check_choice(where, "layout", layout, LAYOUTS)
-    check_choice(where, "trajectory_planner", trajectory_planner, TRAJECTORY_PLANNERS)
-    lanes = check_int(where, "lanes", lanes, 1, 2)
-    lights = check_bool(where, "lights", lights)
-    controlled = (
-        1
-        if controlled_cars is None
-        else check_int(where, "controlled_cars", controlled_cars, 1, MAX_CARS)
-    )
-    num_cars = check_int(where, "num_cars", num_cars, 0, MAX_CARS - controlled)
-    num_pedestrians = check_int(where, "num_pedestrians", num_pedestrians, 0, 32)
-    dt = check_float(where, "dt", dt, 0.01, 0.5)
-    pedestrian_speed = check_float(where, "pedestrian_speed", pedestrian_speed, 0.1, 5.0)
-    light_cycle_scale = check_float(where, "light_cycle_scale", light_cycle_scale, 0.25, 4.0)
-    lo, hi = CAR_MASS_RANGE
-    mass = finite_float(car_mass)
-    if mass is None or not lo <= mass <= hi:
-        fail(where, "car_mass", car_mass, CAR_MASS_ALLOWED)
-    car_mass = mass
-    planner_period = check_int(where, "planner_period", planner_period, 1, 50)
-    waypoints = check_int(where, "waypoints", waypoints, 1, 50)
-    waypoint_spacing = check_float(where, "waypoint_spacing", waypoint_spacing, 0.5, 20.0)
-    observation = ObservationConfig.from_kwargs(where, obs_type, sensor_options)
-
-    car = CarConfig(mass=car_mass)
+    `multi_agent=False` is `FluidsEnv`: one ego car (`controlled_cars` is 1, not a user
+    argument). With `defensive`, the supervised agents treat the controlled cars (agents
+    `0 .. controlled - 1`) as drivers that may brake at their limit at any time (see
+    `SupervisorConfig`); with `yield_to_pedestrians`, supervised cars wait before a
+    crosswalk with a pedestrian on it (`domains`)."""
+    c = config
+    controlled = c.controlled_cars
+    car = CarConfig(mass=c.car_mass)
     probe_scene = SceneConfig(
-        layout=layout, lanes=lanes, lights=lights, num_cars=1, num_pedestrians=0, dt=dt, car=car
-    )
+        layout=c.layout, lanes=c.lanes, lights=c.lights, num_cars=1, num_pedestrians=0, dt=c.dt,
+        car=car,
+    )  # fmt: skip
     spec = probe_scene.layout_spec()
-    compiled = ompl_layout(spec, car) if trajectory_planner == "ompl" else compile_layout(spec)
+    compiled = ompl_layout(spec, car) if c.trajectory_planner == "ompl" else compile_layout(spec)
     max_cars, max_peds = capacity(World(probe_scene, compiled))
-    _check_capacity(where, controlled_cars, num_cars, max_cars, layout, lanes)
-    if num_pedestrians > max_peds:
+    _check_capacity(
+        where, controlled if multi_agent else None, c.num_cars, max_cars, c.layout, c.lanes
+    )
+    if c.num_pedestrians > max_peds:
         raise ValueError(
-            f"{where}: field 'num_pedestrians' is {num_pedestrians}; the {layout!r} layout "
+            f"{where}: field 'num_pedestrians' is {c.num_pedestrians}; the {c.layout!r} layout "
             f"holds at most {max_peds}"
         )
     scene = SceneConfig(
-        layout=layout,
-        lanes=lanes,
-        lights=lights,
-        num_cars=controlled + num_cars,
-        num_pedestrians=num_pedestrians,
-        dt=dt,
+        layout=c.layout,
+        lanes=c.lanes,
+        lights=c.lights,
+        num_cars=controlled + c.num_cars,
+        num_pedestrians=c.num_pedestrians,
+        dt=c.dt,
         car=car,
-        pedestrian=PedestrianConfig(max_speed=pedestrian_speed),
-        light_cycle_scale=light_cycle_scale,
+        pedestrian=PedestrianConfig(max_speed=c.pedestrian_speed),
+        light_cycle_scale=c.light_cycle_scale,
     )
     supervisor = SupervisorConfig(
         velocity=VelocityPlannerConfig(
-            period=planner_period, yield_to_pedestrians=yield_to_pedestrians
+            period=c.planner_period, yield_to_pedestrians=c.yield_to_pedestrians
         ),
         pid=PIDConfig(assumed_mass=ASSUMED_MASS),
-        waypoints=waypoints,
-        waypoint_spacing=waypoint_spacing,
-        uncontrolled=tuple(range(controlled)) if defensive else (),
+        waypoints=c.waypoints,
+        waypoint_spacing=c.waypoint_spacing,
+        uncontrolled=tuple(range(controlled)) if c.defensive else (),
     )
-    return Scenario(scene, supervisor, observation, compiled, action_level)
+    return Scenario(scene, supervisor, c.observation(), compiled, c.action_level)
 
 
 def _check_capacity(
@@ -208,16 +142,6 @@ def step_reward(gained: float, route_length: float, collided: bool) -> float:
     """Progress reward: the metres gained this step over the route's length from the start (an
     episode that reaches the goal earns 1 in total), minus the collision penalty."""
     return gained / route_length - (COLLISION_PENALTY if collided else 0.0)
-
-
-def check_failure_penalty(where: str, value: Any, reward_version: int) -> float:
-    """`failure_penalty`: a finite weight in [0, 100] of reward version 1's failure terms
-    (collision, red light, failure to yield); with reward version 0 only its default, 1."""
-    penalty = check_float(where, "failure_penalty", value, 0.0, 100.0)
-    if reward_version == 0 and penalty != 1.0:
-        fail(where, "failure_penalty", value, "1.0 with reward_version=0 (it weights reward "
-             "version 1's failure terms); pass reward_version=1 to change it")  # fmt: skip
-    return penalty
 
 
 def step_reward_v1(

@@ -119,19 +119,9 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
 
     ## Arguments
 
-    | Parameter         | Type        | Default  | Description                                     |
-    |-------------------|-------------|----------|-------------------------------------------------|
-    | `obs_type`        | str or list | "state"  | "state", "pixels", or a list of them (Dict)     |
-    | `obs_size`        | int         | 96       | side of the pixel observation, in [16, 512]     |
-    | `target_std_frac` | float       | 0.03     | target offset std as a fraction of the table width, [0, 0.2] |
-    | `foresight`       | int         | 7        | corridors the supervisor simulates per plan, [1, 7] |
-    | `layout_seed`     | int or None | None     | fixed obstacle layout (see Starting State), >= 0 |
-    | `render_size`     | int         | 480      | side of `render()` frames, in [64, 2048]        |
-    | `obstacle_size_scale` | float   | 1.0      | obstacle box sides, drawn in [4.0, 5.5] cm, × this, [0.5, 1.25] (the target stays 4.5 cm; larger ones do not fit around it)  |
-    | `friction`        | float       | 0.5      | friction coefficient of the boxes and the arm, [0, 2] |
-    | `obstacles`       | int         | 5        | obstacles on the table, [0, 5]: the scene is drawn as with five and the last ones are left out, lying off the table at (0, -0.5) m (as a knocked-off box lies where it left); never counted as knocked off |
-    | `render_mode`     | str         | None     | None or "rgb_array"                             |
-    | `action_scale`    | str         | "physical" | "physical" or "normalized" (see Action Space) |
+    The keyword arguments of `__init__`, each described in its `Args:`. Numbers may be Python
+    or numpy scalars; a bad value raises `ValueError` naming it and what is allowed, an
+    unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ```python
     >>> import gymnasium as gym, fluids_bench
@@ -168,6 +158,27 @@ class GraspingInClutterEnv(SnapshotMixin, gym.Env):
         render_mode: str | None = None,
         action_scale: str = "physical",
     ) -> None:
+        """Build the grasping task (the obstacles are drawn at each reset unless
+        `layout_seed` fixes them).
+
+        Args:
+            obs_type: `"state"`, `"pixels"`, or a list of them (a `Dict` space).
+            obs_size: Side of the pixel observation, in pixels.
+            target_std_frac: Standard deviation of the target's offset, as a fraction of the
+                table's width.
+            foresight: Corridors the supervisor simulates per plan.
+            layout_seed: A fixed obstacle layout (see Starting State); `None`: a new one at
+                each reset.
+            render_size: Side of `render()` frames, in pixels.
+            obstacle_size_scale: The obstacles' box sides, drawn in [4.0, 5.5] cm, × this
+                (the target stays 4.5 cm; larger ones do not fit around it).
+            friction: Friction coefficient of the boxes and the arm.
+            obstacles: Obstacles on the table: the scene is drawn as with five and the last
+                ones are left out, lying off the table at (0, -0.5) m (as a knocked-off box
+                lies where it left); never counted as knocked off.
+            render_mode: `None` or `"rgb_array"`.
+            action_scale: `"physical"` or `"normalized"` (see Action Space).
+        """
         types = [obs_type] if isinstance(obs_type, str) else obs_type
         if not isinstance(types, list | tuple) or not types or len(set(types)) != len(types):
             fail(WHERE, "obs_type", obs_type, f"one of {list(OBS_TYPES)} or a list of them")

@@ -89,19 +89,9 @@ class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
 
     ## Arguments
 
-    | Parameter          | Type  | Default | Description                                            |
-    |--------------------|-------|---------|--------------------------------------------------------|
-    | `size`             | int   | 15      | side of the square grid, in [2, 100]                   |
-    | `penalty_fraction` | float | 0.08    | share of cells that are penalties, in [0, 0.5]         |
-    | `slip_probability` | float | 0.16    | chance a move is replaced by another, in [0, 1]        |
-    | `goal_reward`      | float | 10.0    | reward per step on the goal, > 0                       |
-    | `penalty_reward`   | float | -10.0   | reward per step on a penalty cell, <= 0                |
-    | `discount`         | float | 0.95    | discount of the supervisor's value iteration, in (0, 1) |
-    | `world_seed`       | int   | 0       | seed of the world's layout, >= 0                       |
-    | `render_mode`      | str   | None    | None or "rgb_array"                                    |
-
-    Numbers may be Python or numpy scalars; a bad value raises `ValueError` naming it and what
-    is allowed, an unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
+    The keyword arguments of `__init__`, each described in its `Args:`. Numbers may be Python
+    or numpy scalars; a bad value raises `ValueError` naming it and what is allowed, an
+    unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ```python
     >>> import gymnasium as gym, fluids_bench
@@ -132,6 +122,18 @@ class GridWorldEnv(SnapshotMixin, gym.Env[np.ndarray, np.int64]):
         world_seed: int = 0,
         render_mode: str | None = None,
     ) -> None:
+        """Build the gridworld (its cells are drawn from `world_seed`).
+
+        Args:
+            size: Side of the square grid, in cells.
+            penalty_fraction: Share of the cells that are penalty cells.
+            slip_probability: Chance that a move is replaced by another one.
+            goal_reward: Reward per step on the goal.
+            penalty_reward: Reward per step on a penalty cell.
+            discount: Discount of the supervisor's value iteration.
+            world_seed: Seed of the world's layout (goal and penalty cells).
+            render_mode: `None` or `"rgb_array"`.
+        """
         self.size = check_int(WHERE, "size", size, 2, 100)
         self.penalty_fraction = check_float(WHERE, "penalty_fraction", penalty_fraction, 0.0, 0.5)
         self.slip_probability = check_float(WHERE, "slip_probability", slip_probability, 0.0, 1.0)

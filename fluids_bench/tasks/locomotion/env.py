@@ -142,6 +142,29 @@ class LocomotionILEnv(SnapshotMixin, gym.Env[np.ndarray, np.ndarray]):
         obs_noise: float = 0.0,
         action_noise: float = 0.0,
     ) -> None:
+        """Build Gymnasium's env with its supervisor.
+
+        Args:
+            supervisor: Who labels: `"policy"`, `"mpc"` or `"guided_mpc"` (default: the
+                task's measured best; see Supervisor).
+            weights: Another weight file for the policy supervisor.
+            weights_sha256: The SHA-256 of `weights`, checked at load.
+            mpc: Overrides of the planner's settings (`samples`, `horizon`, `iterations`,
+                `sigma`, `upright_weight`, `velocity_cap`, `termination_penalty`, `seed`,
+                `nthread`).
+            render_mode: `None` or `"rgb_array"`.
+            width: Width of `render()` frames, in pixels.
+            height: Height of `render()` frames, in pixels.
+            body_mass_scale: A perturbation: every body's mass and inertia × this (default 1).
+            friction_scale: A perturbation: every geom's sliding friction × this (default 1).
+            actuator_gain_scale: A perturbation: every actuator's gear × this (default 1).
+            gravity: A perturbation: gravity in m/s², downward (default 9.81).
+            obs_noise: N(0, σ²) added to each observation element the learner sees (default
+                0); the supervisor labels from the noiseless state; drawn from the env's
+                `np_random`.
+            action_noise: N(0, σ²) added to each action before it is applied, clipped to the
+                action space (default 0); drawn from the env's `np_random`.
+        """
         where = self._where = f"{self.task}-IL-v0"
         physics = {
             "body_mass_scale": check_float(where, "body_mass_scale", body_mass_scale, 0.1, 10.0),
@@ -351,22 +374,12 @@ _CARD_COMMON = """
 
     ## Arguments
 
-    - `supervisor`: `"policy"`, `"mpc"` or `"guided_mpc"` (default: the task's measured best).
-    - `weights`, `weights_sha256`: another weight file for the policy supervisor, and its hash.
-    - `mpc`: overrides of the planner settings (`samples`, `horizon`, `iterations`, `sigma`,
-      `upright_weight`, `velocity_cap`, `termination_penalty`, `seed`, `nthread`).
-    - `render_mode`: `None` or `"rgb_array"`; `width`, `height`: frame size in pixels.
-    - Perturbations (a sensitivity sweep's factors; the defaults leave Gymnasium's env as it
-      is, bit for bit), applied to the compiled model before the supervisor is built (a
-      planner plans on the perturbed model; the shipped policy was trained on the nominal one):
-      `body_mass_scale` (every body's mass and inertia × it, [0.1, 10], default 1),
-      `friction_scale` (every geom's sliding friction × it, [0, 10], default 1),
-      `actuator_gain_scale` (every actuator's gear × it, [0, 10], default 1), `gravity`
-      (m/s² downward, [0, 100], default 9.81), `obs_noise` (N(0, σ²) added to each
-      observation element the learner sees, [0, 10], default 0; the supervisor labels from the
-      noiseless state) and `action_noise` (N(0, σ²) added to each action before it is
-      applied, clipped to the action space, [0, 10], default 0); noise is drawn from the env's
-      `np_random`.
+    The keyword arguments of `__init__`, each described in its `Args:`. The perturbations
+    (a sensitivity sweep's factors) leave Gymnasium's env as it is, bit for bit, at their
+    defaults, and are applied to the compiled model before the supervisor is built (a planner
+    plans on the perturbed model; the shipped policy was trained on the nominal one). Numbers
+    may be Python or numpy scalars; a bad value raises `ValueError` naming it and what is
+    allowed, an unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ## Version History
 

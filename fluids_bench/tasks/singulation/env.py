@@ -156,17 +156,9 @@ class SingulationEnv(SnapshotMixin, gym.Env):
 
     ## Arguments
 
-    | Parameter              | Type        | Default   | Description                                        |
-    |------------------------|-------------|-----------|----------------------------------------------------|
-    | `obs_type`             | str or list | "state"   | "state", "pixels", or a list of them (a Dict)      |
-    | `obs_size`             | int         | 96        | side of the pixel observation, [16, 512]           |
-    | `cluster_std`          | float       | 0.0447    | cluster translation std (m); ch. 5's "variance of 20 cm" read as 20 cm², [0, 0.2] |
-    | `cluster_rotation_deg` | float       | 15        | cluster rotation half-range (deg), [0, 180]        |
-    | `terminate_on_success` | bool        | True      | end the episode when singulated                    |
-    | `mass_ratio`           | float       | 1.0       | heaviest object's mass over the lightest's, [1, 100]: object i's density × ratio^(i/3 − 1/2) (one common scale would change nothing: no gravity, no table friction); the supervisor's foresight simulates the same world |
-    | `friction_scale`       | float       | 1.0       | objects' and fingertip's friction (0.5) × this, [0, 4] |
-    | `object_size_scale`    | float       | 1.0       | every object's lengths × this, [0.5, 1.5] (density kept); the singulation distance (10 cm) scales with it, so packed clusters never start singulated |
-    | `render_mode`          | str         | None      | None or "rgb_array" (400×400)                      |
+    The keyword arguments of `__init__`, each described in its `Args:`. Numbers may be Python
+    or numpy scalars; a bad value raises `ValueError` naming it and what is allowed, an
+    unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ## Version History
 
@@ -193,6 +185,24 @@ class SingulationEnv(SnapshotMixin, gym.Env):
         object_size_scale: float = 1.0,
         render_mode: str | None = None,
     ) -> None:
+        """Build the singulation task (the objects' cluster is drawn at each reset).
+
+        Args:
+            obs_type: `"state"`, `"pixels"`, or a list of them (a `Dict` space).
+            obs_size: Side of the pixel observation, in pixels.
+            cluster_std: Standard deviation of the cluster's translation (m); ch. 5's
+                "variance of 20 cm" read as 20 cm².
+            cluster_rotation_deg: Half-range of the cluster's rotation (degrees).
+            terminate_on_success: End the episode when an object is singulated.
+            mass_ratio: The heaviest object's mass over the lightest's: object i's density ×
+                ratio^(i/3 − 1/2) (one common scale would change nothing: no gravity, no table
+                friction); the supervisor's foresight simulates the same world.
+            friction_scale: The objects' and the fingertip's friction (0.5) × this.
+            object_size_scale: Every object's lengths × this (density kept); the
+                singulation distance (10 cm) scales with it, so packed clusters never start
+                singulated.
+            render_mode: `None` or `"rgb_array"` (400×400).
+        """
         kinds = [obs_type] if isinstance(obs_type, str) else obs_type
         if not isinstance(kinds, list | tuple) or not kinds or len(set(kinds)) != len(kinds):
             fail(WHERE, "obs_type", obs_type, f"one of {list(OBS_TYPES)} or a list of them")

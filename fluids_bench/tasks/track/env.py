@@ -124,20 +124,9 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
 
     ## Arguments
 
-    | Parameter         | Type             | Default | Description                                     |
-    |-------------------|------------------|---------|-------------------------------------------------|
-    | `obs_type`        | str or list[str] | "hog"   | "hog", "pixels", "state", or a list of them     |
-    | `depth`           | int              | 8       | supervisor's look-ahead in steps, in [1, 12]    |
-    | `track_seed`      | int or None      | None    | fixes the track (>= 0); None: a new one a reset |
-    | `laps`            | int              | 2       | laps per episode, in [1, 100]                   |
-    | `half_width`      | float            | 15.0    | half-width of the road (units), in (0, 125]     |
-    | `speed`           | float            | 10.0    | distance per step (units), in (0, 125]          |
-    | `reset_ahead`     | float            | 10.0    | where a crashed car is put back, in [0, 500]    |
-    | `crash_penalty`   | float            | 1.0     | reward lost per crash, >= 0                     |
-    | `progress_reward` | float            | 0.0     | reward per lap of progress, >= 0                |
-    | `edges`           | int or None      | None    | every track has exactly this many edges, [3, 9]; None: 5 to 7 |
-    | `obs_noise`       | float            | 0.0     | camera noise: N(0, σ²) added to each observation element (pixels: σ × 255), clipped to the bounds, [0, 1] |
-    | `render_mode`     | str              | None    | None or "rgb_array" (500×500)                   |
+    The keyword arguments of `__init__`, each described in its `Args:`. Numbers may be Python
+    or numpy scalars; a bad value raises `ValueError` naming it and what is allowed, an
+    unknown argument `TypeError` (also a `ValueError`) listing the allowed ones.
 
     ```python
     >>> import gymnasium as gym, fluids_bench
@@ -177,6 +166,23 @@ class DrivingTrackEnv(SnapshotMixin, gym.Env[Any, np.int64]):
         obs_noise: float = 0.0,
         render_mode: str | None = None,
     ) -> None:
+        """Build the driving track task.
+
+        Args:
+            obs_type: `"hog"`, `"pixels"`, `"state"`, or a list of them (a `Dict` space).
+            depth: The supervisor's look-ahead, in steps.
+            track_seed: Fixes the track; `None`: a new one at each reset.
+            laps: Laps per episode.
+            half_width: Half-width of the road (track units).
+            speed: Distance per step (track units).
+            reset_ahead: How far ahead a crashed car is put back (track units).
+            crash_penalty: Reward lost per crash.
+            progress_reward: Reward per lap of progress.
+            edges: Every track has exactly this many edges; `None`: 5 to 7.
+            obs_noise: Camera noise: N(0, σ²) added to each observation element (pixels:
+                σ × 255), clipped to the bounds.
+            render_mode: `None` or `"rgb_array"` (500×500).
+        """
         allowed_kinds = f"one of {list(OBS_TYPES)} or a list of them"
         if not isinstance(obs_type, str | list | tuple):
             fail(WHERE, "obs_type", obs_type, allowed_kinds)

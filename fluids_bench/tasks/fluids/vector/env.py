@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import inspect
 from enum import Enum
 from typing import Any
 
@@ -28,6 +27,7 @@ from fluids_bench.core.snapshot import WrappedSnapshot
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unknown_arguments
 from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.config import SINGLE_AGENT
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
@@ -38,7 +38,8 @@ from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
 from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
 
 WHERE = "FluidsVectorEnv"
-# the vector env's own arguments; every other one goes to each world's FluidsEnv
+# the vector env's own arguments; every other one is an option (FluidsConfig) of each world's
+# FluidsEnv
 OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
 # the vector entry point's, for worker processes (vector/workers.py)
 WORKER_ARGUMENTS = ("num_workers", "context", "worker_timeout")
@@ -47,11 +48,6 @@ EPISODE = ("_progress", "_done")
 # the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
 # so that core.snapshot.restore can put it into a gym.make env, and back)
 MAKE_WRAPPERS = ("TimeLimit", "OrderEnforcing", "PassiveEnvChecker")
-
-
-def _scalar_arguments() -> list[str]:
-    params = inspect.signature(FluidsEnv.__init__).parameters.values()
-    return [p.name for p in params if p.name != "self" and p.kind == p.POSITIONAL_OR_KEYWORD]
 
 
 def world_seeds(seed: Any, n: int) -> list[int | None]:
@@ -105,7 +101,7 @@ class FluidsVectorEnv(VectorEnv):
 
     Build it with `gym.make_vec("FLUIDS-v1", num_envs=B, vectorization_mode="vector_entry_point",
     **kwargs)` (every single-agent FLUIDS id registers it); `kwargs` are the scalar env's
-    (`FluidsEnv`), checked by it with its errors.
+    options (`FluidsConfig`), checked with its errors; `config` is every world's.
 
     **What it returns.** Batched spaces (`single_action_space` and `single_observation_space`
     are the scalar env's); observations `(B, ...)`, rewards, `terminated` and `truncated`
@@ -203,15 +199,16 @@ class FluidsVectorEnv(VectorEnv):
                 f"None or {self.metadata['render_modes']} (to watch one world in a window, "
                 'use gym.make(..., render_mode="human"))',
             )
-        allowed = _scalar_arguments()
-        unknown = sorted(set(kwargs) - set(allowed))
+        options = SINGLE_AGENT.options  # every world's FluidsConfig
+        unknown = sorted(set(kwargs) - set(options))
         if unknown:
-            raise unknown_arguments(WHERE, unknown, [*allowed, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])
+            raise unknown_arguments(WHERE, unknown, [*options, *OWN_ARGUMENTS, *WORKER_ARGUMENTS])
         self.render_mode = render_mode
         self.metadata = {**self.metadata, "autoreset_mode": self.autoreset_mode}
         # the first world checks the kwargs (the scalar env's errors); the compiled layout is
         # cached per spec, so every world shares the first one's
         self.envs = [FluidsEnv(render_mode=render_mode, **kwargs) for _ in range(self.num_envs)]
+        self.config = self.envs[0].config  # every world's (FluidsConfig)
         self.single_action_space = self.envs[0].action_space
         self.action_space = batch_space(self.single_action_space, self.num_envs)
         space = self.single_action_space
@@ -300,8 +297,8 @@ class FluidsVectorEnv(VectorEnv):
         infos: dict[int, dict] = {}  # the worlds' own keys
         for i in terminated.nonzero()[0].tolist():
             infos[i] = {"is_success": bool(success[i])}
-        if self.envs[0].report_score:  # the driving score of the episodes that end here
-            due = terminated | truncated | (self._elapsed == self.envs[0].time_limit)
+        if self.config.driving_score:  # the driving score of the episodes that end here
+            due = terminated | truncated | (self._elapsed == self.config.time_limit)
             self._episode_scores(stepping & due, terminated, events, infos)
         batched_infos = mode is not AutoresetMode.SAME_STEP  # (final_info: world by world)
         if not batched_infos:  # each world's whole info, as FluidsEnv._report gives it
@@ -354,9 +351,9 @@ class FluidsVectorEnv(VectorEnv):
 
     def _violations(self, faults: FaultBatch) -> np.ndarray:
         """`FluidsEnv._violations` of every world, from the fault trackers' rows."""
-        env = self.envs[0]
-        return int(env.obey_lights) * faults["ran_red"][:, 0].astype(np.int64) + int(
-            env.yield_to_pedestrians
+        config = self.config
+        return int(config.obey_lights) * faults["ran_red"][:, 0].astype(np.int64) + int(
+            config.yield_to_pedestrians
         ) * faults["failed_to_yield"][:, 0].astype(np.int64)
 
     def _act_all(self, actions, stepping, worlds, supervisors) -> None:

@@ -250,6 +250,7 @@ class FluidsWorkerVectorEnv(VectorEnv):
             self.close()
             raise
         first = self._pipes[0].env
+        self.config = first.config  # every world's options (FluidsConfig)
         first = (first.single_action_space, first.single_observation_space, first.metadata)
         self.single_action_space, self.single_observation_space, metadata = first
         self.metadata = dict(metadata)
