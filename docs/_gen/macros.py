@@ -15,6 +15,7 @@ sys.path.insert(0, str(Path(__file__).resolve().parent))
 import benchmark_pages  # noqa: E402
 import reference  # noqa: E402
 import results  # noqa: E402
+import summary  # noqa: E402
 
 
 def define_env(env) -> None:
@@ -26,6 +27,7 @@ def define_env(env) -> None:
     env.macro(reference.registry_table)
     env.macro(reference.id_guide)
     env.macro(reference.cli_reference)
+    env.macro(summary.task_summary)
     env.macro(results.table)
     env.macro(benchmark_pages.benchmark_definition)
     env.macro(benchmark_pages.seed_splits)
