@@ -16,6 +16,7 @@ import architecture  # noqa: E402
 import benchmark_pages  # noqa: E402
 import reference  # noqa: E402
 import results  # noqa: E402
+import summary  # noqa: E402
 
 
 def define_env(env) -> None:
@@ -27,6 +28,7 @@ def define_env(env) -> None:
     env.macro(reference.registry_table)
     env.macro(reference.id_guide)
     env.macro(reference.cli_reference)
+    env.macro(summary.task_summary)
     env.macro(results.table)
     env.macro(architecture.architecture)
     env.macro(benchmark_pages.benchmark_definition)

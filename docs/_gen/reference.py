@@ -50,7 +50,7 @@ class Family:
     slug: str
     title: str
     modules: tuple[str, ...]  # every Gymnasium / PettingZoo id whose entry point lives here
-    image: str = ""
+    image: str = ""  # one frame of the env, written by scripts/figures/make_task_gifs.py
     blurb: str = ""
     extra: dict = field(default_factory=dict)
 
@@ -76,56 +76,56 @@ FAMILIES: tuple[Family, ...] = (
         "fluids",
         "FLUIDS",
         (_TASKS + "fluids.env",),
-        image="images/demo_frame.png",
+        image="images/thumb_fluids.png",
         blurb="an urban intersection: kinematic cars, pedestrians, lights; four-level supervisor",
     ),
     Family(
         "fluids-multi-agent",
         "FLUIDS multi-agent",
         (_TASKS + "fluids.multi_agent",),
-        image="images/demo_frame.png",
+        image="images/thumb_fluids-multi-agent.png",
         blurb="PettingZoo ParallelEnv: every controlled car is an agent with its own label",
     ),
     Family(
         "gridworld",
         "GridWorld",
         (_TASKS + "gridworld.env",),
-        image="images/task_gridworld.png",
+        image="images/thumb_gridworld.png",
         blurb="ch. 3: a 15×15 stochastic gridworld with an exact value-iteration supervisor",
     ),
     Family(
         "dag",
         "DAG",
         (_TASKS + "dag.env",),
-        image="images/task_dag.png",
+        image="images/thumb_dag.png",
         blurb="ch. 4: the three-level decision DAG of Theorem 1 and its greedy supervisor",
     ),
     Family(
         "singulation",
         "Singulation",
         (_TASKS + "singulation.env",),
-        image="images/singulation_supervisor.png",
+        image="images/thumb_singulation.png",
         blurb="ch. 5: a planar arm separates one of four touching objects (pymunk)",
     ),
     Family(
         "grasping",
         "Grasping in clutter",
         (_TASKS + "grasping.env",),
-        image="images/grasping_supervisor.png",
+        image="images/thumb_grasping.png",
         blurb="ch. 6: a 3-joint arm grasps a target among five obstacles (pymunk)",
     ),
     Family(
         "track",
         "DrivingTrack",
         (_TASKS + "track.env",),
-        image="images/track_laps.png",
+        image="images/thumb_track.png",
         blurb="ch. 6: a car on a random polygonal track, seen through HOG features",
     ),
     Family(
         "locomotion",
         "MuJoCo locomotion",
         (_TASKS + "locomotion.env",),
-        image="images/locomotion_hopper.png",
+        image="images/thumb_locomotion.png",
         blurb="ch. 3: Gymnasium's MuJoCo v5 envs, unchanged, with shipped supervisors",
     ),
 )
@@ -395,7 +395,9 @@ def _tasks_table(picture, link_root: str) -> str:
 def gallery(root: str = "") -> str:
     """The families side by side on a docs page. `root`: the docs root relative to the calling
     page ("" top level, "../" one folder down)."""
-    return _tasks_table(lambda f: f"![{f.title}]({root}{f.image}){{ width=160 }}", f"{root}tasks/")
+    return _tasks_table(
+        lambda f: f"![{f.title}]({root}{f.image}){{ .thumb width=160 }}", f"{root}tasks/"
+    )
 
 
 def readme_tasks_table() -> str:

@@ -242,6 +242,9 @@ WIDE_PAGES = [
     "tasks/fluids-rl/index.html",
     "tasks/fluids-v1/index.html",
     "tasks/locomotion/index.html",
+    "tasks/details/fluids-rl-experiments/index.html",
+    "tasks/details/fluids-v1-measurements/index.html",
+    "tasks/details/locomotion-training/index.html",
     "benchmarks/index.html",
     "cli/index.html",
 ]
