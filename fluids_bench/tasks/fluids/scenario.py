@@ -1,7 +1,7 @@
 """A FLUIDS scenario, shared by `FLUIDS-v0` and the multi-agent env: the env kwargs checked and
-turned into the scene, supervisor and observation configs and the compiled layout, and the
-per-step rules both envs apply to each controlled car (progress reward, collision penalty,
-termination, success).
+turned into the scene, supervisor and observation configs and the compiled layout. The
+per-step rules every face applies (progress reward, collision penalty, termination, success)
+are in `fluids_bench.tasks.fluids.core.rules`.
 
 Argument errors name the user's argument (`car_mass`, `planner_period`, `num_cars`), never
 an internal config field, and are raised at construction, counts included.
@@ -28,8 +28,6 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
-
 from fluids_bench.core.validation import (
     check_bool,
     check_choice,
@@ -38,6 +36,7 @@ from fluids_bench.core.validation import (
     fail,
     finite_float,
 )
+from fluids_bench.tasks.fluids.core.rules import REWARD_VERSIONS  # noqa: F401 (the envs check it)
 from fluids_bench.tasks.fluids.observations import ObservationConfig
 from fluids_bench.tasks.fluids.sim.config import (
     LAYOUTS,
@@ -53,11 +52,6 @@ from fluids_bench.tasks.fluids.supervisor.stack import LEVELS, SupervisorConfig
 from fluids_bench.tasks.fluids.supervisor.trajectory import ompl_layout
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlannerConfig
 
-COLLISION_PENALTY = 1.0  # subtracted from a car's reward in a step where it is in a collision
-# reward_version=1 (the v2 ids): a reward that agrees with is_success
-REWARD_VERSIONS = (0, 1)
-SUCCESS_BONUS = 1.0  # paid on the step that ends an episode (an agent's) with is_success
-VIOLATION_PENALTY = 1.0  # a red light run or a failure to yield, once each, when it happens
 TRAJECTORY_PLANNERS = ("bezier", "ompl")
 DONE_WHEN = ("ego", "all")
 ASSUMED_MASS = CarConfig().mass  # kg: the supervisor's PID assumes the default car's mass
@@ -196,20 +190,7 @@ def _check_capacity(
         )
 
 
-# ---------------------------------------------------------------------- per-step rules
-def progress(world: World, agent: int) -> float:
-    """Metres of its route `agent` has covered (past the end once it arrived)."""
-    if world.reached[agent]:
-        return float(world.path_len[agent]) + float(world.offset[agent])
-    return float(world.s[agent] + world.offset[agent])  # route_s[agent], without the array
-
-
-def step_reward(gained: float, route_length: float, collided: bool) -> float:
-    """Progress reward: the metres gained this step over the route's length from the start (an
-    episode that reaches the goal earns 1 in total), minus the collision penalty."""
-    return gained / route_length - (COLLISION_PENALTY if collided else 0.0)
-
-
+# ---------------------------------------------------------------------- argument checks
 def check_failure_penalty(where: str, value: Any, reward_version: int) -> float:
     """`failure_penalty`: a finite weight in [0, 100] of reward version 1's failure terms
     (collision, red light, failure to yield); with reward version 0 only its default, 1."""
@@ -218,33 +199,3 @@ def check_failure_penalty(where: str, value: Any, reward_version: int) -> float:
         fail(where, "failure_penalty", value, "1.0 with reward_version=0 (it weights reward "
              "version 1's failure terms); pass reward_version=1 to change it")  # fmt: skip
     return penalty
-
-
-def step_reward_v1(
-    gained: float,
-    route_length: float,
-    collided: bool,
-    violations: int,
-    succeeded: bool,
-    failure_penalty: float = 1.0,
-) -> float:
-    """`reward_version=1`: the progress reward of `step_reward` (1 in total on
-    arrival), minus `failure_penalty` times `COLLISION_PENALTY` in a step with a collision
-    that fails the episode and times `VIOLATION_PENALTY` for each rule the step broke that
-    fails `is_success` (a red light run, a failure to yield), plus `SUCCESS_BONUS` on the
-    step that ends the episode with `is_success`. A successful episode returns at least 2
-    (1 + the overshoot past the goal, + 1); a failed one at most the progress made (1 plus that
-    overshoot)."""
-    collision = failure_penalty * COLLISION_PENALTY if collided else 0.0
-    return (
-        gained / route_length
-        - collision
-        - failure_penalty * VIOLATION_PENALTY * violations
-        + (SUCCESS_BONUS if succeeded else 0.0)
-    )
-
-
-def is_success(world: World, cars: np.ndarray | list[int] | int) -> bool:
-    """`is_success`: every one of `cars` reached its goal and none was ever in a collision."""
-    idx = np.atleast_1d(np.asarray(cars))
-    return bool(world.reached[idx].all() and not world.collided[idx].any())
