@@ -19,7 +19,7 @@ from fluids_bench.core.validation import (
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.core import rules
-from fluids_bench.tasks.fluids.core.rules import Judged, Rules
+from fluids_bench.tasks.fluids.core.rules import Judged
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
     DONE_WHEN,
@@ -483,35 +483,37 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self.faults.update()
         return self._judge_recorded(events, self._violations() - broken)
 
-    def _judge_recorded(self, events, broken: np.ndarray) -> Judged:
+    def _judge_recorded(self, events, broken) -> Judged:
         """`_judge` once the fault tracker recorded the step (alone, or in a
         `FaultBatch`); `broken`: the rules the
         ego broke in it (`_violations` after the record less before). The rules'
-        `judge_worlds` on this env's world as a batch of one."""
+        `judge_worlds` on this env's world as one row."""
         w = self.world
-        return rules.judge_worlds(
-            Rules.of(self), _ONE, _rows(w), w.is_car, (events,), _ONE if events else _NONE,
-            broken, self._progress[None], self._done[None],
+        judged, self._last_s = rules.judge_worlds(
+            self, w.reached, w.is_car, rules.involved(events, 0),
+            bool(events), broken, self._last_s, (w.s, w.offset, w.path_len),
         )  # fmt: skip
+        self._ended = judged.terminated
+        return judged
 
     def _report(self, events, judged: Judged) -> tuple[float, bool, dict]:
         """The step's reward, termination and info, once the supervisor proposed (a batch
         computes the reward and `is_success` of all its worlds at once with the same
         rules)."""
-        w, terminated, rule = self.world, self._ended, Rules.of(self)
+        w, terminated = self.world, self._ended
         info = self._info(events)
         faults = self.faults
-        arrived, clean = rules.subjects(rule, w.reached[None], w.collided[None], w.is_car)
+        arrived, clean = rules.subjects(self, w.reached, w.collided, w.is_car)
         success = rules.succeeded(
-            rule, arrived, clean, faults.ran_red[:1], faults.failed_to_yield[:1]
+            self, arrived, clean, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0])
         )
         if terminated:
-            info["is_success"] = bool(success[0])
+            info["is_success"] = bool(success)
         info.update(self._episode_score(events, terminated))
-        reward = rules.step_rewards(rule, judged, success, self._progress[1:])
+        reward = rules.step_rewards(self, judged, success, self._route_length)
         if self.render_mode == "human":
             self.render()
-        return float(reward[0]), terminated, info
+        return float(reward), terminated, info
 
     def _episode_score(self, events, terminated: bool) -> dict[str, Any]:
         """With `driving_score`, the driving score's info entries
@@ -572,11 +574,11 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     def _observe(self) -> np.ndarray:
         return self.observer.observe(self.world, self.np_random)
 
-    def _violations(self) -> np.ndarray:
+    def _violations(self) -> int:
         """How many of the rules that fail `is_success` the ego has broken so far (a red
-        light with `obey_lights`, yielding with `yield_to_pedestrians`), as one row."""
+        light with `obey_lights`, yielding with `yield_to_pedestrians`)."""
         faults = self.faults
-        return rules.violations(Rules.of(self), faults.ran_red[:1], faults.failed_to_yield[:1])
+        return rules.violations(self, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0]))
 
     def _info(self, events) -> dict[str, Any]:
         w = self.world
@@ -589,14 +591,3 @@ class FluidsEnv(SnapshotMixin, gym.Env):
             "ego_ran_red_light": bool(self.faults.ran_red[0]),
             "ego_failed_to_yield": bool(self.faults.failed_to_yield[0]),
         }
-
-
-_ONE = np.ones(1, dtype=np.bool_)  # a batch of one world that steps (read only)
-_NONE = np.zeros(1, dtype=np.bool_)
-_ONE.flags.writeable = _NONE.flags.writeable = False
-_ROWS = ("reached", "collided", "s", "offset", "path_len")  # what rules.judge_worlds reads
-
-
-def _rows(world: World) -> dict[str, np.ndarray]:
-    """`world`'s arrays that the rules read, as the rows of a batch of one (views)."""
-    return {name: getattr(world, name)[None] for name in _ROWS}

@@ -509,7 +509,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         s_now = rules.route_progress(reached, w.path_len[rows], w.s[rows], w.offset[rows])
         ego_hit = np.array([bool(hit[i]) for i in live], dtype=np.bool_)
         judged = rules.judge(
-            rule, reached, ego_hit, ego_hit, s_now, self._last_s[rows], np.zeros(len(live))
+            rule, reached, ego_hit, ego_hit, s_now, self._last_s[rows], np.zeros(len(live), int)
         )
         self._last_s[rows] = s_now
         success = rules.succeeded(rule, reached, ~w.collided[rows])

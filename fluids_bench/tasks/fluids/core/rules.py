@@ -2,8 +2,11 @@
 
 A row is one subject of one step: a world's ego (`FluidsEnv` is B = 1, the vector env one row per
 world) or one live agent of the multi-agent env (one row per agent, its own subject). Every
-function takes arrays with a leading axis of B and does the same float operations in the same
-order on each row, so a world's reward has the same bits whichever face computes it.
+function takes arrays with a leading axis of B, or one row without that axis as Python scalars
+(what `FluidsEnv` passes: its world's own arrays, whose entries the rules read as Python
+numbers, so that its step allocates no batch and pays no numpy call per rule), and does the
+same float operations in the same order on each row, so a world's reward has the same bits
+whichever face computes it.
 
 The step's verdict (`judge`, `judge_worlds`):
 
@@ -24,7 +27,7 @@ driving score's timeout).
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, NamedTuple
 
@@ -38,7 +41,9 @@ VIOLATION_PENALTY = 1.0  # a red light run or a failure to yield, once each, whe
 
 
 class Rules(NamedTuple):
-    """The options the step rules read (the env's checked arguments of the same names)."""
+    """The options the step rules read (the env's checked arguments of the same names). Every
+    function's `rules` is one of these or any object with these fields as attributes (a
+    `FluidsEnv` passes itself: no tuple to build in its step)."""
 
     done_when: str = "ego"
     end_on_violation: bool = False
@@ -60,7 +65,7 @@ class Rules(NamedTuple):
         )
 
 
-@dataclass
+@dataclass(slots=True)
 class Judged:
     """One step's verdict on B rows (entries of rows that did not step are unused)."""
 
@@ -97,30 +102,70 @@ def ego_hits(events: Sequence[Sequence], hit: np.ndarray, agent: int = 0) -> np.
     return out
 
 
+def _select(condition, yes, no):
+    """`np.where(condition, yes, no)` on rows; `yes if condition else no` on one row."""
+    if isinstance(condition, np.ndarray):
+        return np.where(condition, yes, no)
+    return yes if condition else no
+
+
+def _not(flags):
+    """`~flags` on rows (bool arrays); `not flags` on one row (a Python bool)."""
+    return ~flags if isinstance(flags, np.ndarray) else not flags
+
+
+def _ego(agents: np.ndarray):
+    """Agent 0's entries of (B, N) rows, (B,); or its entry of one world's (N,), as a Python
+    number."""
+    return agents[:, 0] if agents.ndim > 1 else agents.item(0)
+
+
+def _every_car(flags: np.ndarray, is_car: np.ndarray):
+    """Whether every car's flag is set, in each of (B, N) rows (B,), or in one world's (N,)
+    (a Python bool)."""
+    if flags.ndim > 1:
+        return flags[:, is_car].all(axis=1)
+    return bool(flags[is_car].all())
+
+
+def _any_car(flags: np.ndarray, is_car: np.ndarray):
+    """Whether any car's flag is set, as `_every_car`."""
+    if flags.ndim > 1:
+        return flags[:, is_car].any(axis=1)
+    return bool(flags[is_car].any())
+
+
 def violations(rules: Rules, ran_red: np.ndarray, failed_to_yield: np.ndarray) -> np.ndarray:
     """(B,) int64: how many of the rules that fail `is_success` each subject has broken so far
-    (`ran_red`, `failed_to_yield`: its fault tracker's flags, (B,) bool)."""
-    return int(rules.obey_lights) * ran_red.astype(np.int64) + int(
-        rules.yield_to_pedestrians
-    ) * failed_to_yield.astype(np.int64)
+    (`ran_red`, `failed_to_yield`: its fault tracker's flags, (B,) bool; Python bools for
+    one row give an int)."""
+    return int(rules.obey_lights) * ran_red + int(rules.yield_to_pedestrians) * failed_to_yield
 
 
 def route_progress(
     reached: np.ndarray, path_len: np.ndarray, s: np.ndarray, offset: np.ndarray
 ) -> np.ndarray:
     """(B,) metres of its route each subject has covered (past the path's end once arrived)."""
-    return np.where(reached, path_len + offset, s + offset)
+    return _select(reached, path_len + offset, s + offset)
+
+
+def arrivals(rules: Rules, reached: np.ndarray, is_car: np.ndarray):
+    """Of B worlds' agents' `reached` flags ((B, N), or one world's (N,)): whether the cars the
+    episode is about arrived, (B,): the ego (agent 0) with `done_when="ego"`, every car with
+    `"all"`."""
+    if rules.done_when == "ego":
+        return _ego(reached)
+    return _every_car(reached, is_car)
 
 
 def subjects(
     rules: Rules, reached: np.ndarray, collided: np.ndarray, is_car: np.ndarray
 ) -> tuple[np.ndarray, np.ndarray]:
-    """Of B worlds' agents ((B, N) flags): whether the cars the episode is about arrived and
-    whether none of them was ever in a collision, (B,) each: the ego (agent 0) with
-    `done_when="ego"`, every car with `"all"`."""
+    """`arrivals`, and whether none of those cars was ever in a collision (`collided`, shaped
+    as `reached`), (B,) each."""
     if rules.done_when == "ego":
-        return reached[:, 0], ~collided[:, 0]
-    return reached[:, is_car].all(axis=1), ~collided[:, is_car].any(axis=1)
+        return _ego(reached), _not(_ego(collided))
+    return _every_car(reached, is_car), _not(_any_car(collided, is_car))
 
 
 def judge(
@@ -137,7 +182,6 @@ def judge(
     progress after and before the step, `broken` the rules it broke in the step."""
     failed_by = any_hit if rules.done_when == "all" else ego_hit
     terminated = arrived | failed_by
-    broken = np.asarray(broken, dtype=np.int64)
     if rules.end_on_violation:  # is_success can no longer hold
         terminated = terminated | (broken > 0)
     return Judged(terminated, ego_hit, failed_by, s_now - last_s, broken)
@@ -145,30 +189,22 @@ def judge(
 
 def judge_worlds(
     rules: Rules,
-    stepping: np.ndarray,
-    rows: Mapping[str, np.ndarray],
+    reached: np.ndarray,
     is_car: np.ndarray,
-    events: Sequence[Sequence],
-    hit: np.ndarray,
+    ego_hit: np.ndarray,
+    any_hit: np.ndarray,
     broken: np.ndarray,
-    progress: np.ndarray,
-    done: np.ndarray,
-) -> Judged:
-    """`judge` of B worlds' egos from their rows (`rows`: the worlds' `reached`, `collided`,
-    `s`, `offset`, `path_len` as (B, N) arrays), with `events` each world's new collisions and
-    `hit` the worlds that have some. Writes the episode bookkeeping of the worlds where
-    `stepping`: `progress[:, 0]` (the ego's route progress at the last step) and `done`
-    (the episode ended)."""
-    reached = rows["reached"]
-    s_now = route_progress(
-        reached[:, 0], rows["path_len"][:, 0], rows["s"][:, 0], rows["offset"][:, 0]
-    )
-    arrived, _ = subjects(rules, reached, rows["collided"], is_car)
-    last_s = progress[:, 0]
-    judged = judge(rules, arrived, ego_hits(events, hit), hit, s_now, last_s, broken)
-    last_s[stepping] = s_now[stepping]
-    done[stepping] = judged.terminated[stepping]
-    return judged
+    last_s: np.ndarray,
+    paths: tuple[np.ndarray, np.ndarray, np.ndarray],
+) -> tuple[Judged, np.ndarray]:
+    """`judge` of B worlds' egos from their agents' rows ((B, N), or (N,) for one world):
+    `reached` and `paths`: `(s, offset, path_len)`; `last_s` the egos'
+    progress at the last step. Returns the verdict and the egos' progress now (the face keeps
+    it as the next step's `last_s`)."""
+    s, offset, path_len = paths
+    s_now = route_progress(_ego(reached), _ego(path_len), _ego(s), _ego(offset))
+    arrived = arrivals(rules, reached, is_car)
+    return judge(rules, arrived, ego_hit, any_hit, s_now, last_s, broken), s_now
 
 
 def succeeded(
@@ -184,9 +220,9 @@ def succeeded(
     flags, (B,))."""
     success = arrived & clean
     if rules.obey_lights:
-        success &= ~ran_red
+        success &= _not(ran_red)
     if rules.yield_to_pedestrians:
-        success &= ~failed_to_yield
+        success &= _not(failed_to_yield)
     return success
 
 
@@ -202,11 +238,11 @@ def step_rewards(
     `VIOLATION_PENALTY` for each rule the step broke that fails `is_success`, plus
     `SUCCESS_BONUS` on the step that ends the episode with `is_success` (`success`)."""
     if rules.reward_version == 0:
-        penalty = np.where(judged.ego_hit, COLLISION_PENALTY, 0.0)
+        penalty = _select(judged.ego_hit, COLLISION_PENALTY, 0.0)
         return judged.gained / route_length - penalty
     weight = rules.failure_penalty
-    penalty = np.where(judged.failed_by, weight * COLLISION_PENALTY, 0.0)
-    bonus = np.where(judged.terminated & success, SUCCESS_BONUS, 0.0)
+    penalty = _select(judged.failed_by, weight * COLLISION_PENALTY, 0.0)
+    bonus = _select(judged.terminated & success, SUCCESS_BONUS, 0.0)
     broken = weight * VIOLATION_PENALTY * judged.broken
     return judged.gained / route_length - penalty - broken + bonus
 

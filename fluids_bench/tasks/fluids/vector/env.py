@@ -292,11 +292,15 @@ class FluidsVectorEnv(VectorEnv):
         before = rules.violations(rule, ran_red, failed_to_yield)
         faults.update(stepping, worlds)
         broken = rules.violations(rule, ran_red, failed_to_yield) - before  # in this step
-        episodes = self._episodes
-        judged = rules.judge_worlds(
-            rule, stepping, worlds.rows, first.world.is_car, events, worlds.hit, broken,
-            episodes["_progress"], episodes["_done"],
+        episodes, hit = self._episodes, worlds.hit
+        last_s = episodes["_progress"][:, 0]
+        judged, s_now = rules.judge_worlds(
+            rule, worlds["reached"], first.world.is_car,
+            rules.ego_hits(events, hit), hit, broken, last_s,
+            (worlds["s"], worlds["offset"], worlds["path_len"]),
         )  # fmt: skip
+        last_s[stepping] = s_now[stepping]
+        episodes["_done"][stepping] = judged.terminated[stepping]
         going = stepping & ~judged.terminated  # stepped, and the episode goes on
         supervisors.plan(going, worlds, worlds.lights)
         supervisors.propose(going, worlds)
