@@ -8,7 +8,6 @@ import gymnasium as gym
 import numpy as np
 
 from fluids_bench.core.snapshot import SnapshotMixin
-from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
     as_seed,
     check_bool,
@@ -18,7 +17,7 @@ from fluids_bench.core.validation import (
 )
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
-from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core import infos, rules
 from fluids_bench.tasks.fluids.core.rules import Judged
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -164,7 +163,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     ## Info
     Field meanings are shared with the multi-agent env (see
-    `fluids_bench.tasks.fluids.scenario`):
+    `fluids_bench.tasks.fluids.core.infos`):
 
     * `supervisor_action`: the supervisor's label for the ego at `action_level` in the new
       state.
@@ -581,13 +580,9 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         return rules.violations(self, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0]))
 
     def _info(self, events) -> dict[str, Any]:
-        w = self.world
-        return {
-            SUPERVISOR_ACTION_KEY: self.supervisor_action(),
-            "collisions": self.faults.annotate(events),
-            "ego_arrived": bool(w.reached[0]),
-            "route": w.layout.routes.names[w.route[0]],
-            "lights": w.lights.describe_states(w.light_state),
-            "ego_ran_red_light": bool(self.faults.ran_red[0]),
-            "ego_failed_to_yield": bool(self.faults.failed_to_yield[0]),
-        }
+        """The step's info (`fluids_bench.tasks.fluids.core.infos.ego_info` of this world)."""
+        w, faults = self.world, self.faults
+        return infos.ego_info(
+            self.supervisor_action(), faults.annotate(events), w.reached, w.route, w,
+            bool(faults.ran_red[0]), bool(faults.failed_to_yield[0]), w.light_state,
+        )  # fmt: skip

@@ -18,7 +18,6 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from fluids_bench.core.snapshot import SnapshotMixin
-from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import (
     as_seed,
     check_bool,
@@ -29,6 +28,7 @@ from fluids_bench.core.validation import (
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core.infos import agent_info
 from fluids_bench.tasks.fluids.core.rules import Rules
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -192,7 +192,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     ## Info
     Per agent; field meanings are shared with `FLUIDS-v0` (see
-    `fluids_bench.tasks.fluids.scenario`):
+    `fluids_bench.tasks.fluids.core.infos`):
 
     * `supervisor_action`: its label at `action_level` in the new state.
     * `collisions`: this step's new collisions the agent is part of, as dicts
@@ -608,13 +608,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return {kind: fn(w, rng, i) for kind, fn in self._observers.items()}
 
     def _info(self, i: int, events) -> dict[str, Any]:
-        w = self.world
-        return {
-            SUPERVISOR_ACTION_KEY: self._label(i),
-            "collisions": self.faults.annotate(events),
-            "arrived": bool(w.reached[i]),
-            "route": w.layout.routes.names[w.route[i]],
-        }
+        return agent_info(self._label(i), self.faults.annotate(events), self.world, i)
 
 
 def _zeros(space: spaces.Space):

@@ -6,21 +6,7 @@ are in `fluids_bench.tasks.fluids.core.rules`.
 Argument errors name the user's argument (`car_mass`, `planner_period`, `num_cars`), never
 an internal config field, and are raised at construction, counts included.
 
-Info fields, one meaning each (both env cards point here):
-
-* `supervisor_action`: the supervisor's label for the info's car at `action_level` in the
-  new state (what it would do there; never an echo of the learner's action).
-* `collisions`: this step's new collisions as dicts `{step, a, b, kind}` (agent indices,
-  `b = -1` off the road) that concern the info: in `FLUIDS-v0` every collision of the
-  world (with `done_when="all"` any of them ends the episode; the ego's have 0 in `a` or
-  `b`), in the multi-agent env those the agent is part of.
-* `is_success` (only in the info of an agent's last step): the cars the episode is about
-  reached their goals and none of them was ever in a collision. Those cars are the ego in
-  `FLUIDS-v0` with `done_when="ego"`, every car with `done_when="all"` (every collision
-  involves a car, so this is also "no collision at all"), and the agent itself in the
-  multi-agent env.
-* `ego_arrived` (`FLUIDS-v0`) / `arrived` (multi-agent): the info's car reached its goal.
-* `route`: the name of the info's car's route.
+Info fields have one meaning each: `fluids_bench.tasks.fluids.core.infos`.
 """
 
 from __future__ import annotations

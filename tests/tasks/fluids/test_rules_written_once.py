@@ -6,8 +6,9 @@ An `ast` scan of the faces (every module of the FLUIDS task outside `core/`, `si
 or computes a reward: the reward constants, comparisons against the rule options
 (`reward_version`, `done_when`, `end_on_violation`), branches on the options that fail
 `is_success` (`obey_lights`, `yield_to_pedestrians`), arithmetic on the reward's terms
-(`failure_penalty`, route lengths and progress), and tests of who a collision involves. The
-last tests show the scan finds each of these in a re-implementation.
+(`failure_penalty`, route lengths and progress), tests of who a collision involves, and infos
+built by hand (dicts with the info's fields: `core/infos.py` builds them). The last tests show
+the scan finds each of these in a re-implementation.
 """
 
 from __future__ import annotations
@@ -35,6 +36,15 @@ VALID_SETS = {"REWARD_VERSIONS", "DONE_WHEN"}  # `x in REWARD_VERSIONS`: validat
 BRANCHED = {"obey_lights", "yield_to_pedestrians", "end_on_violation", "reward_version"}
 ARITHMETIC = {"failure_penalty", "route_length", "_route_length", "last_s", "_last_s", "gained"}
 PARTIES = {"a", "b"}  # a Collision's two agents
+# the info's fields (core/infos.py builds them)
+INFO_FIELDS = {
+    "ego_arrived",
+    "arrived",
+    "route",
+    "lights",
+    "ego_ran_red_light",
+    "ego_failed_to_yield",
+}
 
 
 def _name(node: ast.AST) -> str | None:
@@ -84,6 +94,10 @@ def rule_code(source: str, filename: str) -> list[str]:
                 report(node, f"comparison against {sorted(named & COMPARED)[0]}")
             if any(_is_party(o) for o in operands):
                 report(node, "a test of who a collision involves")
+        elif isinstance(node, ast.Dict):
+            keys = {k.value for k in node.keys if isinstance(k, ast.Constant)}
+            if keys & INFO_FIELDS:
+                report(node, f"an info built by hand ({sorted(keys & INFO_FIELDS)[0]!r})")
         elif isinstance(node, ast.BinOp) and _names(node) & ARITHMETIC:
             report(node, f"arithmetic on {sorted(_names(node) & ARITHMETIC)[0]}")
         test = _tested(node)
@@ -124,6 +138,8 @@ def test_the_core_holds_the_rules_the_scan_looks_for():
     found = "\n".join(rule_code(path.read_text(encoding="utf-8"), "rules.py"))
     for what in ("reward constant", "comparison against", "branch on", "arithmetic on"):
         assert what in found, what
+    path = FLUIDS / "core" / "infos.py"
+    assert "an info built by hand" in "\n".join(rule_code(path.read_text(encoding="utf-8"), "i"))
 
 
 REIMPLEMENTATIONS = {
@@ -137,6 +153,9 @@ REIMPLEMENTATIONS = {
     ),
     "arithmetic on _route_length": "def r(self, g):\n    return g / self._route_length - 1.0\n",
     "arithmetic on failure_penalty": "def p(self, n):\n    return self.failure_penalty * n\n",
+    "an info built by hand ('ego_arrived')": (
+        'def info(self, w):\n    return {"ego_arrived": bool(w.reached[0])}\n'
+    ),
     "a test of who a collision involves": (
         "def hit(events, i):\n    return any(i in (e.a, e.b) for e in events)\n"
     ),

@@ -114,7 +114,7 @@ def _not(flags):
     return ~flags if isinstance(flags, np.ndarray) else not flags
 
 
-def _ego(agents: np.ndarray):
+def ego_of(agents: np.ndarray):
     """Agent 0's entries of (B, N) rows, (B,); or its entry of one world's (N,), as a Python
     number."""
     return agents[:, 0] if agents.ndim > 1 else agents.item(0)
@@ -154,7 +154,7 @@ def arrivals(rules: Rules, reached: np.ndarray, is_car: np.ndarray):
     episode is about arrived, (B,): the ego (agent 0) with `done_when="ego"`, every car with
     `"all"`."""
     if rules.done_when == "ego":
-        return _ego(reached)
+        return ego_of(reached)
     return _every_car(reached, is_car)
 
 
@@ -164,7 +164,7 @@ def subjects(
     """`arrivals`, and whether none of those cars was ever in a collision (`collided`, shaped
     as `reached`), (B,) each."""
     if rules.done_when == "ego":
-        return _ego(reached), _not(_ego(collided))
+        return ego_of(reached), _not(ego_of(collided))
     return _every_car(reached, is_car), _not(_any_car(collided, is_car))
 
 
@@ -202,7 +202,7 @@ def judge_worlds(
     progress at the last step. Returns the verdict and the egos' progress now (the face keeps
     it as the next step's `last_s`)."""
     s, offset, path_len = paths
-    s_now = route_progress(_ego(reached), _ego(path_len), _ego(s), _ego(offset))
+    s_now = route_progress(ego_of(reached), ego_of(path_len), ego_of(s), ego_of(offset))
     arrived = arrivals(rules, reached, is_car)
     return judge(rules, arrived, ego_hit, any_hit, s_now, last_s, broken), s_now
 
