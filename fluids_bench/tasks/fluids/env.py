@@ -501,12 +501,13 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         rules)."""
         w, terminated = self.world, self._ended
         info = self._info(events)
-        faults = self.faults
-        arrived, clean = rules.subjects(self, w.reached, w.collided, w.is_car)
-        success = rules.succeeded(
-            self, arrived, clean, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0])
-        )
+        success = False  # only read where the episode ends (the info, the success bonus)
         if terminated:
+            faults = self.faults
+            arrived, clean = rules.subjects(self, w.reached, w.collided, w.is_car)
+            success = rules.succeeded(
+                self, arrived, clean, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0])
+            )
             info["is_success"] = bool(success)
         info.update(self._episode_score(events, terminated))
         reward = rules.step_rewards(self, judged, success, self._route_length)
