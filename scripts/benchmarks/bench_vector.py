@@ -244,6 +244,14 @@ def _cum(
 ENV = "fluids/env.py"
 VECTOR = "fluids/vector/env.py"
 IN_STEP = ((VECTOR, "step"),)
+# the step rules' calls from the vector step: fluids/core/rules.py's (and, for bench_ab against an
+# older tree, the vector env's own copy of them, vector/judge.py)
+JUDGING = (
+    *(("core/rules.py", f) for f in ("violations", "judge_worlds", "subjects", "succeeded")),
+    ("core/rules.py", "step_rewards"),
+    ("vector/judge.py", "judge_worlds"),
+    ("vector/judge.py", "report_worlds"),
+)
 
 
 def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
@@ -277,8 +285,9 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
         + labels,
         "observation": _cum(stats, VECTOR, "_observe", IN_STEP),
         "infos (without labels)": _cum(stats, "vector/infos.py", "step_infos", IN_STEP) - labels,
-        "judging and rewards": _cum(stats, "vector/judge.py", "judge_worlds", IN_STEP)
-        + _cum(stats, "vector/judge.py", "report_worlds", IN_STEP),
+        "judging and rewards": sum(
+            _cum(stats, path, name, IN_STEP, required=False) for path, name in JUDGING
+        ),
         "resets": _cum(stats, ENV, "reset", IN_STEP, required=False),
     }
     # the vector layer's own work: action checks, autoreset checks, result arrays

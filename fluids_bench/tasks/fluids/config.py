@@ -39,8 +39,6 @@ from fluids_bench.tasks.fluids.supervisor.stack import LEVELS
 MAX_CARS = 64  # every car of a scene, controlled ones included
 DONE_WHEN = ("ego", "all")
 TRAJECTORY_PLANNERS = ("bezier", "ompl")
-# reward_version=1 (the v2 ids): a reward that agrees with is_success
-REWARD_VERSIONS = (0, 1)
 # The cars' true mass, kg. The supervisor's controller assumes 1500 kg (the default car's,
 # scenario.ASSUMED_MASS); outside 1/3x to 10/3x of that its accelerations are off by more than
 # the PID corrects: at 1 kg it oscillates into 26 collisions in 37 steps, at 1e5 kg no car

@@ -8,18 +8,15 @@ import gymnasium as gym
 import numpy as np
 
 from fluids_bench.core.snapshot import SnapshotMixin
-from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
+from fluids_bench.tasks.fluids.core import infos, rules
+from fluids_bench.tasks.fluids.core.rules import Judged
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
     build_scenario,
-    is_success,
-    progress,
-    step_reward,
-    step_reward_v1,
 )
 from fluids_bench.tasks.fluids.sim.entry import Entry
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
@@ -101,12 +98,12 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     ## Rewards
     `reward_version=0` (v0, v1): progress
-    (`fluids_bench.tasks.fluids.scenario.step_reward`, the same in the multi-agent env):
+    (`fluids_bench.tasks.fluids.core.rules.step_rewards`, the same in the multi-agent env):
     the metres of route gained this step divided by the route's length from the start (an
     episode that reaches the goal earns 1 in total), minus 1 in a step where the ego is in a
     collision. Running a red light or failing to yield fails `is_success` but costs nothing.
 
-    `reward_version=1` (the v2 and v3 ids; `step_reward_v1`):
+    `reward_version=1` (the v2 and v3 ids; the same function):
     a reward that agrees with `is_success`; every way to fail it costs, success pays. Per
     step, the sum of
 
@@ -158,7 +155,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     ## Info
     Field meanings are shared with the multi-agent env (see
-    `fluids_bench.tasks.fluids.scenario`):
+    `fluids_bench.tasks.fluids.core.infos`):
 
     * `supervisor_action`: the supervisor's label for the ego at `action_level` in the new
       state.
@@ -281,7 +278,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         self.faults = FaultTracker(self.world)
         self._ended = False
         self._last_s = float(self.world.route_s[0])
-        self._route_length = float(self.world.path_len[0]) - self._last_s
+        self._route_length = float(rules.route_length(self.world.path_len[0], self._last_s))
         if self.render_mode == "human":
             self.render()
         return self._observe(), self._info([])
@@ -320,58 +317,46 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         chosen = {0: action} if w.active[0] else {}
         controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
         if changed:
-            self._route_length = float(w.path_len[0]) - self._last_s
+            self._route_length = float(rules.route_length(w.path_len[0], self._last_s))
         return sup.commit(controls, memory)
 
-    def _judge(self, events) -> tuple[int, bool, float]:
+    def _judge(self, events) -> Judged:
         """After the world stepped with `events`: faults and termination (`_ended`).
-        Returns what `_report` needs: the rules the ego broke in this step, whether it
-        was hit, and the progress it gained."""
+        Returns what `_report` needs (`fluids_bench.tasks.fluids.core.rules.Judged`, one
+        row)."""
         broken = self._violations()
         self.faults.update()
         return self._judge_recorded(events, self._violations() - broken)
 
-    def _judge_recorded(self, events, broken: int) -> tuple[int, bool, float]:
+    def _judge_recorded(self, events, broken) -> Judged:
         """`_judge` once the fault tracker recorded the step (alone, or in a
         `FaultBatch`); `broken`: the rules the
-        ego broke in it (`_violations` after the record less before)."""
+        ego broke in it (`_violations` after the record less before). The rules'
+        `judge_worlds` on this env's world as one row."""
         w = self.world
-        ego_hit = any(e.a == 0 or e.b == 0 for e in events)
-        arrived = bool(w.reached[0])
-        s_now = progress(w, 0)
-        gained = s_now - self._last_s
-        self._last_s = s_now
-        if self.done_when == "ego":
-            terminated = arrived or ego_hit
-        else:  # every car must arrive; any collision ends the episode
-            terminated = bool(w.reached[w.is_car].all()) or bool(events)
-        if self.end_on_violation and broken:  # is_success can no longer hold
-            terminated = True
-        self._ended = terminated
-        return broken, ego_hit, gained
+        judged, self._last_s = rules.judge_worlds(
+            self, w.reached, w.is_car, rules.involved(events, 0),
+            bool(events), broken, self._last_s, (w.s, w.offset, w.path_len),
+        )  # fmt: skip
+        self._ended = judged.terminated
+        return judged
 
-    def _report(self, events, judged: tuple[int, bool, float]) -> tuple[float, bool, dict]:
+    def _report(self, events, judged: Judged) -> tuple[float, bool, dict]:
         """The step's reward, termination and info, once the supervisor proposed (a batch
-        computes the reward and `is_success` of all its worlds at once:
-        `judge`)."""
-        w, (broken, ego_hit, gained), terminated = self.world, judged, self._ended
+        computes the reward and `is_success` of all its worlds at once with the same
+        rules)."""
+        w, terminated = self.world, self._ended
         info = self._info(events)
+        success = False  # only read where the episode ends (the info, the success bonus)
         if terminated:
-            cars = 0 if self.done_when == "ego" else np.flatnonzero(w.is_car)
-            # with obey_lights, running a red light fails the episode too; with
-            # yield_to_pedestrians, driving onto an occupied crosswalk
-            ran_red = self.obey_lights and bool(self.faults.ran_red[0])
-            no_yield = self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
-            info["is_success"] = is_success(w, cars) and not ran_red and not no_yield
-        info.update(self._episode_score(events, terminated))
-        if self.reward_version == 0:
-            reward = step_reward(gained, self._route_length, ego_hit)
-        else:  # every way to fail is_success costs, success pays (see Rewards)
-            failed_by = bool(events) if self.done_when == "all" else ego_hit
-            succeeded = bool(info.get("is_success", False))
-            reward = step_reward_v1(
-                gained, self._route_length, failed_by, broken, succeeded, self.failure_penalty
+            faults = self.faults
+            arrived, clean = rules.subjects(self, w.reached, w.collided, w.is_car)
+            success = rules.succeeded(
+                self, arrived, clean, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0])
             )
+            info["is_success"] = bool(success)
+        info.update(self._episode_score(events, terminated))
+        reward = rules.step_rewards(self, judged, success, self._route_length)
         if self.render_mode == "human":
             self.render()
         return float(reward), terminated, info
@@ -383,7 +368,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
         else nothing. Every face (the vector env too) calls this."""
         if not self.report_score:
             return {}
-        timed_out = not terminated and 0 < self.time_limit == self.world.steps
+        timed_out = rules.timed_out(terminated, self.time_limit, self.world.steps)
         if not (terminated or timed_out):
             return {}
         return scoring.episode_report(
@@ -438,18 +423,13 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     def _violations(self) -> int:
         """How many of the rules that fail `is_success` the ego has broken so far (a red
         light with `obey_lights`, yielding with `yield_to_pedestrians`)."""
-        return int(self.obey_lights and bool(self.faults.ran_red[0])) + int(
-            self.yield_to_pedestrians and bool(self.faults.failed_to_yield[0])
-        )
+        faults = self.faults
+        return rules.violations(self, bool(faults.ran_red[0]), bool(faults.failed_to_yield[0]))
 
     def _info(self, events) -> dict[str, Any]:
-        w = self.world
-        return {
-            SUPERVISOR_ACTION_KEY: self.supervisor_action(),
-            "collisions": self.faults.annotate(events),
-            "ego_arrived": bool(w.reached[0]),
-            "route": w.layout.routes.names[w.route[0]],
-            "lights": w.lights.describe_states(w.light_state),
-            "ego_ran_red_light": bool(self.faults.ran_red[0]),
-            "ego_failed_to_yield": bool(self.faults.failed_to_yield[0]),
-        }
+        """The step's info (`fluids_bench.tasks.fluids.core.infos.ego_info` of this world)."""
+        w, faults = self.world, self.faults
+        return infos.ego_info(
+            self.supervisor_action(), faults.annotate(events), w.reached, w.route, w,
+            bool(faults.ran_red[0]), bool(faults.failed_to_yield[0]), w.light_state,
+        )  # fmt: skip

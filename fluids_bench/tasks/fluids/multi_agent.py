@@ -18,18 +18,16 @@ from gymnasium.utils import seeding
 from pettingzoo import ParallelEnv
 
 from fluids_bench.core.snapshot import SnapshotMixin
-from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import MULTI_AGENT
+from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core.infos import agent_info
+from fluids_bench.tasks.fluids.core.rules import Rules
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
 from fluids_bench.tasks.fluids.scenario import (
     build_scenario,
-    is_success,
-    progress,
-    step_reward,
-    step_reward_v1,
 )
 from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
@@ -160,7 +158,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
     stop. The space is `state_space`.
 
     ## Rewards
-    Per agent, as `FLUIDS-v0` (`fluids_bench.tasks.fluids.scenario.step_reward`): the
+    Per agent, as `FLUIDS-v0` (`fluids_bench.tasks.fluids.core.rules.step_rewards`): the
     metres of route gained this step divided by the route's length from the start, minus 1 in a
     step where that car is in a collision. `reward_version=1` (`FLUIDS-MultiAgent-v2`): also
     +1 on the step the car arrives without a collision (its `is_success`), so a successful
@@ -187,7 +185,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
 
     ## Info
     Per agent; field meanings are shared with `FLUIDS-v0` (see
-    `fluids_bench.tasks.fluids.scenario`):
+    `fluids_bench.tasks.fluids.core.infos`):
 
     * `supervisor_action`: its label at `action_level` in the new state.
     * `collisions`: this step's new collisions the agent is part of, as dicts
@@ -347,7 +345,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         self._cycles = 0
         n = len(self.possible_agents)
         self._last_s = self.world.route_s[:n].astype(np.float64)
-        self._route_length = self.world.path_len[:n] - self._last_s
+        self._route_length = rules.route_length(self.world.path_len[:n], self._last_s)
         observations = {a: self._observe(i) for i, a in enumerate(self.agents)}
         infos = {a: self._info(i, []) for i, a in enumerate(self.agents)}
         return observations, infos
@@ -378,28 +376,13 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         self.faults.update()
         self._cycles += 1
 
-        hit = {i: [e for e in events if i in (e.a, e.b)] for i in live}
+        hit = {i: rules.agent_events(events, i) for i in live}
+        reward, ended, success = self._judge(live, hit)
         rewards, terminations, truncations = {}, {}, {}
-        for i in live:
+        for k, i in enumerate(live):
             a = agent_name(i)
-            arrived = bool(w.reached[i])
-            s_now = progress(w, i)
-            if self.reward_version == 0:
-                rewards[a] = step_reward(
-                    s_now - self._last_s[i], self._route_length[i], bool(hit[i])
-                )
-            else:  # a collision costs, arriving without one pays (see Rewards)
-                won = arrived and not hit[i] and is_success(w, i)
-                rewards[a] = step_reward_v1(
-                    s_now - self._last_s[i],
-                    self._route_length[i],
-                    bool(hit[i]),
-                    0,
-                    won,
-                    self.failure_penalty,
-                )
-            self._last_s[i] = s_now
-            terminations[a] = arrived or bool(hit[i])
+            rewards[a] = reward[k]  # a numpy float64, as it always was
+            terminations[a] = bool(ended[k])
             truncations[a] = not terminations[a] and self._cycles >= self.max_cycles
             if hit[i]:
                 w.active[i] = False  # the car leaves the road with its episode
@@ -414,7 +397,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         observations = {agent_name(i): self._observe(i) for i in everyone}
         infos = {agent_name(i): self._info(i, hit.get(i, [])) for i in everyone}
         for i in finished:
-            infos[agent_name(i)]["is_success"] = is_success(w, i)
+            infos[agent_name(i)]["is_success"] = bool(success[live.index(i)])
             if self.report_score:  # its episode ends: the driving score (timeout: max_cycles)
                 infos[agent_name(i)].update(
                     scoring.episode_report(
@@ -422,6 +405,23 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
                     )
                 )
         return observations, rewards, terminations, truncations, infos
+
+    def _judge(self, live: list[int], hit: dict[int, list]):
+        """The rules (`fluids_bench.tasks.fluids.core.rules`) with one row per live agent,
+        each its own subject (as `done_when="ego"`, no rule but collisions fails it): each
+        one's reward, termination and `is_success`, (A,) each; updates `_last_s`."""
+        w, rows = self.world, np.array(live, dtype=np.int64)
+        rule = Rules(reward_version=self.reward_version, failure_penalty=self.failure_penalty)
+        reached = w.reached[rows]
+        s_now = rules.route_progress(reached, w.path_len[rows], w.s[rows], w.offset[rows])
+        ego_hit = np.array([bool(hit[i]) for i in live], dtype=np.bool_)
+        judged = rules.judge(
+            rule, reached, ego_hit, ego_hit, s_now, self._last_s[rows], np.zeros(len(live), int)
+        )
+        self._last_s[rows] = s_now
+        success = rules.succeeded(rule, reached, ~w.collided[rows])
+        reward = rules.step_rewards(rule, judged, success, self._route_length[rows])
+        return reward, judged.terminated, success
 
     def _black_death(self, everyone, live, rewards, terminations, truncations) -> None:
         """Keep finished agents in the episode (zero observation, reward 0, action ignored,
@@ -493,7 +493,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             self.action_level, self.world, self.supervisor, chosen
         )
         for i in changed:
-            self._route_length[i] = float(self.world.path_len[i]) - self._last_s[i]
+            self._route_length[i] = rules.route_length(self.world.path_len[i], self._last_s[i])
         return controls, memory
 
     def _validate(self, action, agent: str):
@@ -515,13 +515,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return {kind: fn(w, rng, i) for kind, fn in self._observers.items()}
 
     def _info(self, i: int, events) -> dict[str, Any]:
-        w = self.world
-        return {
-            SUPERVISOR_ACTION_KEY: self._label(i),
-            "collisions": self.faults.annotate(events),
-            "arrived": bool(w.reached[i]),
-            "route": w.layout.routes.names[w.route[i]],
-        }
+        return agent_info(self._label(i), self.faults.annotate(events), self.world, i)
 
 
 def _zeros(space: spaces.Space):

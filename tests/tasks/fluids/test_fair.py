@@ -98,7 +98,7 @@ def test_entering_an_occupied_junction_is_the_entrants_fault():
     w.place(1, east, c1 - 3.5, speed=2.0)  # already in the junction
     w.place(0, north, c0 - 14.0, speed=8.0)  # enters later, fast enough to arrive together
     tracker = FaultTracker(w)
-    assert tracker.entry_step[1] == 0 and tracker.entry_step[0] < 0
+    assert w.entered[1] == 0 and w.entered[0] < 0  # the one record of zone entries
     (c,) = _run_until_collision(w, tracker)
     assert c["at_fault"] == [0] and c["rule"] == "entered_occupied"
 

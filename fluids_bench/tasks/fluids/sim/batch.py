@@ -35,8 +35,8 @@ PER_WORLD = (
 )  # fmt: skip
 # the FaultTracker arrays (each world's own; written in place)
 PER_TRACKER = (
-    "entry_step", "ran_red", "failed_to_yield", "_prev_at", "_prev_occupied", "_warned",
-    "_enter", "_light_of", "_ring", "_prev_lights", "_recorded",
+    "ran_red", "failed_to_yield", "_prev_at", "_prev_occupied", "_warned", "_enter",
+    "_light_of", "_ring", "_prev_lights", "_recorded",
 )  # fmt: skip
 # the World's clock (0-d arrays) and its light program's last lookup
 CLOCK = ("_clock", "_step_count")
@@ -171,7 +171,7 @@ class FaultBatch(Rows):
         w, cw, rows, lights = worlds.worlds[0], trackers[0]._crosswalks, worlds.rows, worlds.lights
         record_steps(
             stepping, rows["s"], rows["offset"], w.front, self["_enter"], self["_light_of"],
-            self["_prev_lights"], lights, STOP, self["entry_step"], self["ran_red"],
+            self["_prev_lights"], lights, STOP, rows["entered"], self["ran_red"],
             worlds.steps, rows["state"], self["_ring"], slots, trackers[0]._yield_check,
             rows["route"], rows["active"], w.is_car, cw.car_enter, self["_prev_at"],
             self["_prev_occupied"], self["_warned"], self["failed_to_yield"], w.width,

@@ -28,6 +28,17 @@ It also records, per car, whether it ever drove onto a crosswalk with a pedestri
 it could have stopped for (`failed_to_yield`: its front reached a crosswalk on its route
 while that crosswalk was occupied, and had been since a step at which the car was not yet
 committed to it; see `fluids_bench.tasks.fluids.sim.crosswalks`).
+
+When each agent entered its zone has one record, `World.entered` (the step, -1 while it has
+not; the planner reads it too): the tracker reads it for rule 7 and judges the light of an
+entry when the world marks it (its compiled record writes the same step into that array).
+Re-placement (`World.place`, e.g. by `spawn` before a tracker is built) resets the agent's
+entry: it enters again when its front reaches its route's zone (at once when placed inside it).
+A tracker built on a world judges the light of every entry from then on; an agent already
+inside its zone when the tracker is built has its light judged at the tracker's first record,
+which also records that step as its entry. An agent re-placed after the tracker judged its
+entry is judged again only when it was put on another route (the tracker recomputes its zone
+thresholds when routes change); otherwise `ran_red` keeps its first verdict.
 """
 
 from __future__ import annotations
@@ -119,7 +130,6 @@ class FaultTracker:
     def __init__(self, world) -> None:
         self.world = world
         n = world.n
-        self.entry_step = np.full(n, -1, dtype=np.int64)  # step the agent entered its zone
         self.ran_red = np.zeros(n, dtype=bool)
         # a car that drove onto an occupied crosswalk it could have stopped for (crosswalks.py)
         self.failed_to_yield = np.zeros(n, dtype=bool)
@@ -153,13 +163,18 @@ class FaultTracker:
             self._route_key = key
             r = np.maximum(w.route, 0)
             self._enter[:] = w.layout.routes.enter_s[r]
-            self._enter[(w.route < 0) | (self.entry_step >= 0)] = np.inf  # no zone, or entered
+            # no zone, or an entry already judged (one the world recorded since this tracker's
+            # first record; at that first one, an agent already inside is judged then)
+            judged = w.entered >= 0 if int(self._recorded) else False
+            self._enter[(w.route < 0) | judged] = np.inf
             self._light_of[:] = np.where(w.route >= 0, w.layout.routes.light[r], -1)
             self._prev_at[:] = np.inf  # a new route's arc lengths: no crossing this step
 
     def __setstate__(self, state: dict) -> None:
         if isinstance(state["_recorded"], int):  # pickled before the count was a 0-d array
             state["_recorded"] = np.array(state["_recorded"], dtype=np.int64)
+        # pickled when the tracker kept its own copy of World.entered (the same steps)
+        state.pop("entry_step", None)
         self.__dict__.update(state)
 
     def _record(self) -> None:
@@ -168,7 +183,7 @@ class FaultTracker:
         cw = self._crosswalks
         _record_step(
             w.s, w.offset, w.front, self._enter, self._light_of, self._prev_lights,
-            w.light_state, STOP, self.entry_step, self.ran_red, w.steps, w.state, self._ring,
+            w.light_state, STOP, w.entered, self.ran_red, w.steps, w.state, self._ring,
             int(self._recorded) % HISTORY, self._yield_check, w.route, w.active, w.is_car,
             cw.car_enter, self._prev_at, self._prev_occupied, self._warned,
             self.failed_to_yield, w.width, cw.centre, cw.axis, cw.half,
@@ -211,8 +226,8 @@ class FaultTracker:
             if turner is not None:
                 return {"at_fault": [turner], "rule": "turn_yields", "cut_in": False}
             now = w.steps
-            ea = self.entry_step[a] if self.entry_step[a] >= 0 else now
-            eb = self.entry_step[b] if self.entry_step[b] >= 0 else now
+            ea = w.entered[a] if w.entered[a] >= 0 else now
+            eb = w.entered[b] if w.entered[b] >= 0 else now
             if ea != eb:
                 return {
                     "at_fault": [a if ea > eb else b],

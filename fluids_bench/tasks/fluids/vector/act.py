@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.core import rules
 from fluids_bench.tasks.fluids.sim.batch import WorldBatch
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.supervisor.batch import (
@@ -131,7 +132,7 @@ def _choose_movements(envs, actions, stepping, worlds: WorldBatch, movements: Mo
         env = envs[i]
         env.world.follow_route(0, int(new[i]))
         env.supervisor.prepare(env.world)
-        env._route_length = float(env.world.path_len[0]) - env._last_s
+        env._route_length = float(rules.route_length(env.world.path_len[0], env._last_s))
 
 
 def waypoints_ego_frame(worlds: WorldBatch, mask: np.ndarray, config) -> np.ndarray:

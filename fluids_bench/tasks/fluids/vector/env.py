@@ -28,6 +28,8 @@ from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unknown_arguments
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
+from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core.rules import Rules
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
@@ -35,7 +37,6 @@ from fluids_bench.tasks.fluids.vector.act import act_batch, label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.bounds import check_num_envs
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
-from fluids_bench.tasks.fluids.vector.judge import judge_worlds, report_worlds
 
 WHERE = "FluidsVectorEnv"
 # the vector env's own arguments; every other one is an option (FluidsConfig) of each world's
@@ -43,7 +44,7 @@ WHERE = "FluidsVectorEnv"
 OWN_ARGUMENTS = ("num_envs", "max_episode_steps", "autoreset_mode", "render_mode")
 # the vector entry point's, for worker processes (vector/workers.py)
 WORKER_ARGUMENTS = ("num_workers", "context", "worker_timeout")
-# FluidsEnv's episode bookkeeping arrays (judge.py)
+# FluidsEnv's episode bookkeeping arrays (core/rules.py's judge_worlds writes them)
 EPISODE = ("_progress", "_done")
 # the wrappers gym.make puts around a FluidsEnv, outermost first (a world's snapshot names them
 # so that core.snapshot.restore can put it into a gym.make env, and back)
@@ -133,12 +134,14 @@ class FluidsVectorEnv(VectorEnv):
     3. one records every world's step for fault labels
        (`FaultBatch`);
     4. the steps are judged for all worlds at once (termination, the rewards' terms:
-       `judge_worlds`, `FluidsEnv._judge_recorded`'s arithmetic on the rows);
+       `fluids_bench.tasks.fluids.core.rules.judge_worlds`, which `FluidsEnv` calls with
+       one row);
     5. the supervisors plan (one call finds every world's cars off their routes, recovery
        runs world by world where any is; two calls plan the velocities of every world due for
        a plan) and one call proposes every supervisor's next controls
        (`SupervisorBatch`);
-    6. the rewards and `is_success` of all worlds (`report_worlds`); with
+    6. the rewards and `is_success` of all worlds (`rules.succeeded` and
+       `rules.step_rewards`, the scalar env's rules on B rows); with
        `driving_score` (the v4 ids), each world whose episode ends here gets the driving
        score's entries from its env's `_episode_score` (the one rule, in
        `fluids_bench.tasks.fluids.driving_score`);
@@ -281,14 +284,28 @@ class FluidsVectorEnv(VectorEnv):
         index = stepping.nonzero()[0].tolist()
         self._act_all(actions, stepping, worlds, supervisors)
         events = worlds.step(stepping)
-        before = self._violations(faults)
+        rule, first = Rules.of(self.envs[0]), self.envs[0]
+        ran_red, failed_to_yield = faults["ran_red"][:, 0], faults["failed_to_yield"][:, 0]
+        before = rules.violations(rule, ran_red, failed_to_yield)
         faults.update(stepping, worlds)
-        broken = self._violations(faults) - before  # rules broken in this step
-        judged = judge_worlds(self.envs, stepping, worlds, self._episodes, events, broken)
+        broken = rules.violations(rule, ran_red, failed_to_yield) - before  # in this step
+        episodes, hit = self._episodes, worlds.hit
+        last_s = episodes["_progress"][:, 0]
+        judged, s_now = rules.judge_worlds(
+            rule, worlds["reached"], first.world.is_car,
+            rules.ego_hits(events, hit), hit, broken, last_s,
+            (worlds["s"], worlds["offset"], worlds["path_len"]),
+        )  # fmt: skip
+        last_s[stepping] = s_now[stepping]
+        episodes["_done"][stepping] = judged.terminated[stepping]
         going = stepping & ~judged.terminated  # stepped, and the episode goes on
         supervisors.plan(going, worlds, worlds.lights)
         supervisors.propose(going, worlds)
-        reward, success = report_worlds(self.envs, judged, worlds, faults, self._episodes)
+        arrived, clean = rules.subjects(
+            rule, worlds["reached"], worlds["collided"], first.world.is_car
+        )
+        success = rules.succeeded(rule, arrived, clean, ran_red, failed_to_yield)
+        reward = rules.step_rewards(rule, judged, success, episodes["_progress"][:, 1])
         rewards = np.where(stepping, reward, 0.0)
         terminated = stepping & judged.terminated
         self._elapsed += stepping
@@ -348,13 +365,6 @@ class FluidsVectorEnv(VectorEnv):
             report = self.envs[i]._episode_score(events[i], bool(terminated[i]))
             if report:
                 infos.setdefault(i, {}).update(report)
-
-    def _violations(self, faults: FaultBatch) -> np.ndarray:
-        """`FluidsEnv._violations` of every world, from the fault trackers' rows."""
-        config = self.config
-        return int(config.obey_lights) * faults["ran_red"][:, 0].astype(np.int64) + int(
-            config.yield_to_pedestrians
-        ) * faults["failed_to_yield"][:, 0].astype(np.int64)
 
     def _act_all(self, actions, stepping, worlds, supervisors) -> None:
         """Every stepping world's controls into `worlds.controls`, in array operations for

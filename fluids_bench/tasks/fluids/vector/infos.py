@@ -8,8 +8,8 @@ Python `int`/`float`/`bool` and numpy numbers as that dtype, numpy arrays stacke
 object array with `None` where a world lacks the key. `final_obs` is always an object array.
 
 `step_infos` builds the same result for a step in which every world has the scalar env's
-info keys (`FluidsEnv._info`), reading most of them from the batched rows instead of per-world
-dicts.
+info keys, from `fluids_bench.tasks.fluids.core.infos.ego_info` of the batch's rows (the
+builder `FluidsEnv._info` calls with one world) instead of per-world dicts.
 """
 
 from __future__ import annotations
@@ -20,7 +20,7 @@ from typing import Any
 import numpy as np
 
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
-from fluids_bench.tasks.fluids.sim.lights import STATE_NAMES
+from fluids_bench.tasks.fluids.core.infos import ego_info
 
 _SCALARS = (int, float, bool)
 
@@ -73,17 +73,6 @@ def batch_infos(infos: list[dict[str, Any] | None] | dict[int, dict], n: int) ->
     return out
 
 
-@functools.lru_cache(maxsize=16)
-def _colour_table(kinds: tuple[str, ...]) -> np.ndarray:
-    """Each light's colour name for each state code, (L, codes), as an object array."""
-    codes = 1 + max(code for _, code in STATE_NAMES)
-    table = np.empty((len(kinds), codes), dtype=object)
-    for (kind, code), name in STATE_NAMES.items():
-        for light in np.flatnonzero(np.array(kinds) == kind):
-            table[light, code] = name
-    return table
-
-
 def step_infos(
     envs, worlds, faults, lights, own: dict[int, dict], events: list, labels=None
 ) -> dict:
@@ -98,39 +87,38 @@ def step_infos(
     `act.label_batch`); the other worlds' labels come from their envs."""
     n, w = len(envs), envs[0].world
     out: dict[str, Any] = {}
-
-    def column(key: str, values) -> None:
-        out[key], out[f"_{key}"] = values, _all_true(n).copy()
-
     if labels is None:
-        column(SUPERVISOR_ACTION_KEY, _stack([env.supervisor_action() for env in envs]))
+        label = _stack([env.supervisor_action() for env in envs])
     else:
-        values, known = labels
-        values = values.copy()
+        label, known = labels
+        label = label.copy()
         for i in (~known).nonzero()[0].tolist():
-            values[i] = envs[i].supervisor_action()
-        column(SUPERVISOR_ACTION_KEY, values)
+            label[i] = envs[i].supervisor_action()
     # each world's own list (empty, or its new collisions with their fault labels)
     collisions = np.fromiter(events, dtype=object, count=n)
     for i in worlds.hit.nonzero()[0].tolist():
         collisions[i] = envs[i].faults.annotate(events[i])
-    column("collisions", collisions)
-    column("ego_arrived", worlds["reached"][:, 0].copy())
-    names = np.empty(len(w.layout.routes.names), dtype=object)
-    names[:] = w.layout.routes.names
-    column("route", names[worlds["route"][:, 0]])
-    table = _colour_table(w.lights.kinds)
-    colours = {}
-    for k, light in enumerate(w.lights.names):
-        colours[light], colours[f"_{light}"] = table[k][lights[:, k]], _all_true(n).copy()
-    column("lights", colours)
-    column("ego_ran_red_light", faults["ran_red"][:, 0].copy())
-    column("ego_failed_to_yield", faults["failed_to_yield"][:, 0].copy())
+    fields = ego_info(
+        label, collisions, worlds["reached"], worlds["route"], w, faults["ran_red"][:, 0],
+        faults["failed_to_yield"][:, 0], lights,
+    )  # fmt: skip
+    for key, value in fields.items():  # every world has every key (the lights: a dict)
+        out[key] = _with_masks(value, n) if isinstance(value, dict) else value
+        out[f"_{key}"] = _all_true(n).copy()
     for key, value in batch_infos(own, n).items():  # keys only some worlds have
         out.setdefault(key, value)
     for i, info in own.items():  # a whole info of its own (a reset world): its values
         if SUPERVISOR_ACTION_KEY in info:
             _overwrite(out, info, i)
+    return out
+
+
+def _with_masks(columns: dict[str, np.ndarray], n: int) -> dict[str, np.ndarray]:
+    """`columns` (every world has each) with each key's `_key` mask, as `batch_infos` lays a
+    nested dict out."""
+    out = {}
+    for key, column in columns.items():
+        out[key], out[f"_{key}"] = column, _all_true(n).copy()
     return out
 
 

@@ -1,0 +1,171 @@
+"""FLUIDS' step rules are written once, in `fluids_bench.tasks.fluids.core` (DESIGN.md: "a rule
+lives in the core or nowhere").
+
+An `ast` scan of the faces (every module of the FLUIDS task outside `core/`, `sim/` and
+`supervisor/`: the envs, the vector env, the scenario, the levels) finds code that judges a step
+or computes a reward: the reward constants, comparisons against the rule options
+(`reward_version`, `done_when`, `end_on_violation`), branches on the options that fail
+`is_success` (`obey_lights`, `yield_to_pedestrians`), arithmetic on the reward's terms
+(`failure_penalty`, route lengths and progress), tests of who a collision involves, and infos
+built by hand (dicts with the info's fields: `core/infos.py` builds them). The last tests show
+the scan finds each of these in a re-implementation.
+"""
+
+from __future__ import annotations
+
+import ast
+from pathlib import Path
+
+import fluids_bench
+
+FLUIDS = Path(fluids_bench.__file__).resolve().parent / "tasks" / "fluids"
+# below the faces: the world (collisions and their fault labels are sim/fault.py's one rule) and
+# the supervisor (its planner reads yield_to_pedestrians: how it drives, not how it is judged)
+LOWER = ("core", "sim", "supervisor")
+# modules that are the one home of a rule of their own
+OWN_RULES = {
+    "driving_score.py": "the driving score (FLUIDS-v4), one module every face calls",
+}
+# (module, function) pairs allowed to compare a rule option, and why
+ALLOWED = {
+    ("config.py", "check_failure_penalty"): "argument validation: failure_penalty needs v1",
+}
+CONSTANTS = {"COLLISION_PENALTY", "SUCCESS_BONUS", "VIOLATION_PENALTY"}
+COMPARED = {"reward_version", "done_when", "end_on_violation"}
+VALID_SETS = {"REWARD_VERSIONS", "DONE_WHEN"}  # `x in REWARD_VERSIONS`: validation
+BRANCHED = {"obey_lights", "yield_to_pedestrians", "end_on_violation", "reward_version"}
+ARITHMETIC = {"failure_penalty", "route_length", "_route_length", "last_s", "_last_s", "gained"}
+PARTIES = {"a", "b"}  # a Collision's two agents
+# the info's fields (core/infos.py builds them)
+INFO_FIELDS = {
+    "ego_arrived",
+    "arrived",
+    "route",
+    "lights",
+    "ego_ran_red_light",
+    "ego_failed_to_yield",
+}
+
+
+def _name(node: ast.AST) -> str | None:
+    if isinstance(node, ast.Name):
+        return node.id
+    if isinstance(node, ast.Attribute):
+        return node.attr
+    return None
+
+
+def _names(node: ast.AST) -> set[str]:
+    """Every name and attribute read anywhere in `node`."""
+    return {n for sub in ast.walk(node) if (n := _name(sub)) is not None}
+
+
+def _is_party(node: ast.AST) -> bool:
+    if isinstance(node, ast.Attribute) and node.attr in PARTIES:
+        return True
+    return isinstance(node, ast.Tuple) and any(_is_party(e) for e in node.elts)
+
+
+def _tested(node: ast.AST) -> ast.AST | None:
+    if isinstance(node, ast.If | ast.IfExp | ast.While):
+        return node.test
+    if isinstance(node, ast.BoolOp):
+        return node
+    return None
+
+
+def rule_code(source: str, filename: str) -> list[str]:
+    """`filename:line: what` for each piece of judging or reward code in `source`."""
+    found = []
+
+    def report(node: ast.AST, what: str) -> None:
+        found.append(f"{filename}:{node.lineno}: {what}")
+
+    def visit(node: ast.AST, function: str | None) -> None:
+        if isinstance(node, ast.FunctionDef | ast.AsyncFunctionDef):
+            function = node.name
+        allowed = (filename, function) in ALLOWED
+        if isinstance(node, ast.Name | ast.Attribute) and _name(node) in CONSTANTS:
+            report(node, f"reward constant {_name(node)}")
+        elif isinstance(node, ast.Compare) and not allowed:
+            operands = [node.left, *node.comparators]
+            named = {_name(o) for o in operands}
+            if named & COMPARED and not named & VALID_SETS:
+                report(node, f"comparison against {sorted(named & COMPARED)[0]}")
+            if any(_is_party(o) for o in operands):
+                report(node, "a test of who a collision involves")
+        elif isinstance(node, ast.Dict):
+            keys = {k.value for k in node.keys if isinstance(k, ast.Constant)}
+            if keys & INFO_FIELDS:
+                report(node, f"an info built by hand ({sorted(keys & INFO_FIELDS)[0]!r})")
+        elif isinstance(node, ast.BinOp) and _names(node) & ARITHMETIC:
+            report(node, f"arithmetic on {sorted(_names(node) & ARITHMETIC)[0]}")
+        test = _tested(node)
+        if test is not None and _names(test) & BRANCHED and not allowed:
+            report(node, f"a branch on {sorted(_names(test) & BRANCHED)[0]}")
+        for child in ast.iter_child_nodes(node):
+            visit(child, function)
+
+    visit(ast.parse(source, filename), None)
+    return sorted(set(found), key=found.index)
+
+
+def face_modules() -> list[Path]:
+    """The FLUIDS modules that are faces (not the core, the world or the supervisor)."""
+    paths = []
+    for path in sorted(FLUIDS.rglob("*.py")):
+        relative = path.relative_to(FLUIDS)
+        if relative.parts[0] in LOWER or relative.as_posix() in OWN_RULES:
+            continue
+        paths.append(path)
+    return paths
+
+
+def test_no_face_judges_a_step_or_computes_a_reward():
+    faces = face_modules()
+    assert {"env.py", "multi_agent.py", "vector/env.py", "vector/act.py"} <= {
+        p.relative_to(FLUIDS).as_posix() for p in faces
+    }
+    found = []
+    for path in faces:
+        found += rule_code(path.read_text(encoding="utf-8"), path.relative_to(FLUIDS).as_posix())
+    assert not found, "rule code outside fluids_bench/tasks/fluids/core:\n" + "\n".join(found)
+
+
+def test_the_core_holds_the_rules_the_scan_looks_for():
+    """The scan is not vacuous: run on the core, it finds every kind of rule code."""
+    path = FLUIDS / "core" / "rules.py"
+    found = "\n".join(rule_code(path.read_text(encoding="utf-8"), "rules.py"))
+    for what in ("reward constant", "comparison against", "branch on", "arithmetic on"):
+        assert what in found, what
+    path = FLUIDS / "core" / "infos.py"
+    assert "an info built by hand" in "\n".join(rule_code(path.read_text(encoding="utf-8"), "i"))
+
+
+REIMPLEMENTATIONS = {
+    "reward constant": "def f(x):\n    return x - COLLISION_PENALTY\n",
+    "comparison against reward_version": (
+        "def r(self, g):\n    if self.reward_version == 0:\n        return g\n    return 2 * g\n"
+    ),
+    "comparison against done_when": 'def t(self, w):\n    return self.done_when == "all"\n',
+    "a branch on obey_lights": (
+        "def s(self, ok):\n    return ok and not (self.obey_lights and self.faults.ran_red[0])\n"
+    ),
+    "arithmetic on _route_length": "def r(self, g):\n    return g / self._route_length - 1.0\n",
+    "arithmetic on failure_penalty": "def p(self, n):\n    return self.failure_penalty * n\n",
+    "an info built by hand ('ego_arrived')": (
+        'def info(self, w):\n    return {"ego_arrived": bool(w.reached[0])}\n'
+    ),
+    "a test of who a collision involves": (
+        "def hit(events, i):\n    return any(i in (e.a, e.b) for e in events)\n"
+    ),
+}
+
+
+def test_a_re_implementation_in_a_new_module_is_found(tmp_path):
+    """Each kind of rule code, written into a module of its own, fails the scan."""
+    for what, source in REIMPLEMENTATIONS.items():
+        path = tmp_path / "face.py"
+        path.write_text(source, encoding="utf-8")
+        found = rule_code(path.read_text(encoding="utf-8"), "face.py")
+        assert any(what in line for line in found), (what, found)
