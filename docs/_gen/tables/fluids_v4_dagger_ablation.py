@@ -14,16 +14,16 @@ def render(data: dict, part: str = "scores", **_) -> str:
     s = data["settings"]
     if part == "probe":
         lines = [
-            "| planner period | DAgger's states | on a recovery path | label differs from a "
-            f"replanned one (> {s['recovery_tolerance_m']} m) |",
+            "| planner period | DAgger's states | on a recovery path | of those, label more than "
+            f"{s['recovery_tolerance_m']} m from a re-planned one |",
             "|---|---|---|---|",
         ]
         for period, algos in data["results"].items():
             p = algos["dagger"]["probe"]
             lines.append(
-                f"| {period} | {p['states']} | {p['recovering']} "
+                f"| {period} | {p['states']:,} | {p['recovering']:,} "
                 f"({100 * p['recovering'] / p['states']:.0f} %) | "
-                f"{p['label_differs_from_replanned']} |"
+                f"{p['label_differs_from_replanned']:,} |"
             )
         return "\n".join(lines)
     lines = [
