@@ -21,6 +21,11 @@ steps under the driving env's actions differ from the driving env's in anything 
   background on) and reported as ``null``.
 
     PYTHONPATH=. python scripts/checks/supervisor_purity.py --ids Singulation-v0 --states 60
+
+With ``--results FILE`` the ids measured are also merged into FILE (written atomically): their
+rows replace any of the same id, the other ids' rows are kept, and the command that measured
+each id is kept next to it (``commands``). The docs' table reads
+``docs/results/supervisor_purity_fresh.json``, made with ``--copy fresh --states 30``.
 """
 
 from __future__ import annotations
@@ -41,7 +46,8 @@ from fluids_bench.registration import ENV_SPECS
 sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "tests"))
 from exact_compare import exactly_equal  # noqa: E402
 
-from fluids_bench.core.provenance import announce
+from fluids_bench.algos.results import write_json_atomic
+from fluids_bench.core.provenance import announce, relative_paths
 
 SEED = 20_000  # seeds the project's tests and tables do not use
 
@@ -142,6 +148,7 @@ def main() -> None:
     parser.add_argument("--ahead", type=int, default=2, help="steps compared after each copy")
     parser.add_argument("--copy", choices=["snapshot", "deepcopy", "fresh"], default="snapshot")
     parser.add_argument("--env-kwargs", default="{}", help="JSON kwargs for every gym.make")
+    parser.add_argument("--results", default=None, help="JSON file to merge the ids' rows into")
     args = parser.parse_args()
     announce("~2 min on one core at --states 60")
     kwargs = json.loads(args.env_kwargs)
@@ -154,6 +161,37 @@ def main() -> None:
     }
     summary = {"copy": args.copy, "ahead": args.ahead, "env_kwargs": kwargs, "results": out}
     print(json.dumps(summary, indent=1))
+    if args.results:
+        command = "python scripts/checks/supervisor_purity.py " + " ".join(
+            relative_paths(sys.argv[1:])
+        )
+        write_json_atomic(args.results, merge(args.results, summary, command))
+
+
+def merge(path: str, summary: dict, command: str) -> dict:
+    """The results file at `path` (if any) with `summary`'s ids replaced or added; refuses
+    to mix copy modes, `--ahead` or env kwargs in one file."""
+    try:
+        with open(path) as f:
+            data = json.load(f)
+    except FileNotFoundError:
+        data = {k: summary[k] for k in ("copy", "ahead", "env_kwargs")}
+        data["results"], data["commands"] = {}, {}
+    for key in ("copy", "ahead", "env_kwargs"):
+        if data.get(key, {} if key == "env_kwargs" else None) != summary[key]:
+            raise SystemExit(
+                f"{path} holds --{key.replace('_', '-')} {data.get(key)!r}, this run "
+                f"{summary[key]!r}: write to another file"
+            )
+    commands = data.setdefault("commands", {})
+    if "command" in data:  # one command for every id (files written before --results)
+        old = data.pop("command")
+        for env_id in data["results"]:
+            commands.setdefault(env_id, old)
+    for env_id, rows in summary["results"].items():
+        data["results"][env_id] = rows
+        commands[env_id] = command
+    return data
 
 
 if __name__ == "__main__":

@@ -82,10 +82,15 @@ def driving_score(route_completion: float, infractions: Mapping[str, int]) -> fl
 
 def route_completion(world, agent: int, route_length: float) -> float:
     """The share of `agent`'s route it covered: 1 once arrived, else 1 less the metres left to
-    its route's end over the route's length from where it started, clipped to [0, 1]."""
+    its route's end over the route's length from where it started, clipped to [0, 1].
+
+    The metres left are the path's length less the progress along the path, both in the
+    path's own coordinates: after a recovery the car follows a path (a bridge, then the rest of
+    its route) that starts `world.offset` m into the route's coordinates, and its end is the
+    route's end."""
     if world.reached[agent]:
         return 1.0
-    left = float(world.path_len[agent]) - float(world.s[agent] + world.offset[agent])
+    left = float(world.path_len[agent]) - float(world.s[agent])
     return float(np.clip(1.0 - left / route_length, 0.0, 1.0))
 
 

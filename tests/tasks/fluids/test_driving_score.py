@@ -66,11 +66,13 @@ def test_counts_by_hand():
         "failures_to_yield": 0,
         "timeouts": 0,
     }
+    # a 100 m route started 20 m in (80 m to cover), followed since a recovery on a 70 m path
+    # (its bridge, then the route's end) that starts 30 m into the route's coordinates; 20 m
+    # along it the car is 50 m into the route: 30 of 80 m covered
     world = SimpleNamespace(
-        reached=np.array([False]), path_len=np.array([100.0]), s=np.array([40.0]),
-        offset=np.array([10.0]),
+        reached=np.array([False]), path_len=np.array([70.0]), s=np.array([20.0]),
+        offset=np.array([30.0]),
     )  # fmt: skip
-    # started 20 m in (route length 80 m), now at 50 m: 30 of 80 m covered
     report = scoring.episode_report(world, faults, 0, 80.0, events, timed_out=False)
     assert math.isclose(report["route_completion"], 1.0 - 50.0 / 80.0)
     assert math.isclose(report["driving_score"], (1.0 - 50.0 / 80.0) * 0.6 * 0.7)
@@ -107,6 +109,37 @@ def test_scalar_env_reports_at_every_end():
     assert info["infractions"]["timeouts"] == 1
     assert 0.0 < info["route_completion"] < 1.0
     assert info["driving_score"] == pytest.approx(0.7 * info["route_completion"])
+
+
+def test_route_completion_after_a_recovery_path():
+    """Pushed off its route (waypoints 4 m to the left for 20 steps), the ego follows a
+    recovery path (a Dubins bridge, then the rest of its route) and arrives. Along that path
+    the completion is still the share of the route covered from where the car started: the
+    metres left are the path's length less the progress along the path (both in the path's
+    coordinates), not less the progress in the route's (which counted the path's offset into
+    the route as covered twice)."""
+    env = gym.make("FLUIDS-v4")
+    _, info = env.reset(seed=1)
+    inner = env.unwrapped
+    world = inner.world
+    start, length = float(world.s[0]), float(inner._route_length)
+    recovering = 0
+    for t in range(600):
+        action = info["supervisor_action"].copy()
+        if 10 <= t < 30:
+            action[1::2] += 0.08  # every waypoint 4 m further left
+        _, _, terminated, truncated, info = env.step(action)
+        if terminated or truncated:
+            break
+        if world.recovering[0]:
+            recovering += 1
+            covered = float(world.s[0] + world.offset[0]) - start
+            expected = min(max(covered / length, 0.0), 1.0)
+            # to within the bridge's resampling (< 1 m of the route; the old rule was ~14 m off)
+            got = scoring.route_completion(world, 0, length)
+            assert got == pytest.approx(expected, abs=1.0 / length)
+    assert recovering > 100  # the check ran along the recovery path
+    assert info["is_success"] and info["route_completion"] == 1.0
 
 
 def test_older_ids_report_no_score():
