@@ -21,7 +21,7 @@ compiled everything again. This package's kernels are filed by their path inside
 instead ([`install_package_locator`][fluids_bench.core.numba_cache.install_package_locator]):
 with numba's own check of the source's content hash, a cache now depends on the code and the
 versions only, and survives a reinstall. The first compile of a FLUIDS kernel in a process
-prints one line to stderr (`COMPILE_MESSAGE`): a cold start takes a minute or two.
+prints one line to stderr (`COMPILE_MESSAGE`): a cold start takes a minute or more.
 """
 
 from __future__ import annotations
@@ -39,9 +39,11 @@ from typing import Any
 
 PACKAGE = Path(__file__).resolve().parents[1]
 VERSIONED = ("numba", "llvmlite", "numpy")  # distributions whose versions key the cache
-# what a cold compile of the FLUIDS kernels takes on one core: 88-90 CPU-s measured with numba
-# 0.68 (FLUIDS-v1, reset and 20 steps; /usr/bin/time); more wall time on a loaded machine
-COLD_COMPILE_S = 90
+# what a cold compile of the FLUIDS kernels takes on one core: 72-81 CPU-s measured with numba
+# 0.68 (FLUIDS-v1 and v4, reset and 50 steps; the vector env 99: its batch kernels too;
+# scripts/benchmarks/bench_compile.py, docs/results/bench_compile.json); more wall time on a
+# loaded machine
+COLD_COMPILE_S = 75
 COMPILE_MESSAGE = "fluids-bench: compiling FLUIDS kernels, once, ~{seconds} s (cached in {where})"
 _FLUIDS = "fluids_bench.tasks.fluids"
 

@@ -55,7 +55,8 @@ def to_normalized(level: str, world: World, value: np.ndarray) -> np.ndarray:
         value = value * (2.0 / world.scene.car.max_speed) - 1.0
     elif level == "trajectory":
         value = value / WAYPOINT_BOUND
-    return np.clip(value, -1.0, 1.0)
+    # np.clip's bits (NaN stays NaN) at a third of its cost on a few numbers
+    return np.minimum(np.maximum(value, -1.0), 1.0)
 
 
 def validate(

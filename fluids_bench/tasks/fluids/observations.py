@@ -116,18 +116,50 @@ class ObservationConfig:
 class _Normalizer:
     """`obs_scale="normalized"`: a physical observation mapped affinely, entry by entry, onto
     a flat float32 vector clipped to `[-1, 1]`: `(x - offset) * gain`, then an optional
-    one-hot expansion of the quasi-LIDAR labels. Picklable, stateless."""
+    one-hot expansion of the quasi-LIDAR labels. Picklable, stateless.
+
+    Each step costs a handful of numpy calls into the one array it returns: the arithmetic
+    runs in float64 (numpy's loop for float32 and float64 operands) and is rounded to float32
+    before the clip, which gives the same bits as clipping first (±1 are float32 numbers and
+    the rounding is monotone)."""
 
     def __init__(self, offset: np.ndarray, gain: np.ndarray, labels: int = 0) -> None:
         self.offset, self.gain, self.labels = offset, gain, labels
+        if labels:  # qlidar rows [d, label, psi, v]: the scaled columns, the label values
+            rows, shift = gain.reshape(-1, 4), offset.reshape(-1, 4)
+            self._d_gain, self._pv_gain = rows[:, 0].copy(), rows[:, 2:4].copy()
+            self._d_off, self._pv_off = shift[:, 0].copy(), shift[:, 2:4].copy()
+            self._shift = bool(np.any(offset))
+            self._values = np.arange(1, labels, dtype=np.float32)
+
+    def __setstate__(self, state: dict) -> None:  # pickles of the earlier, shorter state
+        self.__init__(state["offset"], state["gain"], state["labels"])
+
+    def __getstate__(self) -> dict:
+        return {"offset": self.offset, "gain": self.gain, "labels": self.labels}
 
     def __call__(self, obs: np.ndarray) -> np.ndarray:
-        x = (obs.astype(np.float64) - self.offset) * self.gain
-        if self.labels:  # qlidar rows [d, label, psi, v] -> [d, psi, v, one-hot(label 1..L-1)]
-            rows = obs.reshape(-1, 4)
-            hot = np.arange(1, self.labels)[None, :] == np.rint(rows[:, 1:2]).astype(np.int64)
-            x = np.concatenate([x.reshape(-1, 4)[:, [0, 2, 3]], hot], axis=1).reshape(-1)
-        return np.clip(x, -1.0, 1.0).astype(np.float32)  # elementwise: rows of a batch too
+        if not self.labels:
+            out = np.empty(obs.shape, np.float32)
+            np.multiply(np.subtract(obs, self.offset, dtype=np.float64), self.gain, out=out)
+            return _clip_unit(out)
+        rays = len(self._d_gain)  # one observation (R, 4) or a batch's rows (B, R, 4)
+        rows = obs.reshape(-1, rays, 4)  # -> [d, psi, v, one-hot(label 1..L-1)] per ray
+        out = np.empty((len(rows), rays, 2 + self.labels), np.float32)
+        d, pv = rows[..., 0], rows[..., 2:4]
+        if self._shift:
+            d, pv = d - self._d_off, pv - self._pv_off  # float64, as numpy promotes
+        np.multiply(d, self._d_gain, out=out[..., 0], dtype=np.float64, casting="same_kind")
+        np.multiply(pv, self._pv_gain, out=out[..., 1:3], dtype=np.float64, casting="same_kind")
+        _clip_unit(out[..., :3])
+        np.equal(np.rint(rows[..., 1:2]), self._values, out=out[..., 3:], casting="unsafe")
+        return out.reshape(-1)  # flat, as the space (a batch's caller splits the rows)
+
+
+def _clip_unit(x: np.ndarray) -> np.ndarray:
+    """`x` clipped to `[-1, 1]` in place (NaN stays NaN, as with `np.clip`)."""
+    np.minimum(np.maximum(x, -1.0, out=x), 1.0, out=x)
+    return x
 
 
 NEAR = 30.0  # m: the scale of the explicit vector's nearby lengths (the quasi-LIDAR's range)

@@ -147,3 +147,37 @@ def test_failure_penalty_weights_only_the_failure_terms():
         gym.make("FLUIDS-v1", failure_penalty=2.0)  # reward version 0
     with pytest.raises(ValueError, match="failure_penalty"):
         gym.make("FLUIDS-v2", failure_penalty=-1.0)
+
+
+def _normalised_as_before(offset, gain, labels, obs):
+    """The normalisation as first written (numpy temporaries, np.clip), the bits to keep."""
+    x = (obs.astype(np.float64) - offset) * gain
+    if labels:
+        rows = obs.reshape(-1, 4)
+        hot = np.arange(1, labels)[None, :] == np.rint(rows[:, 1:2]).astype(np.int64)
+        x = np.concatenate([x.reshape(-1, 4)[:, [0, 2, 3]], hot], axis=1).reshape(-1)
+    return np.clip(x, -1.0, 1.0).astype(np.float32)
+
+
+@pytest.mark.parametrize("labels", [0, 6])
+@pytest.mark.parametrize("shifted", [False, True])
+def test_normaliser_gives_the_bits_of_its_first_formulation(labels, shifted):
+    from fluids_bench.tasks.fluids.observations import _Normalizer
+
+    rng = np.random.default_rng(labels + shifted)
+    width = (64, 4) if labels else (50,)
+    gain = rng.uniform(0.01, 2.0, width)
+    offset = rng.normal(0.0, 3.0, width) if shifted else np.zeros(width)
+    scale = _Normalizer(offset, gain, labels)
+    for batch in ((), (5,)):
+        for _ in range(50):
+            obs = rng.normal(0.0, 40.0, batch + width) * rng.choice([1.0, 1e-3, 1e3], batch + width)
+            obs = obs.astype(np.float32)
+            if labels:
+                obs[..., 1] = rng.integers(0, labels + 1, obs.shape[:-1])
+            with np.errstate(invalid="ignore"):
+                obs.reshape(-1)[rng.integers(0, obs.size, 3)] = [np.nan, -0.0, np.inf]
+                want = _normalised_as_before(offset, gain, labels, obs)
+            got = scale(obs)
+            assert got.dtype == want.dtype and got.shape == want.shape
+            assert got.tobytes() == want.tobytes()

@@ -94,7 +94,7 @@ def _entry_arc_length(outside: np.ndarray) -> float:
     return (first - 1 + before / (before - after)) * PATH_SPACING
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def crosswalk_occupied(c, state, active, is_car, width, centre, axis, half):  # pragma: no cover
     """True when an active pedestrian's disc overlaps crosswalk `c`'s rectangle."""
     for j in range(len(state)):
@@ -130,7 +130,7 @@ def occupied(world, cw: Crosswalks | None = None) -> np.ndarray:
     return out
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def record_yield_step(
     route_s, front, route, active, is_car, car_enter, prev_at, prev_occ, warned, failed,
     state, width, centre, axis, half,

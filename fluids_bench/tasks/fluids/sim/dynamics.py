@@ -21,7 +21,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def wrap_angle(angle: float) -> float:  # pragma: no cover (compiled)
     """To [-π, π), as `(angle + π) % 2π − π` (Python's and numpy's floored modulo)."""
     return (angle + math.pi) % (2 * math.pi) - math.pi

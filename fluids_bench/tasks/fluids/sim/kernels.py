@@ -76,7 +76,7 @@ def surely_on_road(
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def surely_on_road_into(
     state, nearest, offsets, samples, radius, path_z, clearance, out
 ):  # pragma: no cover (compiled)
@@ -115,7 +115,7 @@ def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover 
     return np.array(first, dtype=np.int64), np.array(second, dtype=np.int64)
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _circles_meet(state, a, b, reach2, offsets, radius):  # pragma: no cover (compiled)
     """Whether the covering circles of agents `a` and `b` meet (see `touching_pairs`)."""
     gx, gy = state[a, 0] - state[b, 0], state[a, 1] - state[b, 1]
@@ -134,7 +134,7 @@ def _circles_meet(state, a, b, reach2, offsets, radius):  # pragma: no cover (co
     return meet
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def any_touching(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
     """Whether `touching_pairs` would find any pair."""
     n = state.shape[0]
@@ -166,7 +166,7 @@ def mark_entered(s, offset, front, route, enter_s, active, entered, step):  # pr
             entered[i] = step
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def record_fault_step(
     route_s, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
     state, ring, slot,

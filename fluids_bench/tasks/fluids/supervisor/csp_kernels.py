@@ -213,7 +213,7 @@ def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cove
 
 # scalars, not the arrays: with the four arrays as arguments (inlined or not) the comparisons
 # took 2.3 us of a 2.5 us sort of 13 agents
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _before(in_a, k_in_a, k_out_a, ag_a, in_b, k_in_b, k_out_b, ag_b):  # pragma: no cover
     """Whether an agent with these keys (inside, key_in, key_out, world index) goes before
     one with those (`priority_order`)."""
@@ -226,7 +226,7 @@ def _before(in_a, k_in_a, k_out_a, ag_a, in_b, k_in_b, k_out_b, ag_b):  # pragma
     return ag_a < ag_b
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _fastest_allowed(allowed):  # pragma: no cover (compiled)
     """Each agent's highest allowed candidate (the last one where none is)."""
     n, k = allowed.shape
@@ -239,7 +239,7 @@ def _fastest_allowed(allowed):  # pragma: no cover (compiled)
     return choice
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _binds(choice, pairs, conflict):  # pragma: no cover (compiled)
     """Some constraint clashes at `choice`: the CSP matters."""
     for p in range(len(pairs)):

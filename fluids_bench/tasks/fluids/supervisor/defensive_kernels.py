@@ -58,13 +58,16 @@ def _aligned(state, f, ld):  # pragma: no cover (compiled)
     return abs(wrap_angle(state[ld, 2] - state[f, 2])) < math.pi / 4
 
 
-@njit(cache=True, nogil=True, inline="always")
+@njit(cache=True, nogil=True)
 def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
     """For each candidate c with `out[c]` False, set it where agent `i` at c (agent `j`
     if `of_second`: conflict[p, :, c].any()) comes too close to the other at any of its
-    candidates. One call per pair, inlined: a call of a compiled helper increments and
-    decrements an atomic reference count per array it takes, and with a call per candidate
-    those took a quarter of the kernel's time."""
+    candidates. One call per pair (`too_close`, called per candidate pair, is inlined into
+    it: a call of a compiled helper increments and decrements an atomic reference count per
+    array it takes, which per candidate took a quarter of the kernel's time). Not inlined
+    itself: numba copies an inlined function's IR once per block of it, so inlining this
+    (with `too_close` inside) into `_mark_both_ways` and that into `_give_way` took 18 of
+    the planner's 60 CPU-s of compiling."""
     if boxes_apart(box, i, j):
         return
     px, py, ux, uy = samples
@@ -87,25 +90,26 @@ def _mark_both_ways(
     to `w` both in the stop scenario and in the go one (any of w's candidates each);
     `hit_go` (K,) is scratch."""
     row = out.copy()
-    _mark_conflicts(s_stop, offs, box_stop, t, w, False, reach2, thresh2, out)
+    _mark_conflicts(s_stop, offs, box_stop, t, w, np.bool_(False), reach2, thresh2, out)
     for k in range(len(out)):
         hit_go[k] = row[k] or not out[k]  # settled already, or clear when stopping
-    _mark_conflicts(s_go, offs, box_go, t, w, False, reach2, thresh2, hit_go)
+    _mark_conflicts(s_go, offs, box_go, t, w, np.bool_(False), reach2, thresh2, hit_go)
     for k in range(len(out)):
         out[k] = row[k] or (out[k] and hit_go[k])
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _pair_limits(radius, bound, crossing, i, j, margin, ped_margin, contact):  # pragma: no cover
     """Squared broad-phase reach (float32) and squared clearance (m²) of positions i, j: the
     footprints' own with `contact`, else plus the margin (the smaller one once a walker of
-    the pair is on its crossing)."""
+    the pair is on its crossing). Callers pass `contact` as `np.bool_`, not a literal
+    `True`/`False`, which numba would compile a second time for."""
     m = 0.0 if contact else (ped_margin if crossing[i] or crossing[j] else margin)
     clearance = radius[i] + radius[j] + m
     return np.float32((bound[i] + bound[j]) * (bound[i] + bound[j])), clearance * clearance
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _clear_row_if_all(forbid, a):  # pragma: no cover (compiled)
     """Nothing is forbidden to `a` when everything would be (no candidate helps)."""
     for k in range(forbid.shape[1]):
@@ -188,7 +192,9 @@ def defensive_forbid(
     box = swept_boxes(samples[0], samples[1], now_x, now_y, bound, all_rows)
     for p in range(len(first)):
         i, j = first[p], second[p]
-        reach2, thresh2 = _pair_limits(radius_a, bound, crossing, i, j, margin, ped_margin, False)
+        reach2, thresh2 = _pair_limits(
+            radius_a, bound, crossing, i, j, margin, ped_margin, np.bool_(False)
+        )
         row = forbid[j] if wild[i] else forbid[i]  # the supervised agent's
         _mark_conflicts(samples, offs_a, box, i, j, wild[i], reach2, thresh2, row)
     follow = _follow_supervised(
@@ -267,7 +273,7 @@ def _follow_supervised(
     for p in range(len(fs)):
         f, ld = fs[p], ls[p]
         reach2, thresh2 = _pair_limits(
-            radius_a, bound, crossing, f, ld, floats[4], floats[5], False
+            radius_a, bound, crossing, f, ld, floats[4], floats[5], np.bool_(False)
         )
         if boxes_apart(box, f, ld):
             continue
@@ -378,7 +384,9 @@ def _give_way(
     hit_go = np.empty(n_cand, np.bool_)
     for p in range(len(ts)):
         t, w = ts[p], ws[p]
-        reach2, thresh2 = _pair_limits(radius_a, bound, crossing, t, w, margin, ped_margin, False)
+        reach2, thresh2 = _pair_limits(
+            radius_a, bound, crossing, t, w, margin, ped_margin, np.bool_(False)
+        )
         _mark_both_ways(
             s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, forbid[t], hit_go
         )
@@ -398,7 +406,7 @@ def _give_way(
             if not stuck[t]:
                 continue
             reach2, thresh2 = _pair_limits(
-                radius_a, bound, crossing, t, w, margin, ped_margin, True
+                radius_a, bound, crossing, t, w, margin, ped_margin, np.bool_(True)
             )
             _mark_both_ways(
                 s_stop, box_stop, s_go, box_go, offs_a, t, w, reach2, thresh2, touch[t], hit_go

@@ -18,7 +18,7 @@ import numpy as np
 from numba import njit
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
     """Agent `i`'s swept box (lo_x, hi_x, lo_y, hi_y): every candidate, every projected time
     and its position now, grown by its bounding-circle radius `bound[i]` (m)."""
@@ -31,7 +31,12 @@ def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
 
 
 # The per-pair helpers are inlined into their callers by numba (inline="always"): no reference
-# counting of their array arguments per call, and the callers' loops optimise across them.
+# counting of their array arguments per call, and the callers' loops optimise across them. So
+# are the small helpers that only kernels call, here and in the other kernel modules: a helper
+# compiled on its own costs some 0.3 CPU-s of a cold start (its own module, machine code and
+# Python wrappers), inlined only its typing at each call. Not a helper with inlined helpers of
+# its own that is itself inlined at several places: numba copies an inlined function's IR once
+# per block of it, which made `defensive_kernels._give_way` alone take 18 CPU-s.
 @njit(cache=True, nogil=True, inline="always")
 def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no cover (compiled)
     """Whether agent `i` at candidate `a` and agent `j` at candidate `b` come too close
@@ -63,7 +68,7 @@ def too_close(px, py, ux, uy, offs, i, a, j, b, reach2, thresh2):  # pragma: no 
     return False
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def path_samples_into(
     path_c64, path_dir, agents, proj, rows, inv_spacing, px, py, ux, uy
 ):  # pragma: no cover (compiled)
@@ -100,7 +105,7 @@ def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compile
     return box
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def swept_boxes_of_candidates(cbox, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
     """`swept_boxes` from the candidates' boxes (`candidate_boxes`): the same
     bounds, as min and max are exact, from K boxes instead of K·T points."""
@@ -130,7 +135,7 @@ def boxes_apart(box, i, j):  # pragma: no cover (compiled)
 _APART = 1.001
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def candidate_boxes(px, py, rows):  # pragma: no cover (compiled)
     """(A, K, 4) box (lo_x, hi_x, lo_y, hi_y; m) of each candidate's projected positions, for
     the agents in `rows` (zeros elsewhere)."""
@@ -238,7 +243,7 @@ def mark_off_route(
     return count
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def pid_controls_into(
     state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
     low, high, out, err, integ, v_int,
@@ -366,7 +371,7 @@ def hold_then_brake(
     return out
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def positions_now(agents, state, route, enter_s, is_car, s, offset, front):  # pragma: no cover
     """Where the planned agents are now (float32 x, y) and which are walkers on their crossing
     (front past their route's `enter_s`), whom cars may pass with a smaller clearance."""

@@ -23,13 +23,13 @@ from fluids_bench.tasks.fluids.sim.crosswalks import committed_to, crosswalk_occ
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _wrapped(index, n):  # pragma: no cover (compiled)
     """numpy's reading of a negative index (-1: the last)."""
     return index if index >= 0 else index + n
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, inline="always")
 def _time_to_change(light, t, ends, cycle, offset):  # pragma: no cover (compiled)
     """Seconds until `light` next changes state (LightProgram.time_to_change)."""
     phase_t = (t + offset[light]) % cycle[light]
