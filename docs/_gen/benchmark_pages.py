@@ -83,6 +83,8 @@ def leaderboard() -> str:
         test, ood = card["aggregate"].get("test") or {}, card["aggregate"].get("ood") or {}
         episodes = card["episodes_per_set"] or "all"
         label = f"{episodes} (shortened)" if card["shortened"] else f"{episodes}"
+        if not any(t["ood"] for t in card["suite"]["tasks"]):
+            label += ", test split only"
         rows.append(
             f"| {card['policy']['name']} | {', '.join(card['tasks'])} | {label} | "
             f"{_triple(test.get('mean'))} | {_triple(test.get('iqm'))} | "

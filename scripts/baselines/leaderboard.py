@@ -20,7 +20,8 @@ Resumable and idempotent: a task whose train result is complete (same config) is
 again, an evaluation runs only the episodes missing from `OUT/episodes/` (a train result's
 learner is rebuilt only if some are missing), and a baseline whose scorecard is up to date (same
 suite, same train results) is skipped. `--episodes N` and `--tasks` run a shortened suite
-(labelled so in the scorecards; the CI test runs GridWorld with 2 episodes per set).
+and `--test-only` the test split alone (each labelled so in the scorecards; `--suffix` keeps
+their files apart from the full suite's). The CI test runs GridWorld with 2 episodes per set.
 """
 
 from __future__ import annotations
@@ -260,7 +261,7 @@ def _shown(path: Path) -> Path:
 def run_baseline(baseline: str, suite: Suite, args: argparse.Namespace, command: str) -> None:
     if baseline == "references":
         for ref in REFERENCES:
-            card = args.results / f"scorecard_{ref}.json"
+            card = args.results / f"scorecard_{ref}{args.suffix}.json"
             if up_to_date(card, suite, None):
                 print(f"{ref}: {card} is up to date")
                 continue
@@ -272,7 +273,7 @@ def run_baseline(baseline: str, suite: Suite, args: argparse.Namespace, command:
         return
     for seed in args.seeds:
         name = policy_name(baseline, seed)
-        card = args.results / f"scorecard_{name}.json"
+        card = args.results / f"scorecard_{name}{args.suffix}.json"
         algo = BASELINES[baseline].algo
         paths = {
             t.name: _shown(args.train_out / name / f"{algo}_{t.env_id}_seed{seed}.json")
@@ -306,6 +307,12 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--episodes", type=int, default=None, help="the first N episodes of each set (shortened)"
     )
+    parser.add_argument(
+        "--test-only", action="store_true", help="the test split alone, no OOD sets (shortened)"
+    )
+    parser.add_argument(
+        "--suffix", default="", help="scorecard files are scorecard_<name><suffix>.json"
+    )
     parser.add_argument("--out", type=Path, default=Path("/work/runs/evaluate"))
     parser.add_argument("--train-out", type=Path, default=Path("/work/runs/train"))
     parser.add_argument("--results", type=Path, default=ROOT / "docs" / "results")
@@ -313,7 +320,7 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument("--no-progress", action="store_true")
     parser.add_argument("--no-plots", action="store_true")
     args = parser.parse_args(argv)
-    suite = SUITE.select(args.episodes, args.tasks)
+    suite = SUITE.select(args.episodes, args.tasks, ood=not args.test_only)
     argv = sys.argv[1:] if argv is None else argv
     command = " ".join(
         ["python", "scripts/baselines/leaderboard.py", *map(shlex.quote, relative_paths(argv))]

@@ -54,10 +54,24 @@ def test_a_shortened_run_writes_scorecards_and_a_rerun_does_no_work(tmp_path, ca
     def no_work(*args, **kwargs):
         raise AssertionError("a rerun trained or evaluated")
 
+    real_evaluate = lb.evaluate
     lb.evaluate = lb.train = no_work
     assert lb.main(argv) == 0
     assert capsys.readouterr().out.count("is up to date") == 3
     assert _files(tmp_path) == before
+
+    # the test split alone, from the same episodes, in its own file
+    lb.evaluate = real_evaluate
+    assert lb.main([*argv[:1], "references", *argv[3:], "--test-only", "--suffix", "_t"]) == 0
+    card = json.loads((tmp_path / "results" / "scorecard_random_t.json").read_text())
+    assert card["shortened"] and list(card["tasks"]["gridworld"]["sets"]) == ["test"]
+    assert (
+        card["tasks"]["gridworld"]["sets"]["test"]
+        == cards["random"]["tasks"]["gridworld"]["sets"]["test"]
+    )
+    assert (tmp_path / "eval" / "episodes" / "random.jsonl").read_bytes() == before[
+        tmp_path / "eval" / "episodes" / "random.jsonl"
+    ][1]
 
 
 @pytest.mark.parametrize("baseline", ["bc", "dagger", "dagger_b", "noise", "dart", "shiv"])
