@@ -83,6 +83,8 @@ def leaderboard() -> str:
         test, ood = card["aggregate"].get("test") or {}, card["aggregate"].get("ood") or {}
         episodes = card["episodes_per_set"] or "all"
         label = f"{episodes} (shortened)" if card["shortened"] else f"{episodes}"
+        if not any(t["ood"] for t in card["suite"]["tasks"]):
+            label += ", test split only"
         rows.append(
             f"| {card['policy']['name']} | {', '.join(card['tasks'])} | {label} | "
             f"{_triple(test.get('mean'))} | {_triple(test.get('iqm'))} | "
@@ -94,4 +96,29 @@ def leaderboard() -> str:
     for card in cards:
         rows.append(f"- {card['policy']['name']}: `{card['provenance']['command']}` "
                     f"(revision `{card['provenance']['git_revision']}`)")  # fmt: skip
+    return "\n".join(rows)
+
+
+def leaderboard_budget() -> str:
+    """The leaderboard driver's training budget per task and its baselines, from
+    `scripts/baselines/leaderboard.py` (`BUDGET`, `BASELINES`)."""
+    import importlib.util
+
+    path = Path(__file__).resolve().parents[2] / "scripts" / "baselines" / "leaderboard.py"
+    spec = importlib.util.spec_from_file_location("leaderboard_driver", path)
+    driver = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(driver)
+    rows = [
+        "| task | rollouts per run | labels kept per rollout | training labels at most | "
+        "evaluation episodes per curve point |",
+        "|---|---|---|---|---|",
+    ]
+    for task, b in driver.BUDGET.items():
+        rows.append(
+            f"| {task} | {b.rollouts} | {b.samples} | {b.rollouts * b.samples:,} | "
+            f"{b.eval_episodes} |"
+        )
+    rows += ["", "| baseline | `--algo` | what it is |", "|---|---|---|"]
+    for name, spec_ in driver.BASELINES.items():
+        rows.append(f"| `{driver.policy_name(name, 0)}` | `{spec_.algo}` | {spec_.about} |")
     return "\n".join(rows)

@@ -35,3 +35,4 @@ def define_env(env) -> None:
     env.macro(benchmark_pages.seed_splits)
     env.macro(benchmark_pages.benchmark_fluids_id)
     env.macro(benchmark_pages.leaderboard)
+    env.macro(benchmark_pages.leaderboard_budget)

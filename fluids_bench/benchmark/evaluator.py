@@ -27,7 +27,7 @@ from fluids_bench.benchmark.episodes import (
     kwargs_json,
     run_episode,
 )
-from fluids_bench.benchmark.policies import BUILT_INS, PolicySource, resolve
+from fluids_bench.benchmark.policies import BUILT_INS, PolicySource, ensure_learner, resolve
 from fluids_bench.benchmark.suite import SUITE, Suite, Task
 
 REFERENCES = BUILT_INS  # random (score 0) and supervisor (score 1)
@@ -153,6 +153,8 @@ def run_jobs(
     ) as bar:  # fmt: skip
         if not pending:
             return
+        for key in {(job.policy, job.task) for job, _ in pending}:
+            ensure_learner(sources[key])  # a train result's learner, rebuilt only if needed
         if workers == 1:
             init_worker(sources)
             for job, task in pending:

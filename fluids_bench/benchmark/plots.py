@@ -51,8 +51,7 @@ def _bars(axes: Any, cards: Sequence[dict[str, Any]], split: str) -> None:
             lows.append(point - low)
             highs.append(high - point)
         x = np.arange(len(labels)) + (i - (len(cards) - 1) / 2) * width
-        tasks_note = f"{card['policy']['name']} ({len(card['tasks'])} tasks)"
-        axes.bar(x, values, width, yerr=[lows, highs], capsize=2, label=tasks_note)
+        axes.bar(x, values, width, yerr=[lows, highs], capsize=2, label=card_label(card))
     axes.set_xticks(range(len(labels)), labels, rotation=30, ha="right")
     axes.axhline(0.0, color="0.5", lw=0.8)
     axes.axhline(1.0, color="0.5", lw=0.8, ls="--")
@@ -83,12 +82,22 @@ def plot_scorecards(cards: Sequence[dict[str, Any]], path: str | os.PathLike[str
     plt.close(figure)
 
 
+def card_label(card: dict[str, Any]) -> str:
+    """A scorecard's legend entry: its policy, how many tasks, episodes per set (`all` for the
+    full sets) and `test only` when it has no OOD set."""
+    episodes = card.get("episodes_per_set") or "all"
+    test_only = not any(t["ood"] for t in card["suite"]["tasks"])
+    return f"{card['policy']['name']} ({len(card['tasks'])} tasks, {episodes} ep/set" + (
+        ", test only)" if test_only else ")"
+    )
+
+
 def plot_label_efficiency_axes(axes: Any, cards: Sequence[dict[str, Any]]) -> None:
     for card in cards:
         for task, curve in card["label_efficiency"].items():
             axes.plot(
                 curve["labels"], curve["scores"], marker="o",
-                label=f"{card['policy']['name']}, {task} (area {curve['area']:.2f})",
+                label=f"{card_label(card)}, {task} (area {curve['area']:.2f})",
             )  # fmt: skip
     axes.set_xlabel("supervisor labels used")
     axes.set_ylabel("normalised score (train run's evaluation seeds)")

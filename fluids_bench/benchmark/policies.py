@@ -16,6 +16,7 @@ An object (from Python) needs `act(obs) -> action` or `predict(obs_batch) -> act
 
 from __future__ import annotations
 
+import dataclasses
 import importlib
 import inspect
 import json
@@ -181,8 +182,13 @@ def is_train_result(path: Path) -> bool:
 def resolve(policy: Any, name: str | None = None) -> PolicySource:
     """A [`PolicySource`][fluids_bench.benchmark.policies.PolicySource] for a spec or object.
 
-    Train results are rebuilt (trained again) here, once, in the calling process.
+    A complete train result's learner is rebuilt (trained again) only when an episode needs it
+    ([`ensure_learner`][fluids_bench.benchmark.policies.ensure_learner], in the calling
+    process); a `PolicySource` (e.g. from
+    [`train_result_source`][fluids_bench.benchmark.policies.train_result_source]) is used as is.
     """
+    if isinstance(policy, PolicySource):
+        return policy
     if not isinstance(policy, str):
         _Act(policy)  # refuses an object without act / predict now
         return PolicySource(name or type(policy).__name__, "object", None, policy)
@@ -247,16 +253,79 @@ def random_return(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> 
 
 
 def _from_train_result(path: Path, name: str | None) -> PolicySource:
-    """Run a train result's config again (deterministic: the same learner) and keep the
-    learner and the run's label-efficiency curve: each evaluated iteration's mean return on the
-    run's own evaluation seeds, normalised by the supervisor's (from the run) and the random
-    policy's (measured here) on those same seeds."""
-    import dataclasses
+    return train_result_source(path, name)
 
+
+def train_result_source(
+    path: str | Path, name: str | None = None, result: Any = None
+) -> PolicySource:
+    """The policy of a `fluids-bench train` result, with the run's label-efficiency curve.
+
+    The JSON stores no model, but its run is deterministic: the learner is the one its config
+    trains. `result` (the run's `RunResult`, for a caller that has just run it) supplies it at
+    once; otherwise a complete result's learner is rebuilt by running the config again when an
+    episode needs it ([`ensure_learner`][fluids_bench.benchmark.policies.ensure_learner]), and
+    an incomplete one (`"complete": false`) is run again here. The curve is each evaluated
+    iteration's mean return on the run's own evaluation seeds, normalised by the supervisor's
+    (from the run) and the random policy's (measured here) on those same seeds.
+
+    Args:
+        path: the train result `.json`.
+        name: the policy's name (default: the file's stem).
+        result: the `RunResult` of that JSON's run, if the caller holds it.
+
+    Returns:
+        A `"learner"` source (its `obj` None until built when neither `result` is given nor the
+        JSON is incomplete).
+    """
+    path = Path(path)
+    data = json.loads(path.read_text())
+    config = _train_config(path, data)
+    if result is None and not data.get("complete", False):
+        result = _train_again(data["algo"], config)
+    records = data.get("records", [])
+    if result is not None:
+        records = [dataclasses.asdict(r) for r in result.records]
+        supervisor, labels = result.supervisor_return, result.final.labels_requested
+    else:
+        supervisor, labels = data["supervisor_return"], records[-1]["labels_requested"]
+    evaluated = [r for r in records if r.get("eval_return") is not None]
+    extras: dict[str, Any] = {
+        "train_result": str(path),
+        "algo": data["algo"],
+        "env_id": config.env_id,
+        "env_kwargs": dict(config.env_kwargs),
+        "train_seed": config.seed,
+        "labels_used": labels,
+    }
+    random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
+    if evaluated and supervisor > random:
+        extras["learning_curve"] = {
+            "labels": [r["labels_requested"] for r in evaluated],
+            "normalised_performance": [
+                (r["eval_return"] - random) / (supervisor - random) for r in evaluated
+            ],
+            "random_return": random,
+            "supervisor_return": supervisor,
+        }
+    learner = None if result is None else result.policy
+    return PolicySource(name or path.stem, "learner", str(path), learner, extras)
+
+
+def ensure_learner(source: PolicySource) -> PolicySource:
+    """Build a train result's learner if it is not built yet (runs its config again)."""
+    if source.kind == "learner" and source.obj is None and "train_result" in source.extras:
+        path = Path(source.extras["train_result"])
+        data = json.loads(path.read_text())
+        source.obj = _train_again(data["algo"], _train_config(path, data)).policy
+    return source
+
+
+def _train_config(path: Path, data: dict[str, Any]) -> Any:
+    """The config of a train result's run, in this process (one worker, no checkpoint)."""
     from fluids_bench.algos.policies import PolicySpec
     from fluids_bench.algos.registry import get_algorithm
 
-    data = json.loads(path.read_text())
     algorithm = get_algorithm(data["algo"])
     settings = dict(data["config"])
     fields = {f.name: f for f in dataclasses.fields(algorithm.config_class)}
@@ -271,26 +340,10 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
             settings[key] = tuple(value)
     settings.update(workers=1, backend="process", checkpoint=None)
     settings = {k: v for k, v in settings.items() if k in fields}
-    config = algorithm.config_class(**settings)
-    result = algorithm.run(config, None)
-    records = [r for r in data.get("records", []) if r.get("eval_return") is not None]
-    extras: dict[str, Any] = {
-        "train_result": str(path),
-        "algo": data["algo"],
-        "env_id": config.env_id,
-        "env_kwargs": dict(config.env_kwargs),
-        "train_seed": config.seed,
-        "labels_used": result.final.labels_requested,
-    }
-    supervisor = result.supervisor_return
-    random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
-    if records and supervisor > random:
-        extras["learning_curve"] = {
-            "labels": [r["labels_requested"] for r in records],
-            "normalised_performance": [
-                (r["eval_return"] - random) / (supervisor - random) for r in records
-            ],
-            "random_return": random,
-            "supervisor_return": supervisor,
-        }
-    return PolicySource(name or path.stem, "learner", str(path), result.policy, extras)
+    return algorithm.config_class(**settings)
+
+
+def _train_again(algo: str, config: Any) -> Any:
+    from fluids_bench.algos.registry import get_algorithm
+
+    return get_algorithm(algo).run(config, None)

@@ -141,8 +141,10 @@ class Suite:
 
     @property
     def shortened(self) -> bool:
-        """Whether this is less than the full suite (fewer episodes or fewer tasks)."""
-        return self.episodes is not None or {t.name for t in self.tasks} != set(TASK_NAMES)
+        """Whether this is less than the full suite (fewer episodes, fewer tasks, or a task
+        with fewer sets: [`select`][fluids_bench.benchmark.suite.Suite.select]`(ood=False)`)."""
+        full = {t.name: t for t in TASKS}
+        return self.episodes is not None or {t.name: t for t in self.tasks} != full
 
     def task(self, name: str) -> Task:
         for task in self.tasks:
@@ -150,14 +152,21 @@ class Suite:
                 return task
         raise ValueError(f"unknown task {name!r}; allowed: {[t.name for t in self.tasks]}")
 
-    def select(self, episodes: int | None = None, tasks: Sequence[str] | None = None) -> Suite:
-        """A shortened suite: the first `episodes` of each set, only `tasks` (names)."""
+    def select(
+        self, episodes: int | None = None, tasks: Sequence[str] | None = None, ood: bool = True
+    ) -> Suite:
+        """A shortened suite: the first `episodes` of each set, only `tasks` (names), and with
+        `ood=False` the test split alone (the tasks' OOD sets dropped)."""
         if episodes is not None and (isinstance(episodes, bool) or not isinstance(episodes, int)
                                      or episodes < 1):  # fmt: skip
             raise ValueError(f"episodes is {episodes!r}; allowed: a positive integer or None")
         chosen = self.tasks if tasks is None else tuple(self.task(name) for name in tasks)
         if not chosen:
             raise ValueError("tasks is empty; allowed: one or more of " + ", ".join(TASK_NAMES))
+        if not isinstance(ood, bool):
+            raise ValueError(f"ood is {ood!r}; allowed: True or False")
+        if not ood:
+            chosen = tuple(replace(task, ood=()) for task in chosen)
         return replace(self, tasks=chosen, episodes=episodes)
 
     def to_dict(self) -> dict[str, Any]:

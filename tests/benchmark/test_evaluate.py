@@ -140,6 +140,35 @@ def test_a_train_result_is_rebuilt_and_gives_its_label_efficiency(tmp_path):
         _run(str(result), tmp_path / "eval", suite=SUITE.select(episodes=2, tasks=["hopper"]))
 
 
+def test_a_train_results_learner_is_rebuilt_only_when_episodes_are_missing(tmp_path, monkeypatch):
+    from fluids_bench.algos.registry import get_algorithm
+    from fluids_bench.benchmark import policies
+
+    assert main(
+        ["train", "--env", "GridWorld-v0", "--algo", "bc", "--iterations", "2",
+         "--eval-episodes", "2", "--out", str(tmp_path / "train"), "--no-progress"]
+    ) == 0  # fmt: skip
+    path = tmp_path / "train" / "bc_GridWorld-v0_seed0.json"
+    suite = SUITE.select(episodes=2, tasks=["gridworld"])
+    lazy = policies.train_result_source(path)
+    assert lazy.obj is None and lazy.extras["labels_used"] > 0
+    calls = []
+    real = policies._train_again  # noqa: SLF001
+    monkeypatch.setattr(policies, "_train_again", lambda *a: calls.append(a) or real(*a))
+    first = _run(str(path), tmp_path / "eval", suite=suite)
+    assert len(calls) == 1  # its episodes were missing: rebuilt once
+    again = _run(str(path), tmp_path / "eval", suite=suite)
+    assert len(calls) == 1 and again["tasks"] == first["tasks"]  # all there: not rebuilt
+    # a caller holding the run's result passes it: the same source, nothing run again
+    data = json.loads(path.read_text())
+    result = get_algorithm("bc").run(policies._train_config(path, data), None)  # noqa: SLF001
+    held = policies.train_result_source(path, "bc_held", result)
+    assert held.obj is result.policy and held.extras == lazy.extras
+    card = _run({"gridworld": held}, tmp_path / "eval2", suite=suite, name="bc_held")
+    assert len(calls) == 1
+    assert card["tasks"]["gridworld"]["sets"] == first["tasks"]["gridworld"]["sets"]
+
+
 def test_train_runs_evaluation_seeds_are_the_harness_ones():
     from fluids_bench.algos.harness import Harness, RunConfig
     from fluids_bench.benchmark.policies import harness_eval_seeds

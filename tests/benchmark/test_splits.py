@@ -112,3 +112,15 @@ def test_every_task_and_ood_set_builds():
             env = gym.make(task.env_id, **kwargs)
             assert len(seeds) == 1, set_name
             env.close()
+
+
+def test_a_test_only_suite_is_shortened_and_keeps_the_test_split():
+    assert not SUITE.shortened and not SUITE.select().shortened
+    test_only = SUITE.select(ood=False)
+    assert test_only.shortened and test_only.to_dict()["shortened"]
+    for full, task in zip(SUITE.tasks, test_only.tasks, strict=True):
+        assert task.ood == () and [name for name, _, _ in task.eval_sets()] == ["test"]
+        assert task.eval_sets()[0] == full.eval_sets()[0]  # the same test episodes
+    assert SUITE.select(tasks=list(reversed(TASK_NAMES))).shortened is False  # order only
+    with pytest.raises(ValueError, match="ood is 'no'"):
+        SUITE.select(ood="no")

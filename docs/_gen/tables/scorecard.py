@@ -16,6 +16,8 @@ def render(card: dict) -> str:
         if card["shortened"] and card["episodes_per_set"]
         else (" Shortened evaluation: a subset of the tasks." if card["shortened"] else "")
     )
+    if card["shortened"] and not any(t["ood"] for t in card["suite"]["tasks"]):
+        shortened += " The test split only (no OOD sets)."
     rows = [
         f"Policy `{card['policy']['name']}` ({card['policy']['kind']}).{shortened}",
         "",
