@@ -7,7 +7,7 @@ A policy is given as a spec string (the command line's `--policy`) or as an obje
 | `random` | uniform random actions (the score's 0), drawn from the episode's seed |
 | `supervisor` | the env's supervisor label (the score's 1) |
 | `module:factory` | `factory()` (or `factory(task)` if it takes an argument) returns an object with `act(obs)` or `predict(obs_batch)` |
-| `PATH.json` | a `fluids-bench train` result: its run is deterministic, so it is run again from its config to rebuild the learner it ended with (the JSON stores no model) |
+| `PATH.json` | a `fluids-bench train` result: a scikit-learn family's run is deterministic, so it is run again from its config to rebuild the learner it ended with (the JSON stores no model); a `module:factory` learner's run is read from the checkpoint `train` saved next to it, `PATH` with `.learner.npz` for `.json` |
 | `PATH.zip` | a stable-baselines3 model (needs the `train` extra; SB3's own format unpickles parts of the file: load only files you trust) |
 | other `PATH` | a learner checkpoint read by `fluids_bench.algos.learners.load_learner` (safe formats only) |
 
@@ -181,7 +181,8 @@ def is_train_result(path: Path) -> bool:
 def resolve(policy: Any, name: str | None = None) -> PolicySource:
     """A [`PolicySource`][fluids_bench.benchmark.policies.PolicySource] for a spec or object.
 
-    Train results are rebuilt (trained again) here, once, in the calling process.
+    Train results of a scikit-learn family are rebuilt (trained again) here, once, in the
+    calling process; those of a user learner load the learner their run saved.
     """
     if not isinstance(policy, str):
         _Act(policy)  # refuses an object without act / predict now
@@ -257,6 +258,8 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
     from fluids_bench.algos.registry import get_algorithm
 
     data = json.loads(path.read_text())
+    if isinstance(data["config"].get("policy"), dict) and "learner" in data["config"]["policy"]:
+        return _from_learner_run(path, data, name)
     algorithm = get_algorithm(data["algo"])
     settings = dict(data["config"])
     fields = {f.name: f for f in dataclasses.fields(algorithm.config_class)}
@@ -274,17 +277,33 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
     config = algorithm.config_class(**settings)
     result = algorithm.run(config, None)
     records = [r for r in data.get("records", []) if r.get("eval_return") is not None]
+    labels = result.final.labels_requested
+    extras = _run_extras(path, data, config, labels, records, result.supervisor_return)
+    return PolicySource(name or path.stem, "learner", str(path), result.policy, extras)
+
+
+def _run_extras(
+    path: Path,
+    data: dict[str, Any],
+    config: Any,
+    labels: int,
+    records: list[dict[str, Any]],
+    supervisor: float | None,
+) -> dict[str, Any]:
+    """What a scorecard says about a train run: where it is, its env, seed and labels, and its
+    label-efficiency curve (normalised on the run's own evaluation seeds)."""
     extras: dict[str, Any] = {
         "train_result": str(path),
         "algo": data["algo"],
         "env_id": config.env_id,
         "env_kwargs": dict(config.env_kwargs),
         "train_seed": config.seed,
-        "labels_used": result.final.labels_requested,
+        "labels_used": labels,
     }
-    supervisor = result.supervisor_return
+    if not records or supervisor is None:
+        return extras
     random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
-    if records and supervisor > random:
+    if supervisor > random:
         extras["learning_curve"] = {
             "labels": [r["labels_requested"] for r in records],
             "normalised_performance": [
@@ -293,4 +312,43 @@ def _from_train_result(path: Path, name: str | None) -> PolicySource:
             "random_return": random,
             "supervisor_return": supervisor,
         }
-    return PolicySource(name or path.stem, "learner", str(path), result.policy, extras)
+    return extras
+
+
+def learner_checkpoint(path: Path) -> Path:
+    """Where `fluids-bench train` saves the final learner of the run whose result is `path`."""
+    return path.with_name(path.stem + ".learner.npz")
+
+
+def _from_learner_run(path: Path, data: dict[str, Any], name: str | None) -> PolicySource:
+    """A train result of a user learner (`--policy module:factory`): a run is not replayed
+    (the factory need not be deterministic), its saved final learner is loaded."""
+    from types import SimpleNamespace
+
+    if not data.get("complete"):
+        raise ValueError(
+            f"--policy {path}: the run is not complete (complete: false); allowed: a finished "
+            "run (`fluids-bench train ... --resume` finishes it)"
+        )
+    checkpoint = learner_checkpoint(path)
+    if not checkpoint.is_file():
+        raise ValueError(
+            f"--policy {path}: a run of learner {data['config']['policy']['learner']!r} is "
+            f"evaluated from the learner `train` saved next to it, {checkpoint}, which is missing"
+        )
+    from fluids_bench.algos.learners import load_learner
+
+    learner = load_learner(checkpoint)
+    settings = data["config"]
+    config = SimpleNamespace(
+        env_id=settings["env_id"],
+        env_kwargs=dict(settings.get("env_kwargs") or {}),
+        seed=int(settings["seed"]),
+        eval_episodes=int(settings["eval_episodes"]),
+    )
+    records = [r for r in data.get("records", []) if r.get("eval_return") is not None]
+    labels = int(data["records"][-1]["labels_requested"]) if data.get("records") else 0
+    extras = _run_extras(path, data, config, labels, records, data.get("supervisor_return"))
+    extras["learner"] = settings["policy"]["learner"]
+    extras["learner_checkpoint"] = str(checkpoint)
+    return PolicySource(name or path.stem, "learner", str(path), learner, extras)
