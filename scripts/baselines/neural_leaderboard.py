@@ -5,7 +5,8 @@ The budget is the decision-tree baselines' (`scripts/baselines/leaderboard.py`'s
 `BASELINES`, mirrored here: the same numbers, so a network and a tree get the same labels): per
 task the same number of supervisor-labelled rollouts for every algorithm and the same cap on the
 labels kept per rollout (`--samples-per-demo`); DAgger starts with one demonstration, counted in
-the rollouts; DART refits its noise every 5 rollouts; learning-curve points (5 episodes on train
+the rollouts; DART refits its noise every 5 rollouts (on GridWorld from 10 % of each
+demonstration held out: its 30-step episodes leave no pair beyond the cap); learning-curve points (5 episodes on train
 seeds) at a quarter, half and all of the rollouts; seed 0. The MLP is `MLPLearner` with its
 defaults (two hidden layers of 256, Adam 1e-3, up to 100 epochs per fit, early stopping after 10
 epochs without a lower validation loss on 10 % of the pairs, warm-started across iterations) on
@@ -19,7 +20,7 @@ Stages (each skips finished work, so the same command continues an interrupted r
 * `evaluate`: `fluids-bench evaluate` of each algorithm's runs (one policy per task: the train
   result, whose saved learner is loaded) on the full suite's test and OOD sets into `--eval-out`
   (the shared reference episodes), to `docs/results/scorecard_mlp_<algo>.json`; `--tasks`
-  restricts it (a shortened scorecard, labelled so).
+  restricts it and `--episodes N` caps every set (a shortened scorecard, labelled so).
 
     nice -n 15 python scripts/baselines/neural_leaderboard.py train --algos bc dagger dart
     nice -n 15 python scripts/baselines/neural_leaderboard.py evaluate --algos bc --tasks gridworld
@@ -68,6 +69,9 @@ OPTIONS: dict[str, tuple[dict[str, Any], int]] = {
     "dagger": ({"--initial-demos": 1}, 1),
     "dart": ({"--update-every": 5}, 0),
 }
+# GridWorld's 30-step episodes leave DART no pair beyond the 30 kept to estimate its noise from:
+# there it holds out 10 % of each demonstration (labels it does not train on)
+DART_HELDOUT: dict[str, float] = {"gridworld": 0.1}
 LEARNER = "fluids_bench.algos.learners:MLPLearner"
 LEARNER_PARAMS: dict[str, dict[str, Any]] = {"gridworld": {"epochs": 300, "patience": 30}}
 SEED = 0
@@ -98,6 +102,8 @@ def train_command(algo: str, task_name: str, out: Path) -> list[str]:
     ]  # fmt: skip
     for option, value in options.items():
         command += [option, str(value)]
+    if algo == "dart" and task_name in DART_HELDOUT:
+        command += ["--heldout-fraction", str(DART_HELDOUT[task_name])]
     return command
 
 
@@ -125,6 +131,10 @@ def main() -> int:
     parser.add_argument("--train-out", type=Path, default=Path("/work/runs/neural/train"))
     parser.add_argument("--eval-out", type=Path, default=Path("/work/runs/evaluate"))
     parser.add_argument("--results", type=Path, default=Path("docs/results"))
+    parser.add_argument(
+        "--episodes", type=int, default=None,
+        help="evaluate: the first N episodes of each set (a shortened scorecard)",
+    )  # fmt: skip
     args = parser.parse_args()
     args.train_out.mkdir(parents=True, exist_ok=True)
     log = args.train_out / "neural_leaderboard.log"
@@ -145,6 +155,8 @@ def main() -> int:
         command = ["fluids-bench", "evaluate"]
         for task in done:
             command += ["--policy", f"{task}={result_path(algo, task, args.train_out)}"]
+        if args.episodes is not None:
+            command += ["--episodes", str(args.episodes)]
         command += [
             "--name", f"mlp_{algo}", "--out", str(args.eval_out), "--workers", "1",
             "--scorecard", str(args.results / f"scorecard_mlp_{algo}.json"), "--no-progress",
