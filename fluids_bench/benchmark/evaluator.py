@@ -86,17 +86,32 @@ def _assign(
     return name, chosen, {t.name: source for t in chosen.tasks}
 
 
-def _check_env(name: str, source: PolicySource, task: Task) -> None:
-    """A train run's learner is evaluated only on its own env id and kwargs."""
+def _check_env(name: str, source: PolicySource, task: Task) -> dict[str, Any]:
+    """A train run's learner is evaluated only on its own env id and kwargs, up to the task's
+    observation kwargs; returns the observation kwargs the run set otherwise than the task
+    (its episodes run with them: the same episodes, seen through the run's observation)."""
     env_id = source.extras.get("env_id")
     if env_id is None:
-        return
-    kwargs = source.extras.get("env_kwargs", {})
-    if env_id != task.env_id or dict(kwargs) != dict(task.env_kwargs):
+        return {}
+    kwargs = dict(source.extras.get("env_kwargs", {}))
+    task_kwargs = dict(task.env_kwargs)
+    differ = sorted(k for k in set(kwargs) | set(task_kwargs) if kwargs.get(k, _UNSET)
+                    != task_kwargs.get(k, _UNSET))  # fmt: skip
+    others = [k for k in differ if k not in task.observation_kwargs or k not in kwargs]
+    if env_id != task.env_id or others:
+        allowed = (
+            f"; only the observation kwargs {list(task.observation_kwargs)} may differ"
+            if task.observation_kwargs
+            else ""
+        )
         raise ValueError(
             f"policy {name!r} was trained on {env_id} with kwargs {kwargs}; task {task.name!r} "
-            f"is {task.env_id} with {dict(task.env_kwargs)} (train with those)"
+            f"is {task.env_id} with {task_kwargs} (train with those{allowed})"
         )
+    return {k: kwargs[k] for k in differ}
+
+
+_UNSET = object()
 
 
 def _describe(name: str, per_task: dict[str, PolicySource]) -> dict[str, Any]:
@@ -111,16 +126,23 @@ def _describe(name: str, per_task: dict[str, PolicySource]) -> dict[str, Any]:
     }
 
 
-def _jobs(name: str, suite: Suite) -> list[tuple[EpisodeJob, Task]]:
+def _jobs(
+    name: str, suite: Suite, observation: Mapping[str, Mapping[str, Any]] | None = None
+) -> list[tuple[EpisodeJob, Task]]:
+    """Every episode of the policy and the references; the policy's run with `observation`'s
+    kwargs of its task on top of the set's (the references' do not: they ignore observations)."""
     out = []
     policies = [name] + [r for r in REFERENCES if r != name]
     for task in suite.tasks:
+        own = dict((observation or {}).get(task.name, {}))
         for set_name, kwargs, seeds in task.eval_sets(suite.episodes):
             text = kwargs_json(kwargs)
+            own_text = kwargs_json({**kwargs, **own})
             for seed in seeds:
                 for policy in policies:
+                    where = own_text if policy == name else text
                     out.append(
-                        (EpisodeJob(policy, task.name, set_name, task.env_id, text, seed), task)
+                        (EpisodeJob(policy, task.name, set_name, task.env_id, where, seed), task)
                     )
     return out
 
@@ -210,6 +232,7 @@ def evaluate(
     if not isinstance(suite, Suite):
         raise ValueError(f"suite is {type(suite).__name__}; allowed: a fluids_bench Suite")
     name, suite, per_task = _assign(policy, suite, name)
+    observation = {t.name: _check_env(name, per_task[t.name], t) for t in suite.tasks}
     sources: dict[tuple[str, str], PolicySource] = {}
     for task in suite.tasks:
         sources[(name, task.name)] = per_task[task.name]
@@ -217,7 +240,7 @@ def evaluate(
             sources.setdefault((ref, task.name), PolicySource(ref, ref, ref))
     out = Path(out)
     logs = {p: EpisodeLog(out / "episodes" / f"{p}.jsonl") for p in {name, *REFERENCES}}
-    jobs = _jobs(name, suite)
+    jobs = _jobs(name, suite, observation)
     run_jobs(jobs, sources, logs, workers, progress)
 
     by_set: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
@@ -229,6 +252,7 @@ def evaluate(
         suite,
         lambda p, t, s: by_set[(p, t, s)],
         command,
+        observation,
     )
     path = Path(scorecard) if scorecard is not None else out / f"scorecard_{name}.json"
     write_json_atomic(path, card)

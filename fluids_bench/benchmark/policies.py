@@ -7,7 +7,7 @@ A policy is given as a spec string (the command line's `--policy`) or as an obje
 | `random` | uniform random actions (the score's 0), drawn from the episode's seed |
 | `supervisor` | the env's supervisor label (the score's 1) |
 | `module:factory` | `factory()` (or `factory(task)` if it takes an argument) returns an object with `act(obs)` or `predict(obs_batch)` |
-| `PATH.json` | a `fluids-bench train` result: its run is deterministic, so it is run again from its config to rebuild the learner it ended with (the JSON stores no model) |
+| `PATH.json` | a `fluids-bench train` result: a scikit-learn family's run is deterministic, so it is run again from its config to rebuild the learner it ended with (the JSON stores no model); a `module:factory` learner's run is read from the checkpoint `train` saved next to it, `PATH` with `.learner.npz` for `.json` |
 | `PATH.zip` | a stable-baselines3 model (needs the `train` extra; SB3's own format unpickles parts of the file: load only files you trust) |
 | other `PATH` | a learner checkpoint read by `fluids_bench.algos.learners.load_learner` (safe formats only) |
 
@@ -186,6 +186,7 @@ def resolve(policy: Any, name: str | None = None) -> PolicySource:
     ([`ensure_learner`][fluids_bench.benchmark.policies.ensure_learner], in the calling
     process); a `PolicySource` (e.g. from
     [`train_result_source`][fluids_bench.benchmark.policies.train_result_source]) is used as is.
+    A user learner's run (`--policy module:factory`) loads the learner its run saved.
     """
     if isinstance(policy, PolicySource):
         return policy
@@ -280,6 +281,8 @@ def train_result_source(
     """
     path = Path(path)
     data = json.loads(path.read_text())
+    if isinstance(data["config"].get("policy"), dict) and "learner" in data["config"]["policy"]:
+        return _from_learner_run(path, data, name)
     config = _train_config(path, data)
     if result is None and not data.get("complete", False):
         result = _train_again(data["algo"], config)
@@ -290,24 +293,7 @@ def train_result_source(
     else:
         supervisor, labels = data["supervisor_return"], records[-1]["labels_requested"]
     evaluated = [r for r in records if r.get("eval_return") is not None]
-    extras: dict[str, Any] = {
-        "train_result": str(path),
-        "algo": data["algo"],
-        "env_id": config.env_id,
-        "env_kwargs": dict(config.env_kwargs),
-        "train_seed": config.seed,
-        "labels_used": labels,
-    }
-    random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
-    if evaluated and supervisor > random:
-        extras["learning_curve"] = {
-            "labels": [r["labels_requested"] for r in evaluated],
-            "normalised_performance": [
-                (r["eval_return"] - random) / (supervisor - random) for r in evaluated
-            ],
-            "random_return": random,
-            "supervisor_return": supervisor,
-        }
+    extras = _run_extras(path, data, config, labels, evaluated, supervisor)
     learner = None if result is None else result.policy
     return PolicySource(name or path.stem, "learner", str(path), learner, extras)
 
@@ -347,3 +333,75 @@ def _train_again(algo: str, config: Any) -> Any:
     from fluids_bench.algos.registry import get_algorithm
 
     return get_algorithm(algo).run(config, None)
+
+
+def _run_extras(
+    path: Path,
+    data: dict[str, Any],
+    config: Any,
+    labels: int,
+    records: list[dict[str, Any]],
+    supervisor: float | None,
+) -> dict[str, Any]:
+    """What a scorecard says about a train run: where it is, its env, seed and labels, and its
+    label-efficiency curve (normalised on the run's own evaluation seeds)."""
+    extras: dict[str, Any] = {
+        "train_result": str(path),
+        "algo": data["algo"],
+        "env_id": config.env_id,
+        "env_kwargs": dict(config.env_kwargs),
+        "train_seed": config.seed,
+        "labels_used": labels,
+    }
+    if not records or supervisor is None:
+        return extras
+    random = random_return(config.env_id, dict(config.env_kwargs), harness_eval_seeds(config))
+    if supervisor > random:
+        extras["learning_curve"] = {
+            "labels": [r["labels_requested"] for r in records],
+            "normalised_performance": [
+                (r["eval_return"] - random) / (supervisor - random) for r in records
+            ],
+            "random_return": random,
+            "supervisor_return": supervisor,
+        }
+    return extras
+
+
+def learner_checkpoint(path: Path) -> Path:
+    """Where `fluids-bench train` saves the final learner of the run whose result is `path`."""
+    return path.with_name(path.stem + ".learner.npz")
+
+
+def _from_learner_run(path: Path, data: dict[str, Any], name: str | None) -> PolicySource:
+    """A train result of a user learner (`--policy module:factory`): a run is not replayed
+    (the factory need not be deterministic), its saved final learner is loaded."""
+    from types import SimpleNamespace
+
+    if not data.get("complete"):
+        raise ValueError(
+            f"--policy {path}: the run is not complete (complete: false); allowed: a finished "
+            "run (`fluids-bench train ... --resume` finishes it)"
+        )
+    checkpoint = learner_checkpoint(path)
+    if not checkpoint.is_file():
+        raise ValueError(
+            f"--policy {path}: a run of learner {data['config']['policy']['learner']!r} is "
+            f"evaluated from the learner `train` saved next to it, {checkpoint}, which is missing"
+        )
+    from fluids_bench.algos.learners import load_learner
+
+    learner = load_learner(checkpoint)
+    settings = data["config"]
+    config = SimpleNamespace(
+        env_id=settings["env_id"],
+        env_kwargs=dict(settings.get("env_kwargs") or {}),
+        seed=int(settings["seed"]),
+        eval_episodes=int(settings["eval_episodes"]),
+    )
+    records = [r for r in data.get("records", []) if r.get("eval_return") is not None]
+    labels = int(data["records"][-1]["labels_requested"]) if data.get("records") else 0
+    extras = _run_extras(path, data, config, labels, records, data.get("supervisor_return"))
+    extras["learner"] = settings["policy"]["learner"]
+    extras["learner_checkpoint"] = str(checkpoint)
+    return PolicySource(name or path.stem, "learner", str(path), learner, extras)

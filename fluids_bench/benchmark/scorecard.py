@@ -155,6 +155,7 @@ def build(
     suite: Suite,
     rows_of: Callable[[str, str, str], Rows],
     command: str | None = None,
+    observation: Mapping[str, Mapping[str, Any]] | None = None,
 ) -> dict[str, Any]:
     """The scorecard of policy `name` on `suite`.
 
@@ -164,6 +165,9 @@ def build(
         suite: the evaluated suite.
         rows_of: `(policy, task, set) -> rows` for the policy and the references.
         command: the command line that produced it.
+        observation: per task, the observation kwargs the policy's episodes ran with on top of
+            each set's kwargs (a policy trained with another observation); recorded in the
+            task's entry and each set's `policy_kwargs`.
     """
     tasks: dict[str, Any] = {}
     per_split: dict[str, dict[str, list[float]]] = {"test": {}, "ood": {}}
@@ -173,6 +177,9 @@ def build(
             rows = {p: rows_of(p, task.name, set_name) for p in {name, "random", "supervisor"}}
             scores = set_scores(rows, name)
             scores["kwargs"] = kwargs
+            own = dict((observation or {}).get(task.name) or {})
+            if own:
+                scores["policy_kwargs"] = {**kwargs, **own}
             scores["seeds"] = {
                 "split": "test" if set_name == "test" else "ood",
                 "first": seeds[0],
@@ -188,6 +195,8 @@ def build(
             "env_kwargs": dict(task.env_kwargs),
             "sets": sets,
         }
+        if (observation or {}).get(task.name):
+            tasks[task.name]["observation_kwargs"] = dict(observation[task.name])
     aggregate = {
         split: (metrics.aggregate(scores) if scores else None)
         for split, scores in per_split.items()

@@ -27,6 +27,20 @@ OOD_EPISODES = 200
 MUJOCO_OOD_EPISODES = 50
 VALIDATION_EPISODES = 100
 MUJOCO_VALIDATION_EPISODES = 20
+# FLUIDS kwargs that change only what the learner sees, never the episode (the supervisor and the
+# random policy do not read observations). The noise options are not among them: they draw from
+# the env's generator, which the episode shares.
+FLUIDS_OBSERVATION_KWARGS = (
+    "obs_type",
+    "obs_scale",
+    "k_nearest",
+    "birdseye_size",
+    "birdseye_fov",
+    "birdseye_frame",
+    "lidar_rays",
+    "lidar_range",
+    "lidar_version",
+)
 
 
 @dataclass(frozen=True)
@@ -60,6 +74,9 @@ class Task:
         test_episodes: episodes of the test split.
         validation_episodes: episodes of the validation split.
         ood: the OOD test sets.
+        observation_kwargs: env kwargs that change only the observation, never the episode: a
+            policy trained with other values of them is evaluated on the same episodes with its
+            own values (e.g. FLUIDS from bird's-eye images); the references keep the task's.
     """
 
     name: str
@@ -71,6 +88,7 @@ class Task:
     test_episodes: int = TEST_EPISODES
     validation_episodes: int = VALIDATION_EPISODES
     ood: tuple[OODSet, ...] = ()
+    observation_kwargs: tuple[str, ...] = ()
 
     def seeds(self, split: str) -> list[int]:
         """The seeds of `split`: `"validation"` or `"test"` (train: any seed below
@@ -228,6 +246,7 @@ TASKS: tuple[Task, ...] = (
                 "pedestrians walk at up to 2.5 m/s instead of 1.4",
             ),
         ),
+        observation_kwargs=FLUIDS_OBSERVATION_KWARGS,
     ),
     Task(
         name="gridworld",

@@ -11,7 +11,9 @@
   `libx264rgb -crf 0`), so decoded frames equal the observed ones;
 * `meta/info.json` (codebase version, fps, paths, features with dtypes and shapes),
   `meta/tasks.parquet` (one task: the env id) and `meta/episodes/chunk-000/file-000.parquet`
-  (per episode: length, row range, data and video file indices, video time range).
+  (per episode: length, row range, data and video file indices, video time range);
+* `meta/stats.json`: every feature's min, max, mean, std and frame count, which LeRobot's
+  policies normalise with ([`lerobot_stats`][fluids_bench.data.lerobot_stats]).
 
 Observation keys follow LeRobot's names: a Box image (`uint8`, `(H, W, 3)`) is
 `observation.image`, any other Box `observation.state`; a Dict observation's images are
@@ -37,6 +39,8 @@ import numpy as np
 import pyarrow as pa
 import pyarrow.parquet as pq
 from gymnasium import spaces
+
+from fluids_bench.data.lerobot_stats import STATS_PATH, ImageStats, array_stats
 
 CODEBASE_VERSION = "v3.0"
 CHUNK_SIZE = 1000  # files per chunk folder, as LeRobot's default
@@ -169,6 +173,7 @@ def export_lerobot(
     stage.mkdir(parents=True)
     try:
         columns: dict[str, list[np.ndarray]] = {k: [] for k in features}
+        image_stats = {k: ImageStats() for k in video_keys}
         episodes: dict[str, list[Any]] = {}
         row = 0
         for e, episode in enumerate(_episodes(dataset)):
@@ -182,6 +187,7 @@ def export_lerobot(
                     chunk, file = divmod(e, CHUNK_SIZE)
                     path = VIDEO_PATH.format(video_key=name, chunk_index=chunk, file_index=file)
                     _write_video(stage / path, obs, fps)
+                    image_stats[name].add(obs)
                 else:
                     columns[name].append(obs)
             columns["action"].append(np.asarray(episode.actions))
@@ -216,13 +222,12 @@ def export_lerobot(
             row += n
         if row == 0:
             raise ValueError("export --to lerobot: the dataset has no step to export")
-        table = pa.table(
-            {
-                k: _column(np.concatenate(v), features[k])
-                for k, v in columns.items()
-                if k not in video_keys
-            }
-        )
+        merged = {k: np.concatenate(v) for k, v in columns.items() if k not in video_keys}
+        table = pa.table({k: _column(v, features[k]) for k, v in merged.items()})
+        stats = {k: array_stats(np.asarray(v, features[k]["dtype"])) for k, v in merged.items()}
+        stats.update({k: s.result() for k, s in image_stats.items()})
+        (stage / "meta").mkdir()
+        (stage / STATS_PATH).write_text(json.dumps(stats) + "\n")
         path = stage / DATA_PATH.format(chunk_index=0, file_index=0)
         path.parent.mkdir(parents=True)
         pq.write_table(table, path)

@@ -1,6 +1,7 @@
 """LeRobot as a client: a dataset written by ``fluids-bench export --to lerobot`` loads with
 lerobot's own ``LeRobotDataset(repo_id, root=...)`` and iterates (video frames decoded by lerobot,
-states and supervisor labels as tensors). Writes ``docs/results/client_lerobot.json`` (read by
+states and supervisor labels as tensors), and lerobot reads its ``meta/stats.json`` (every
+feature's statistics, whose means agree with the frames lerobot returns). Writes ``docs/results/client_lerobot.json`` (read by
 docs/ecosystem.md).
 
 lerobot 0.4.4 pins ``torch<2.11`` (only CUDA builds of those on this index: ``pip install
@@ -56,6 +57,7 @@ def main() -> None:
     info = json.loads((root / "meta/info.json").read_text())
     frames = pq.read_table(root / "data/chunk-000/file-000.parquet").to_pydict()
     video_keys = list(ds.meta.video_keys)
+    channel_sums = {key: np.zeros(3) for key in video_keys}
     max_video_error = 0.0
     labels_equal = True
     n = 0
@@ -66,6 +68,7 @@ def main() -> None:
         labels_equal &= bool(np.array_equal(action, np.asarray(frames["action"][i], action.dtype)))
         for key in video_keys:
             assert item[key].shape[1:] == (3, *info["features"][key]["shape"][:2]), item[key].shape
+            channel_sums[key] += item[key][0].double().mean(dim=(1, 2)).numpy()
         n += 1
     # lerobot gives frames as float CHW in [0, 1]; compare one episode's with the mp4's own frames
     if video_keys:
@@ -78,6 +81,18 @@ def main() -> None:
         for j in range(ep["dataset_from_index"], ep["dataset_to_index"]):
             got = (ds[j][key].permute(1, 2, 0).numpy() * 255).round()
             max_video_error = max(max_video_error, float(np.abs(got - raw[j]).max()))
+    # lerobot's view of meta/stats.json (numpy arrays): every feature, LeRobot's shapes, and
+    # means that agree with the frames (parquet columns; video frames as lerobot decodes them)
+    stats = ds.meta.stats
+    stats_mean_error = 0.0
+    for key in info["features"]:
+        if key in video_keys:
+            assert stats[key]["mean"].shape == (3, 1, 1), stats[key]["mean"].shape
+            got = channel_sums[key] / n
+        else:
+            got = np.asarray(frames[key], np.float64).reshape(n, -1).mean(axis=0)
+        error = np.abs(np.asarray(stats[key]["mean"], np.float64).reshape(-1) - got).max()
+        stats_mean_error = max(stats_mean_error, float(error))
     result = {
         "loaded": True,
         "frames_iterated": n,
@@ -89,6 +104,10 @@ def main() -> None:
         "video_backend": ds.video_backend,
         "labels_equal_parquet": labels_equal,
         "max_video_pixel_error": max_video_error,
+        "stats_features": sorted(stats),
+        "stats_keys": sorted(next(iter(stats.values()))),
+        "stats_image_mean_shape": [list(stats[k]["mean"].shape) for k in video_keys],
+        "stats_max_mean_error": stats_mean_error,
         "versions": {"lerobot": lerobot_version, "torch": torch.__version__},
         "command": command_line(),
         "machine": machine(),
@@ -101,6 +120,8 @@ def main() -> None:
     print(json.dumps({k: result[k] for k in ("frames_iterated", "total_frames", "video_keys")}))
     if n != info["total_frames"] or not labels_equal:
         sys.exit("lerobot did not iterate every frame with its label")
+    if sorted(stats) != sorted(info["features"]) or stats_mean_error > 1e-5:
+        sys.exit(f"lerobot's stats disagree with the frames (max mean error {stats_mean_error})")
 
 
 if __name__ == "__main__":

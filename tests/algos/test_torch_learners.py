@@ -125,6 +125,7 @@ def test_a_checkpoint_reloads_to_the_same_predictions_without_pickle(make, tmp_p
     again = load_learner(path)
     assert again.predict(X).tobytes() == learner.predict(X).tobytes()
     assert type(again) is make and again.params() == learner.params()
+    assert again.history == learner.history and again.history[-1]["epochs_run"] >= 1
 
 
 def test_load_learner_refuses_what_is_not_a_checkpoint(tmp_path) -> None:

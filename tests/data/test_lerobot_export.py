@@ -66,6 +66,31 @@ def _check_layout(out, dataset):
     return info, frames, episodes
 
 
+def _check_stats(out, info, frames, images=None):
+    """meta/stats.json: min, max, mean, std (ddof 0) and count of every feature, as LeRobot
+    lays them out: the feature's shape (`[1]` for scalars), images per channel in [0, 1] as
+    `(3, 1, 1)`; `images` maps a video feature to its frames."""
+    stats = json.loads((out / "meta/stats.json").read_text())
+    assert set(stats) == set(info["features"])
+    for name, feat in info["features"].items():
+        entry = stats[name]
+        assert set(entry) == {"min", "max", "mean", "std", "count"}, name
+        assert entry["count"] == [info["total_frames"]], name
+        if feat["dtype"] == "video":
+            x = np.concatenate(images[name]).reshape(-1, 3) / 255.0
+            expected = {"min": x.min(0), "max": x.max(0), "mean": x.mean(0), "std": x.std(0)}
+            for key, value in expected.items():
+                assert np.asarray(entry[key]).shape == (3, 1, 1), (name, key)
+                np.testing.assert_allclose(np.asarray(entry[key]).reshape(3), value, atol=1e-9)
+            continue
+        x = np.asarray(frames[name], np.float64).reshape(info["total_frames"], *feat["shape"])
+        expected = {"min": x.min(0), "max": x.max(0), "mean": x.mean(0), "std": x.std(0)}
+        for key, value in expected.items():
+            assert list(np.shape(entry[key])) == feat["shape"], (name, key)
+            np.testing.assert_allclose(entry[key], value, rtol=1e-12, atol=1e-12)
+    return stats
+
+
 def test_image_and_state_observations_export_as_video_and_columns(tmp_path):
     dataset = _collect("FLUIDS-v3", "tests/bev-v0", 'obs_type=["birdseye","explicit"]')
     out = tmp_path / "lerobot"
@@ -88,6 +113,9 @@ def test_image_and_state_observations_export_as_video_and_columns(tmp_path):
         state = np.asarray(frames["observation.explicit"][rows : rows + n], np.float32)
         assert np.array_equal(state, episode.observations["explicit"][:n])
         rows += n
+    images = [e.observations["birdseye"][: len(e.actions)] for e in dataset.iterate_episodes()]
+    stats = _check_stats(out, info, frames, {"observation.images.birdseye": images})
+    assert 0.0 <= stats["observation.images.birdseye"]["mean"][0][0][0] <= 1.0
 
 
 def test_discrete_actions_and_vector_states(tmp_path):
@@ -96,6 +124,8 @@ def test_discrete_actions_and_vector_states(tmp_path):
     info, frames, _ = _check_layout(tmp_path / "out", dataset)
     assert info["video_path"] is None and info["features"]["action"]["dtype"] == "int64"
     assert "observation.state" in info["features"]
+    stats = _check_stats(tmp_path / "out", info, frames)
+    assert stats["next.done"]["max"] == [1.0] and stats["index"]["min"] == [0.0]
 
 
 def test_existing_output_is_refused_and_a_failed_export_leaves_nothing(tmp_path):

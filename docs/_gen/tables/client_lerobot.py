@@ -13,6 +13,13 @@ def render(data, **_):
         f"| labels equal the parquet's | {'yes' if data['labels_equal_parquet'] else 'no'} |",
         f"| largest decoded-pixel difference (0–255) | {data['max_video_pixel_error']:g} |",
     ]
+    if "stats_features" in data:
+        rows += [
+            f"| `meta/stats.json` read by lerobot: features | {len(data['stats_features'])} "
+            f"({', '.join(data['stats_keys'])}) |",
+            f"| largest difference of a stats mean from the frames' | "
+            f"{data['stats_max_mean_error']:.1e} |",
+        ]
     return (
         "\n".join(rows) + f"\n\nlerobot {v['lerobot']} on torch {v['torch']}, video backend"
         f" `{data['video_backend']}`. Machine: {data['machine']}."

@@ -34,4 +34,11 @@ def render(card: dict) -> str:
                 f"{s['random_return']:.1f} / {s['supervisor_return']:.1f} | "
                 f"{_triple(s.get('success'))} | {_triple(s.get('driving_score'))} |"
             )
+    for task, entry in card["tasks"].items():
+        if entry.get("observation_kwargs"):  # trained with another observation of the task
+            seen = ", ".join(f"`{k}={v!r}`" for k, v in sorted(entry["observation_kwargs"].items()))
+            rows.append(
+                f"\nOn {task} the policy observed with {seen} (what it was trained with), on the "
+                "same episodes as the references."
+            )
     return "\n".join(rows)

@@ -25,7 +25,7 @@ optional `torch` extra (`pip install torch==2.13.0`, the CPU wheel; or
   kept. `history` lists every fit's epochs and losses; `progress=True` prints a line per epoch to
   stderr (or pass a callable that receives each epoch's dict).
 - Checkpoints: `save(path)` writes one `.npz` holding the weights, the input statistics and a
-  JSON config (`config.json`, as UTF-8 bytes); [`load_learner`][fluids_bench.algos.learners.torch_nets.load_learner]
+  JSON config (`config.json`, as UTF-8 bytes, with `history`); [`load_learner`][fluids_bench.algos.learners.torch_nets.load_learner]
   reads it back with `allow_pickle=False` and rebuilds the network: nothing is unpickled and
   `torch.load` is never called. The reloaded learner predicts the same actions.
 """
@@ -404,6 +404,7 @@ class TorchLearner:
             "action_shape": list(self.action_shape),
             "action_start": self.action_start,
             "fits": self.fits,
+            "history": self.history,  # every fit's epochs and losses (plain numbers)
         }
         arrays: dict[str, np.ndarray] = {
             "config.json": np.frombuffer(json.dumps(config).encode(), dtype=np.uint8)
@@ -549,6 +550,7 @@ def load_learner(path: str | Path) -> TorchLearner:
             if name in archive.files:
                 setattr(learner, name, archive[name])
         learner.fits = int(config["fits"])
+        learner.history = list(config.get("history", []))
         model = learner._new_model(torch)  # noqa: SLF001
         state = {
             name.removeprefix("weights/"): torch.from_numpy(archive[name].copy())
