@@ -54,6 +54,11 @@ from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
 
+def _machine() -> dict:
+    """The machine a results file was measured on."""
+    return {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()}
+
+
 def _scene_result(args: tuple[str, int, int, int, int]) -> dict:
     layout, cars, peds, episodes, max_steps = args
     scene = SceneConfig(layout=layout, num_cars=cars, num_pedestrians=peds)
@@ -116,10 +121,7 @@ def main() -> None:
                     "max_steps": args.max_steps,
                     "workers": args.workers,
                 },
-                "machine": {
-                    "processor": platform.processor() or platform.machine(),
-                    "cpu_count": os.cpu_count(),
-                },
+                "machine": _machine(),
                 "wall_seconds": round(time.time() - started, 1),
                 "layouts": reports,
             },
@@ -339,10 +341,7 @@ def env_main() -> None:
                     "background_controlled_cars": EXTRA_CONTROLLED,
                     "workers": args.workers,
                 },
-                "machine": {
-                    "processor": platform.processor() or platform.machine(),
-                    "cpu_count": os.cpu_count(),
-                },
+                "machine": _machine(),
                 "wall_seconds": round(time.time() - started, 1),
                 "conditions": report,
             },

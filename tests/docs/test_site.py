@@ -10,6 +10,7 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
+from browser_measure import measure
 from PIL import Image
 from train_extra import chromium
 
@@ -270,25 +271,8 @@ window.addEventListener("load", () => {
 @pytest.mark.browser
 @pytest.mark.parametrize("page", WIDE_PAGES)
 def test_tables_fit_their_column_and_figures_open_full_size(site, page, tmp_path):
-    import json
 
-    source = site / page
-    probe = source.with_name(f"_measure_{tmp_path.name}.html")  # beside it: relative assets load
-    probe.write_text(source.read_text(encoding="utf-8").replace("</body>", _MEASURE + "</body>"))
-    try:
-        run = subprocess.run(
-            [
-                chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-                f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,900",
-                "--virtual-time-budget=5000", "--dump-dom", probe.as_uri(),
-            ],
-            capture_output=True, text=True, timeout=120, check=False,
-        )  # fmt: skip
-    finally:
-        probe.unlink()
-    found = re.search(r'<pre id="measured">(.*?)</pre>', run.stdout, re.S)
-    assert found, f"chromium measured nothing on {page}: {run.stderr[-500:]}"
-    measured = json.loads(found.group(1))
+    measured = measure(site, page, tmp_path, _MEASURE, "measured")
     assert measured["column"] > 500, measured
     assert not measured["wide"], f"{page}: wider than the {measured['column']} px column"
     assert measured["bare"] == 0, f"{page}: {measured['bare']} figures link to no full image"

@@ -5,13 +5,12 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+from browser_measure import measure
 from PIL import Image
-from train_extra import chromium
 
 ROOT = Path(__file__).resolve().parents[2]
 TASKS = ROOT / "docs" / "tasks"
@@ -98,25 +97,7 @@ window.addEventListener("load", () => {
 
 def _probe(site: Path, page: str, tmp_path: Path) -> dict:
     """What Chromium at a laptop's 1280 x 900 measures on `page` of the built site."""
-    source = site / page
-    probe = source.with_name(f"_probe_{tmp_path.name}.html")  # beside it: relative assets load
-    probe.write_text(source.read_text(encoding="utf-8").replace("</body>", _PROBE + "</body>"))
-    try:
-        run = subprocess.run(
-            [
-                chromium(), "--headless", "--no-sandbox", "--disable-gpu", "--no-first-run",
-                f"--user-data-dir={tmp_path / 'profile'}", "--window-size=1280,900",
-                "--virtual-time-budget=5000", "--dump-dom", probe.as_uri(),
-            ],
-            capture_output=True, text=True, timeout=120, check=False,
-        )  # fmt: skip
-    finally:
-        probe.unlink()
-    found = re.search(r'<pre id="probed">(.*?)</pre>', run.stdout, re.S)
-    assert found, f"chromium measured nothing on {page}: {run.stderr[-500:]}"
-    return json.loads(
-        found.group(1).replace("&lt;", "<").replace("&gt;", ">").replace("&amp;", "&")
-    )
+    return measure(site, page, tmp_path, _PROBE, "probed")
 
 
 @pytest.mark.browser
