@@ -11,6 +11,7 @@ versions, command, machine.
 from __future__ import annotations
 
 import importlib.metadata
+import os
 import platform
 import subprocess
 from collections.abc import Callable, Mapping
@@ -149,6 +150,22 @@ def set_scores(rows: Rows, policy: str) -> dict[str, Any]:
     return out
 
 
+PATH_KEYS = ("spec", "train_result", "learner_checkpoint")  # file paths in a policy entry
+
+
+def _relative_paths(entry: Any) -> Any:
+    """`entry` with every absolute file path under `PATH_KEYS` shown relative to the working
+    directory (a results file records no machine's folders)."""
+    if isinstance(entry, Mapping):
+        return {
+            key: os.path.relpath(value)
+            if key in PATH_KEYS and isinstance(value, str) and os.path.isabs(value)
+            else _relative_paths(value)
+            for key, value in entry.items()
+        }
+    return entry
+
+
 def build(
     name: str,
     policy: dict[str, Any],
@@ -203,7 +220,7 @@ def build(
     }
     card: dict[str, Any] = {
         "scorecard_version": SCORECARD_VERSION,
-        "policy": policy,
+        "policy": _relative_paths(policy),
         "suite": suite.to_dict(),
         "shortened": suite.shortened,
         "episodes_per_set": suite.episodes,

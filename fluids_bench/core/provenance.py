@@ -32,9 +32,12 @@ def relative_paths(args: list[str]) -> list[str]:
 
     def shown(arg: str) -> str:
         option, eq, value = arg.partition("=") if arg.startswith("-") else ("", "", arg)
-        if not os.path.isabs(value):
-            return arg
-        return option + eq + os.path.relpath(value)
+        if os.path.isabs(value):
+            return option + eq + os.path.relpath(value)
+        name, named, path = value.partition("=")  # NAME=/a/b, as in --policy task=/a/b
+        if named and os.path.isabs(path):
+            return option + eq + name + "=" + os.path.relpath(path)
+        return arg
 
     return [shown(a) for a in args]
 

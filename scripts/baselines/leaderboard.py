@@ -3,7 +3,7 @@ evaluate it on the suite's test and OOD sets (`fluids_bench.benchmark.evaluate`,
 `fluids-bench evaluate` runs), writing `docs/results/scorecard_<name>.json`.
 
     nice -n 15 python scripts/baselines/leaderboard.py --baselines references bc dagger dart \\
-        --out /work/runs/evaluate --train-out /work/runs/train --workers 1
+        --out runs/evaluate --train-out runs/train --workers 1
 
 `references` evaluates the random policy and the supervisor (every learner's scorecard needs
 their episodes; they are shared through `--out`). Each learner baseline is one algorithm of
@@ -313,8 +313,8 @@ def main(argv: list[str] | None = None) -> int:
     parser.add_argument(
         "--suffix", default="", help="scorecard files are scorecard_<name><suffix>.json"
     )
-    parser.add_argument("--out", type=Path, default=Path("/work/runs/evaluate"))
-    parser.add_argument("--train-out", type=Path, default=Path("/work/runs/train"))
+    parser.add_argument("--out", type=Path, default=Path("runs/evaluate"))
+    parser.add_argument("--train-out", type=Path, default=Path("runs/train"))
     parser.add_argument("--results", type=Path, default=ROOT / "docs" / "results")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--no-progress", action="store_true")

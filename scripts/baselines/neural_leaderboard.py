@@ -129,8 +129,8 @@ def main() -> int:
     parser.add_argument("stage", choices=("train", "evaluate"))
     parser.add_argument("--algos", nargs="+", choices=ALGOS, default=list(ALGOS))
     parser.add_argument("--tasks", nargs="+", choices=ORDER, default=list(ORDER))
-    parser.add_argument("--train-out", type=Path, default=Path("/work/runs/neural/train"))
-    parser.add_argument("--eval-out", type=Path, default=Path("/work/runs/evaluate"))
+    parser.add_argument("--train-out", type=Path, default=Path("runs/neural/train"))
+    parser.add_argument("--eval-out", type=Path, default=Path("runs/evaluate"))
     parser.add_argument("--results", type=Path, default=Path("docs/results"))
     parser.add_argument(
         "--episodes", type=int, default=None,

@@ -17,6 +17,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 from pathlib import Path
 from typing import Any
@@ -82,7 +83,7 @@ def compare(task_name: str, train_out: Path, heldout: int) -> dict[str, Any]:
     return {
         "task": task_name,
         "env_id": task.env_id,
-        "train_result": str(path),
+        "train_result": os.path.relpath(path),
         "training_labels": int(len(y)),
         "heldout_episodes": heldout,
         "heldout_labels": int(len(yh)),
@@ -106,7 +107,7 @@ def compare(task_name: str, train_out: Path, heldout: int) -> dict[str, Any]:
 def main(argv: list[str] | None = None) -> int:
     parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--tasks", nargs="+", default=["gridworld", "fluids"])
-    parser.add_argument("--train-out", type=Path, default=Path("/work/runs/neural/train"))
+    parser.add_argument("--train-out", type=Path, default=Path("runs/neural/train"))
     parser.add_argument("--heldout", type=int, default=10, help="held-out supervisor episodes")
     parser.add_argument("--out", type=Path, default=Path("docs/results/neural_vs_tree.json"))
     args = parser.parse_args(argv)
