@@ -12,11 +12,13 @@ from pathlib import Path
 
 from train_extra import chromium
 
+PROBE_PREFIX = "_probe_"  # the page copies' names: the site's page lists leave them out
+
 
 def measure(site: Path, page: str, tmp_path: Path, script: str, element_id: str) -> dict:
     """What `script` measured on `page` of the site built under `site`."""
     source = site / page
-    probe = source.with_name(f"_{element_id}_{tmp_path.name}.html")
+    probe = source.with_name(f"{PROBE_PREFIX}{element_id}_{tmp_path.name}.html")
     probe.write_text(source.read_text(encoding="utf-8").replace("</body>", script + "</body>"))
     try:
         run = subprocess.run(

@@ -10,7 +10,7 @@ from urllib.parse import unquote, urlparse
 
 import numpy as np
 import pytest
-from browser_measure import measure
+from browser_measure import PROBE_PREFIX, measure
 from PIL import Image
 from train_extra import chromium
 
@@ -37,7 +37,13 @@ class _Refs(HTMLParser):
 
 
 def _pages(site: Path) -> list[Path]:
-    return [p for p in site.rglob("*.html") if p.name != "404.html"]
+    """The built pages, without the 404 page and without the copies a browser test writes
+    beside a page for a moment (`browser_measure.PROBE_PREFIX`; another xdist worker may be
+    measuring one while this one reads the site)."""
+    return [
+        p for p in site.rglob("*.html")
+        if p.name != "404.html" and not p.name.startswith(PROBE_PREFIX)
+    ]  # fmt: skip
 
 
 def _parse(page: Path) -> _Refs:
