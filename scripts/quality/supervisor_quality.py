@@ -54,6 +54,12 @@ from fluids_bench.tasks.fluids.sim.config import SceneConfig
 from fluids_bench.tasks.fluids.supervisor.episode import run_supervised
 
 
+def _command() -> str:
+    """This run's command line, as a results file records it (relative paths)."""
+    args = " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:]))
+    return f"python scripts/quality/supervisor_quality.py {args}"
+
+
 def _machine() -> dict:
     """The machine a results file was measured on."""
     return {"processor": platform.processor() or platform.machine(), "cpu_count": os.cpu_count()}
@@ -111,8 +117,7 @@ def main() -> None:
         write_json_atomic(
             args.results,
             {
-                "command": "python scripts/quality/supervisor_quality.py "
-                + " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:])),
+                "command": _command(),
                 "settings": {
                     "cars": list(args.cars),
                     "pedestrians": list(args.peds),
@@ -329,8 +334,7 @@ def env_main() -> None:
         write_json_atomic(
             args.results,
             {
-                "command": "python scripts/quality/supervisor_quality.py "
-                + " ".join(shlex.quote(a) for a in relative_paths(sys.argv[1:])),
+                "command": _command(),
                 "settings": {
                     "env": args.env,
                     "split": args.split,
