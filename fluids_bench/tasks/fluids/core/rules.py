@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from dataclasses import dataclass
-from typing import Any, NamedTuple
+from typing import NamedTuple
 
 import numpy as np
 
@@ -43,7 +43,7 @@ VIOLATION_PENALTY = 1.0  # a red light run or a failure to yield, once each, whe
 class Rules(NamedTuple):
     """The options the step rules read (the env's checked arguments of the same names). Every
     function's `rules` is one of these or any object with these fields as attributes (a
-    `FluidsEnv` passes itself: no tuple to build in its step)."""
+    `FluidsEnv` passes itself, the vector env its `FluidsConfig`: no tuple to build per step)."""
 
     done_when: str = "ego"
     end_on_violation: bool = False
@@ -51,18 +51,6 @@ class Rules(NamedTuple):
     yield_to_pedestrians: bool = False
     reward_version: int = 0
     failure_penalty: float = 1.0
-
-    @classmethod
-    def of(cls, env: Any) -> Rules:
-        """The rules of a single-agent env (`FluidsEnv`: it has every field as an attribute)."""
-        return cls(
-            env.done_when,
-            env.end_on_violation,
-            env.obey_lights,
-            env.yield_to_pedestrians,
-            env.reward_version,
-            env.failure_penalty,
-        )
 
 
 @dataclass(slots=True)

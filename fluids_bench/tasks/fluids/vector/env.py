@@ -29,7 +29,6 @@ from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unkno
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
 from fluids_bench.tasks.fluids.core import rules
-from fluids_bench.tasks.fluids.core.rules import Rules
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
@@ -284,7 +283,7 @@ class FluidsVectorEnv(VectorEnv):
         index = stepping.nonzero()[0].tolist()
         self._act_all(actions, stepping, worlds, supervisors)
         events = worlds.step(stepping)
-        rule, first = Rules.of(self.envs[0]), self.envs[0]
+        rule, first = self.config, self.envs[0]  # FluidsConfig has the rules' fields
         ran_red, failed_to_yield = faults["ran_red"][:, 0], faults["failed_to_yield"][:, 0]
         before = rules.violations(rule, ran_red, failed_to_yield)
         faults.update(stepping, worlds)
