@@ -22,12 +22,28 @@ learner is rebuilt only if some are missing), and a baseline whose scorecard is 
 suite, same train results) is skipped. `--episodes N` and `--tasks` run a shortened suite
 and `--test-only` the test split alone (each labelled so in the scorecards; `--suffix` keeps
 their files apart from the full suite's). The CI test runs GridWorld with 2 episodes per set.
+
+`ppo` is the RL baseline: stable-baselines3 PPO with its defaults (`rl_baselines.py`'s
+recipe: 2 envs, one torch thread) trained on each task's reward for `RL_BUDGET`'s env steps by
+`rl_baselines.train_run` (resumable), in `rl_baselines.py`'s layout
+`RL_WORK/<env id>/<kwargs JSON>/ppo_s<seed>/model.zip` (`RL_WORK` is `TRAIN_OUT/ppo` unless
+`--rl-work` names another), then evaluated from that `.zip` like any SB3 model. A finished run
+found there with at least the budget's steps is evaluated without training again, so a run of
+`rl_baselines.py --algos ppo --seeds 0 --steps <budget> --work DIR` is reused with
+`--rl-work DIR` (once it has finished: a run still training there must not be resumed twice):
+
+    python scripts/baselines/leaderboard.py --baselines ppo --tasks fluids --test-only \\
+        --suffix _fluids_test --rl-work ../runs/rl_v4 --out runs/evaluate --workers 1
+
+Its scorecards are `scorecard_ppo<suffix>.json` (`ppo_seed<s>` for other seeds).
 """
 
 from __future__ import annotations
 
 import argparse
 import dataclasses
+import hashlib
+import importlib.util
 import json
 import shlex
 import shutil
@@ -39,9 +55,10 @@ import fluids_bench  # noqa: F401  (registers the ids)
 from fluids_bench.algos.registry import get_algorithm
 from fluids_bench.algos.results import write_json_atomic
 from fluids_bench.benchmark.evaluator import evaluate
-from fluids_bench.benchmark.policies import train_result_source
+from fluids_bench.benchmark.policies import PolicySource, train_result_source
 from fluids_bench.benchmark.suite import SUITE, TASK_NAMES, Suite, Task
 from fluids_bench.core.provenance import relative_paths
+from fluids_bench.core.splits import refuse_test_seeds
 
 ROOT = Path(__file__).resolve().parents[2]
 LEARNER = "tree"  # the scikit-learn decision tree (`--policy tree`), the source's learner
@@ -128,7 +145,43 @@ BASELINES: dict[str, Baseline] = {
     ),
 }
 REFERENCES = ("random", "supervisor")
-CHOICES = ("references", *BASELINES)
+
+
+class RLBudget(NamedTuple):
+    """One task's budget for the `ppo` baseline (`rl_baselines.train_run`'s settings).
+
+    Attributes:
+        steps: env steps of training (SB3 stops at the end of the rollout that reaches them:
+            PPO's rollouts are 2,048 steps per env).
+        eval_every: env steps between learning-curve points.
+        eval_episodes: episodes (train seeds 100,000 + i) of each curve point.
+        n_envs: envs of the `DummyVecEnv` (seeded `seed`, `seed + 1`, ...).
+    """
+
+    steps: int
+    eval_every: int
+    eval_episodes: int = 20
+    n_envs: int = 2
+
+
+RL_ALGO = "ppo"  # PPO on every task, Box and Discrete actions alike, SB3's defaults
+# Per task. FLUIDS-v4: 500k steps (about 10 CPU-minutes); GridWorld and MuJoCo as their
+# rl_baselines results (docs/results/rl_gridworld.json, rl_hopper.json, ...); Singulation and
+# grasping 200k (their rl_*.json ran 15k); the track 50k (its HOG observation makes a step cost
+# about 5 ms).
+RL_BUDGET: dict[str, RLBudget] = {
+    "fluids": RLBudget(500_000, 100_000),
+    "gridworld": RLBudget(50_000, 10_000),
+    "singulation": RLBudget(200_000, 50_000),
+    "grasping": RLBudget(200_000, 50_000),
+    "track": RLBudget(50_000, 25_000),
+    "hopper": RLBudget(200_000, 50_000),
+    "walker2d": RLBudget(200_000, 50_000),
+    "halfcheetah": RLBudget(200_000, 50_000),
+    "humanoid": RLBudget(200_000, 50_000),
+}
+PPO_ROLLOUT = 2048  # SB3 PPO's n_steps per env: a run ends up to one rollout past its budget
+CHOICES = ("references", *BASELINES, RL_ALGO)
 
 
 def policy_name(baseline: str, seed: int) -> str:
@@ -258,7 +311,128 @@ def _shown(path: Path) -> Path:
     return Path(relative_paths([str(path)])[0])
 
 
+def rl_name(seed: int) -> str:
+    """The `ppo` baseline's scorecard policy name: `ppo`, `ppo_seed<s>` for seeds other than 0."""
+    return RL_ALGO + ("" if seed == 0 else f"_seed{seed}")
+
+
+def rl_work(root: Path, task: Task, seed: int) -> Path:
+    """A run's folder, as `rl_baselines.py --work ROOT` lays it out."""
+    return root / task.env_id / json.dumps(dict(task.env_kwargs), sort_keys=True) / f"ppo_s{seed}"
+
+
+def _rl_baselines() -> Any:
+    path = Path(__file__).resolve().parent / "rl_baselines.py"
+    spec = importlib.util.spec_from_file_location("rl_baselines", path)
+    module = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(module)
+    return module
+
+
+def _trained_steps(work: Path) -> int:
+    """Env steps of the run in `work` at its last checkpoint (0 without one)."""
+    curve_file, model = work / "curve.json", work / "model.zip"
+    if not (curve_file.is_file() and model.is_file()):
+        return 0
+    curve = json.loads(curve_file.read_text())
+    return int(curve[-1]["steps"]) if curve else 0
+
+
+def train_rl(task: Task, seed: int, root: Path, progress: bool) -> Path:
+    """Train PPO on `task` with its `RL_BUDGET` unless a finished run is in its folder under
+    `root`; the model file. A run of more steps than the budget (past one rollout) is refused."""
+    from tqdm import tqdm
+
+    budget = RL_BUDGET[task.name]
+    refuse_test_seeds(range(seed, seed + budget.n_envs), "leaderboard.py --baselines ppo")
+    work = rl_work(root, task, seed)
+    done = _trained_steps(work)
+    if done > budget.steps + PPO_ROLLOUT * budget.n_envs:
+        raise ValueError(
+            f"{work} holds a PPO run of {done:,} env steps, more than {task.name}'s budget of "
+            f"{budget.steps:,} (RL_BUDGET); use another --rl-work"
+        )
+    if done < budget.steps:
+        rl = _rl_baselines()
+        rl._torch_on_one_thread()
+        with tqdm(total=budget.steps, desc=f"ppo on {task.name}", disable=not progress) as bar:
+            rl.train_run(
+                RL_ALGO, task.env_id, dict(task.env_kwargs), seed, budget.steps,
+                budget.eval_every, budget.eval_episodes, budget.n_envs, work, bar,
+            )  # fmt: skip
+    return work / "model.zip"
+
+
+def _sha256(path: Path) -> str:
+    return hashlib.sha256(path.read_bytes()).hexdigest()
+
+
+def rl_source(task: Task, seed: int, model: Path, name: str) -> PolicySource:
+    """The SB3 model `model` (PPO trained on `task`) as the evaluator's policy, with what the
+    scorecard records of its run: env, seed, env steps, budget and the model file's hash."""
+    budget = RL_BUDGET[task.name]
+    extras = {
+        "algo": RL_ALGO,
+        "env_id": task.env_id,
+        "env_kwargs": dict(task.env_kwargs),
+        "train_seed": seed,
+        "labels_used": 0,  # PPO learns from the reward, never from a supervisor label
+        "env_steps": _trained_steps(model.parent),
+        "budget_steps": budget.steps,
+        "n_envs": budget.n_envs,
+        "model_sha256": _sha256(model),
+    }
+    return PolicySource(name, "sb3", str(_shown(model)), None, extras)
+
+
+def _policy_entries(card: dict, tasks: list[str]) -> dict[str, dict] | None:
+    policy = card.get("policy", {})
+    if policy.get("kind") == "per_task":
+        return policy.get("tasks")
+    return {tasks[0]: policy} if len(tasks) == 1 else None
+
+
+def rl_up_to_date(path: Path, suite: Suite, sources: dict[str, PolicySource]) -> bool:
+    """Whether the scorecard at `path` is of this suite and these model files (by hash)."""
+    if not path.is_file():
+        return False
+    card = json.loads(path.read_text())
+    if card.get("suite") != _normalised(suite.to_dict()):
+        return False
+    entries = _policy_entries(card, list(sources))
+    if entries is None or set(entries) != set(sources):
+        return False
+    return all(
+        entries[task].get("model_sha256") == source.extras["model_sha256"]
+        and entries[task].get("spec") == source.spec
+        for task, source in sources.items()
+    )
+
+
+def run_rl(suite: Suite, args: argparse.Namespace, command: str) -> None:
+    """The `ppo` baseline: train (or find) each task's model, then evaluate them on `suite`."""
+    root = args.rl_work if args.rl_work is not None else args.train_out / RL_ALGO
+    for seed in args.seeds:
+        name = rl_name(seed)
+        card = args.results / f"scorecard_{name}{args.suffix}.json"
+        sources = {}
+        for task in suite.tasks:
+            model = train_rl(task, seed, root, not args.no_progress)
+            sources[task.name] = rl_source(task, seed, model, name)
+        if rl_up_to_date(card, suite, sources):
+            print(f"{name}: {card} is up to date")
+            continue
+        evaluate(
+            sources, suite, args.out, name=name, workers=args.workers,
+            progress=not args.no_progress, plots=not args.no_plots, scorecard=card,
+            command=command,
+        )  # fmt: skip
+        print(f"{name}: wrote {card}")
+
+
 def run_baseline(baseline: str, suite: Suite, args: argparse.Namespace, command: str) -> None:
+    if baseline == RL_ALGO:
+        return run_rl(suite, args, command)
     if baseline == "references":
         for ref in REFERENCES:
             card = args.results / f"scorecard_{ref}{args.suffix}.json"
@@ -315,6 +489,11 @@ def main(argv: list[str] | None = None) -> int:
     )
     parser.add_argument("--out", type=Path, default=Path("runs/evaluate"))
     parser.add_argument("--train-out", type=Path, default=Path("runs/train"))
+    parser.add_argument(
+        "--rl-work", type=Path, default=None,
+        help="ppo: the runs' folder, laid out as rl_baselines.py --work (default TRAIN_OUT/ppo); "
+        "a finished run there with the budget's steps is evaluated, not trained again",
+    )  # fmt: skip
     parser.add_argument("--results", type=Path, default=ROOT / "docs" / "results")
     parser.add_argument("--workers", type=int, default=1)
     parser.add_argument("--no-progress", action="store_true")

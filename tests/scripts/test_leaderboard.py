@@ -96,3 +96,63 @@ def test_every_learner_gets_the_tasks_label_budget():
             assert rollouts == budget.rollouts, (baseline, task.name)
             assert config.samples_per_demo == budget.samples
             assert getattr(config, "initial_demos", 0) == spec.initial_demos
+
+
+@pytest.mark.train_extra
+def test_ppo_is_trained_evaluated_from_its_model_and_a_finished_run_is_reused(tmp_path, capsys):
+    """`--baselines ppo` on GridWorld with a one-rollout budget (4,096 steps, 1 episode per
+    set): PPO trains in TRAIN_OUT/ppo in rl_baselines.py's layout, its scorecard records the
+    model, a rerun does no work, and `--rl-work` evaluates a finished run without training."""
+    from train_extra import require_sb3
+
+    require_sb3()
+    lb = load_script("baselines/leaderboard.py")
+    lb.RL_BUDGET["gridworld"] = lb.RLBudget(steps=4096, eval_every=4096, eval_episodes=1)
+    argv = [
+        "--baselines", "ppo", "--tasks", "gridworld", "--episodes", "1",
+        "--out", str(tmp_path / "eval"), "--train-out", str(tmp_path / "train"),
+        "--results", str(tmp_path / "results"), "--no-progress", "--no-plots",
+    ]  # fmt: skip
+    assert lb.main(argv) == 0
+    work = tmp_path / "train" / "ppo" / "GridWorld-v0" / "{}" / "ppo_s0"
+    model = work / "model.zip"
+    assert model.is_file()
+    card = json.loads((tmp_path / "results" / "scorecard_ppo.json").read_text())
+    policy = card["policy"]
+    assert policy["name"] == "ppo" and policy["kind"] == "sb3" and policy["algo"] == "ppo"
+    assert policy["env_id"] == "GridWorld-v0" and policy["labels_used"] == 0
+    assert policy["env_steps"] >= 4096 and policy["budget_steps"] == 4096
+    assert policy["model_sha256"] == lb._sha256(model)
+    assert card["suite"] == json.loads(json.dumps(SUITE.select(1, ["gridworld"]).to_dict()))
+    sets = card["tasks"]["gridworld"]["sets"]
+    assert set(sets) == {"test", "slippery"} and all(s["episodes"] == 1 for s in sets.values())
+    rows = (tmp_path / "eval" / "episodes" / "ppo.jsonl").read_text().splitlines()
+    assert len(rows) == 2
+
+    before = _files(tmp_path)
+    capsys.readouterr()
+
+    def no_work(*args, **kwargs):
+        raise AssertionError("a rerun trained or evaluated")
+
+    real_evaluate, rl = lb.evaluate, lb._rl_baselines
+    lb.evaluate = lb._rl_baselines = no_work
+    assert lb.main(argv) == 0
+    assert capsys.readouterr().out.count("is up to date") == 1
+    assert _files(tmp_path) == before
+
+    # a finished run elsewhere (rl_baselines.py --work DIR) is evaluated, not trained again
+    lb.evaluate = real_evaluate
+    other = [*argv[:7], str(tmp_path / "eval2"), "--train-out", str(tmp_path / "empty"),
+             "--rl-work", str(tmp_path / "train" / "ppo"), *argv[10:], "--suffix", "_t"]  # fmt: skip
+    assert lb.main(other) == 0
+    assert not (tmp_path / "empty").exists()
+    card_t = json.loads((tmp_path / "results" / "scorecard_ppo_t.json").read_text())
+    assert card_t["policy"]["model_sha256"] == policy["model_sha256"]
+    assert card_t["tasks"] == card["tasks"]  # the same model on the same episodes
+
+    # a run of more steps than the budget is not passed off as the budget's
+    lb._rl_baselines = rl
+    lb.RL_BUDGET["gridworld"] = lb.RLBudget(100, 100, eval_episodes=1, n_envs=1)
+    with pytest.raises(ValueError, match="more than gridworld's budget"):
+        lb.main(argv)
