@@ -101,7 +101,7 @@ def leaderboard() -> str:
 
 def leaderboard_budget() -> str:
     """The leaderboard driver's training budget per task and its baselines, from
-    `scripts/baselines/leaderboard.py` (`BUDGET`, `BASELINES`)."""
+    `scripts/baselines/leaderboard.py` (`BUDGET`, `BASELINES`, and PPO's `RL_BUDGET`)."""
     import importlib.util
 
     path = Path(__file__).resolve().parents[2] / "scripts" / "baselines" / "leaderboard.py"
@@ -121,4 +121,19 @@ def leaderboard_budget() -> str:
     rows += ["", "| baseline | `--algo` | what it is |", "|---|---|---|"]
     for name, spec_ in driver.BASELINES.items():
         rows.append(f"| `{driver.policy_name(name, 0)}` | `{spec_.algo}` | {spec_.about} |")
+    rows += [
+        "",
+        f"The RL baseline `{driver.rl_name(0)}` (`--baselines {driver.RL_ALGO}`): "
+        "stable-baselines3 PPO with its default hyperparameters on every task, trained on the "
+        "task's reward (no supervisor label), in a `DummyVecEnv` of the stated envs, then "
+        "evaluated from its model file; the learning curve is evaluated on train seeds "
+        "100,000 + i:",
+        "",
+        "| task | env steps | envs | curve point every | episodes per curve point |",
+        "|---|---|---|---|---|",
+    ]
+    for task, b in driver.RL_BUDGET.items():
+        rows.append(
+            f"| {task} | {b.steps:,} | {b.n_envs} | {b.eval_every:,} steps | {b.eval_episodes} |"
+        )
     return "\n".join(rows)

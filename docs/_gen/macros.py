@@ -16,6 +16,7 @@ import architecture  # noqa: E402
 import benchmark_pages  # noqa: E402
 import reference  # noqa: E402
 import results  # noqa: E402
+import separation  # noqa: E402
 import summary  # noqa: E402
 
 
@@ -36,3 +37,7 @@ def define_env(env) -> None:
     env.macro(benchmark_pages.benchmark_fluids_id)
     env.macro(benchmark_pages.leaderboard)
     env.macro(benchmark_pages.leaderboard_budget)
+    env.macro(separation.fluids_separation)
+    env.macro(separation.fluids_separation_summary)
+    env.macro(separation.fluids_ood_ratio)
+    env.macro(separation.driving_score_fix_note)

@@ -5,6 +5,8 @@ A page never holds a measured number by hand: it calls `table("<name>")`, which 
 `render(data) -> str` (files of one layout share one, see `SHARED_RENDERERS`; a
 renderer may take keyword arguments for a part of its file: `table("x", part="speed")`).
 Each results file names the command that wrote it (`"command"`), shown under the table.
+`table("<name>", optional=True)` renders a line saying the file is not there yet instead of
+failing (a scorecard a running job will write).
 """
 
 from __future__ import annotations
@@ -59,8 +61,11 @@ def renderer(name: str):
     return module.render
 
 
-def table(name: str, **options) -> str:
-    """The rendered table of `docs/results/<name>.json`, with the command that produced it."""
+def table(name: str, optional: bool = False, **options) -> str:
+    """The rendered table of `docs/results/<name>.json`, with the command that produced it;
+    with `optional`, a missing file gives a line saying so."""
+    if optional and not (RESULTS / f"{name}.json").is_file():
+        return f"*`docs/results/{name}.json` is not there yet.*"
     data = load(name)
     out = renderer(name)(data, **options)
     command = data.get("command") if isinstance(data, dict) else None
