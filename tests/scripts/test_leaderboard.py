@@ -156,3 +156,12 @@ def test_ppo_is_trained_evaluated_from_its_model_and_a_finished_run_is_reused(tm
     lb.RL_BUDGET["gridworld"] = lb.RLBudget(100, 100, eval_episodes=1, n_envs=1)
     with pytest.raises(ValueError, match="more than gridworld's budget"):
         lb.main(argv)
+
+
+def test_ppo_has_a_budget_on_every_task_in_rl_baselines_layout():
+    lb = load_script("baselines/leaderboard.py")
+    assert set(lb.RL_BUDGET) == {t.name for t in SUITE.tasks}
+    fluids = SUITE.task("fluids")
+    # rl_baselines.py --env FLUIDS-v4 --algos ppo --seeds 0 --work W puts its run here
+    assert lb.rl_work(lb.Path("W"), fluids, 0) == lb.Path("W/FLUIDS-v4/{}/ppo_s0")
+    assert lb.rl_name(0) == "ppo" and lb.rl_name(2) == "ppo_seed2"
