@@ -216,6 +216,8 @@ def fluids_separation_summary(suffix: str = TEST_SUFFIX) -> str:
         side = separation(d, r)
         verdict = f"separated from random ({side})" if side else "not separated from random"
         text += f" {_label(name)} scores {number(d)}: {verdict}."
+    for name in (n for n in LEARNERS if n not in cards):
+        text += f" {_label(name)} has no scorecard yet."
     return text
 
 
