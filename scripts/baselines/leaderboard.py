@@ -165,12 +165,13 @@ class RLBudget(NamedTuple):
 
 
 RL_ALGO = "ppo"  # PPO on every task, Box and Discrete actions alike, SB3's defaults
-# Per task. FLUIDS-v4: 500k steps (about 10 CPU-minutes); GridWorld and MuJoCo as their
+# Per task. FLUIDS-v4: 200k steps, about 18 CPU-minutes at its trajectory level (the first 100k
+# took 546 CPU-s with PPO's updates; more did not fit one session on 2 shared cores); GridWorld and MuJoCo as their
 # rl_baselines results (docs/results/rl_gridworld.json, rl_hopper.json, ...); Singulation and
 # grasping 200k (their rl_*.json ran 15k); the track 50k (its HOG observation makes a step cost
 # about 5 ms).
 RL_BUDGET: dict[str, RLBudget] = {
-    "fluids": RLBudget(500_000, 100_000),
+    "fluids": RLBudget(200_000, 100_000),
     "gridworld": RLBudget(50_000, 10_000),
     "singulation": RLBudget(200_000, 50_000),
     "grasping": RLBudget(200_000, 50_000),
