@@ -237,6 +237,7 @@ class FluidsVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
         self._dict_obs = isinstance(self._obs, dict)
+        self._batchable = self.envs[0].observer.batchable  # one call observes all
         # steps in each world's episode (TimeLimit's count)
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._ended = np.zeros(self.num_envs, dtype=np.bool_)  # episode ended: autoreset next
@@ -493,9 +494,12 @@ class FluidsVectorEnv(VectorEnv):
         `lights`: their light states) into the batch: one call for all when the observation
         allows it, else world by world (a noisy or image observation, drawn with each world's
         own generator)."""
-        observer = self.envs[0].observer
-        if observer.batchable and index:
-            self._obs[stepping] = observer.observe_worlds(stepping, worlds, lights)
+        if self._batchable and index:
+            rows = self.envs[0].observer.observe_worlds(stepping, worlds, lights)
+            if len(index) == self.num_envs:  # every world stepped: no fancy-indexed write
+                self._obs[...] = rows
+            else:
+                self._obs[stepping] = rows
             return
         for i in index:
             self._write(i, self.envs[i]._observe())
