@@ -128,7 +128,8 @@ class FluidsVectorEnv(VectorEnv):
     1. the controls of every world, at every action level (array operations and, at the
        trajectory level, one compiled call: `act_batch`);
     2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
-       where a light changed, and one compiled call moves every world
+       where a light changed (one call for all those worlds), and one compiled call moves
+       every world
        (`WorldBatch`);
     3. one records every world's step for fault labels
        (`FaultBatch`);
@@ -151,7 +152,8 @@ class FluidsVectorEnv(VectorEnv):
        autoresets, world by world).
 
     Only rare events run world by world: collisions (the exact check and fault labels), a
-    light changing, a route changing, recovery planning and resets. The parts are the scalar
+    route changing, recovery planning and resets (the worlds whose lights change are looked up
+    in one call, `fluids_bench.tasks.fluids.sim.lights.look_up`). The parts are the scalar
     env's own, so equality holds by construction. A batch of one
     world steps with the scalar env's `step` itself (the phases' fixed costs would exceed it). The vector layer
     checks the whole action batch before any world moves, writes observations into
