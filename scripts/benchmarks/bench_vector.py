@@ -2,7 +2,8 @@
 
 The scene is S2 on ``FLUIDS-v1`` (``bench_sim.py``'s S2 with v1's rules): the four-way, the ego
 plus 10 supervised cars and 5 pedestrians (16 agents), the explicit observation, the
-supervisor's label every step, and the ego follows it (control level). Parts:
+supervisor's label every step, and the ego follows it (at the control level, or
+``--action-level``'s). Parts:
 
 * ``batch``: env-steps per CPU-second of the scalar env (``gym.make``), ``SyncVectorEnv`` and
   the vector entry point at each B, and CPU microseconds per agent-step. Each measurement takes
@@ -410,8 +411,15 @@ def main() -> None:
         help="core of the single-process parts (default: the last)",
     )
     parser.add_argument("--image", default=None, help="also plot to this PNG")
+    parser.add_argument(
+        "--action-level",
+        default=S2["action_level"],
+        choices=["behavior", "trajectory", "velocity", "control"],
+        help="the ego's action level in every part (the supervisor labels every step)",
+    )
     add_results_option(parser)
     args = parser.parse_args()
+    S2["action_level"] = args.action_level
     measurements = 3 * len(args.batches) * args.repeats + 3 * len(args.cars)
     announce(
         f"~{max(1, round(args.steps * measurements / 2500 / 60))} min on a quiet 2-core machine"

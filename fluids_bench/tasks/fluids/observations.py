@@ -221,7 +221,9 @@ class _Explicit:
             rows["path_len"], rows["s"], rows["offset"], w.length, rows["route"], routes.light,
             routes.stop_s, lights, self.sensor.k, PATH_SPACING,
         )  # fmt: skip
-        return self._finish(self._raw[stepping].astype(np.float32))
+        # every world stepped (the usual step): all rows, without a fancy-indexed copy
+        rows = self._raw if stepping.all() else self._raw[stepping]
+        return self._finish(rows.astype(np.float32))
 
 
 class _BirdsEye:

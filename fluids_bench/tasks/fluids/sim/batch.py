@@ -18,7 +18,7 @@ import numpy as np
 from fluids_bench.tasks.fluids.sim import kernels
 from fluids_bench.tasks.fluids.sim.fault import HISTORY, FaultTracker, record_steps
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.sim.lights import STOP
+from fluids_bench.tasks.fluids.sim.lights import STOP, look_up
 from fluids_bench.tasks.fluids.sim.world import (
     GOAL_TOLERANCE,
     PROGRESS_WINDOW,
@@ -104,8 +104,8 @@ class WorldBatch(Rows):
         if self.lights.shape[1]:
             lo, hi = self.lookups["_valid"][:, 0], self.lookups["_valid"][:, 1]
             expired = stepping & ~((lo <= self.times) & (self.times < hi))
-            for i in expired.nonzero()[0].tolist():
-                worlds[i].lights.states(worlds[i].time)
+            if expired.any():
+                self._look_up_lights(expired.nonzero()[0])
         kernels.advance_worlds(
             stepping, rows["state"], self.controls, w.is_car, rows["params"], w.dt,
             rows["active"], rows["s"], rows["offset"], rows["path_z"], rows["path_heading"],
@@ -122,6 +122,24 @@ class WorldBatch(Rows):
             events[i] = worlds[i].collide()
             self.hit[i] = bool(events[i])
         return events
+
+    def _look_up_lights(self, index: np.ndarray) -> None:
+        """`LightProgram.states` of the worlds `index` at their times: one `look_up` for all
+        whose programs share the first one's tables (the worlds of one scene and light
+        timing), the others world by world."""
+        worlds, program = self.worlds, self.worlds[0].lights
+        shared = np.array([worlds[i].lights.ends is program.ends for i in index.tolist()])
+        for i in index[~shared].tolist():
+            worlds[i].lights.states(worlds[i].time)
+        index = index[shared]
+        if len(index):
+            current = np.empty((len(index), self.lights.shape[1]), self.lights.dtype)
+            valid = np.empty((len(index), 2))
+            look_up(
+                program.ends, program.codes, program.cycle, program.offset, self.times[index],
+                current, valid,
+            )  # fmt: skip
+            self.lights[index], self.lookups["_valid"][index] = current, valid
 
     def _advance_clocks(self, stepping: np.ndarray, dt: float) -> None:
         """`World.begin_step` of every stepping world: its new time read from

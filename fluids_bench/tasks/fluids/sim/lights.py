@@ -42,6 +42,22 @@ def _tables(lights: tuple, scale: float) -> tuple[np.ndarray, ...]:
     return ends, codes, cycle, offset
 
 
+def look_up(ends, codes, cycle, offset, times, current, valid) -> None:
+    """The state code of every light at each of `times` (s, (E,)) into `current` (E, L), and
+    the interval `[lo, hi)` of times over which those codes hold into `valid` (E, 2):
+    `LightProgram.states` for E clocks at once (a batch of worlds whose lights changed), with
+    the same elementwise operations, so each row has the bits of a lookup alone. `ends`,
+    `codes`, `cycle`, `offset`: a program's tables (`LightProgram`'s)."""
+    lights = np.arange(len(cycle))
+    phase_t = np.mod(times[:, None] + offset, cycle)  # (E, L)
+    idx = (phase_t[..., None] >= ends).sum(axis=-1)
+    current[...] = codes[lights, idx]
+    start = np.where(idx > 0, ends[lights, np.maximum(idx - 1, 0)], 0.0)
+    to_change = np.where(ends > phase_t[..., None], ends, np.inf).min(axis=-1) - phase_t
+    valid[:, 0] = times - (phase_t - start).min(axis=-1)
+    valid[:, 1] = times + to_change.min(axis=-1)
+
+
 class LightProgram:
     """The programs of a layout's lights as arrays: `states(t)` is one vectorised lookup."""
 
@@ -73,11 +89,10 @@ class LightProgram:
         valid = self._valid
         if valid[0] <= t < valid[1] or not len(self):
             return self.current
-        phase_t = np.mod(t + self.offset, self.cycle)
-        idx = (phase_t[:, None] >= self.ends).sum(axis=1)
-        self.current[:] = self.codes[np.arange(len(self)), idx]
-        start = np.where(idx > 0, self.ends[np.arange(len(self)), np.maximum(idx - 1, 0)], 0.0)
-        self._valid[:] = (t - (phase_t - start).min(), t + self.time_to_change(t).min())
+        times = np.array([t], dtype=np.float64)
+        look_up(
+            self.ends, self.codes, self.cycle, self.offset, times, self.current[None], valid[None]
+        )
         return self.current
 
     def time_to_change(self, t: float) -> np.ndarray:

@@ -128,7 +128,8 @@ class FluidsVectorEnv(VectorEnv):
     1. the controls of every world, at every action level (array operations and, at the
        trajectory level, one compiled call: `act_batch`);
     2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
-       where a light changed, and one compiled call moves every world
+       where a light changed (one call for all those worlds), and one compiled call moves
+       every world
        (`WorldBatch`);
     3. one records every world's step for fault labels
        (`FaultBatch`);
@@ -151,7 +152,8 @@ class FluidsVectorEnv(VectorEnv):
        autoresets, world by world).
 
     Only rare events run world by world: collisions (the exact check and fault labels), a
-    light changing, a route changing, recovery planning and resets. The parts are the scalar
+    route changing, recovery planning and resets (the worlds whose lights change are looked up
+    in one call, `fluids_bench.tasks.fluids.sim.lights.look_up`). The parts are the scalar
     env's own, so equality holds by construction. A batch of one
     world steps with the scalar env's `step` itself (the phases' fixed costs would exceed it). The vector layer
     checks the whole action batch before any world moves, writes observations into
@@ -237,6 +239,7 @@ class FluidsVectorEnv(VectorEnv):
         self.observation_space = batch_space(self.single_observation_space, self.num_envs)
         self._obs = create_empty_array(self.single_observation_space, self.num_envs, np.zeros)
         self._dict_obs = isinstance(self._obs, dict)
+        self._batchable = self.envs[0].observer.batchable  # one call observes all
         # steps in each world's episode (TimeLimit's count)
         self._elapsed = np.zeros(self.num_envs, dtype=np.int64)
         self._ended = np.zeros(self.num_envs, dtype=np.bool_)  # episode ended: autoreset next
@@ -493,9 +496,12 @@ class FluidsVectorEnv(VectorEnv):
         `lights`: their light states) into the batch: one call for all when the observation
         allows it, else world by world (a noisy or image observation, drawn with each world's
         own generator)."""
-        observer = self.envs[0].observer
-        if observer.batchable and index:
-            self._obs[stepping] = observer.observe_worlds(stepping, worlds, lights)
+        if self._batchable and index:
+            rows = self.envs[0].observer.observe_worlds(stepping, worlds, lights)
+            if len(index) == self.num_envs:  # every world stepped: no fancy-indexed write
+                self._obs[...] = rows
+            else:
+                self._obs[stepping] = rows
             return
         for i in index:
             self._write(i, self.envs[i]._observe())

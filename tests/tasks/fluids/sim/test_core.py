@@ -11,7 +11,7 @@ from fluids_bench.tasks.fluids.sim.collision import find_collisions, find_collis
 from fluids_bench.tasks.fluids.sim.config import CarConfig, SceneConfig
 from fluids_bench.tasks.fluids.sim.dynamics import integrate
 from fluids_bench.tasks.fluids.sim.layout import four_way, t_junction
-from fluids_bench.tasks.fluids.sim.lights import GO, STOP, LightProgram
+from fluids_bench.tasks.fluids.sim.lights import GO, STOP, LightProgram, look_up
 from fluids_bench.tasks.fluids.sim.spawn import capacity, spawn
 from fluids_bench.tasks.fluids.sim.world import World
 
@@ -91,6 +91,37 @@ def test_conflicting_approaches_are_never_green_together():
         ew = s["tl_east"] != STOP or s["tl_west"] != STOP
         ns = s["tl_north"] != STOP or s["tl_south"] != STOP
         assert not (ew and ns), t
+
+
+def _states_reference(program: LightProgram, t: float) -> tuple[np.ndarray, list[float]]:
+    """A light lookup as one clock's numpy code wrote it before `look_up` (codes, [lo, hi))."""
+    phase_t = np.mod(t + program.offset, program.cycle)
+    idx = (phase_t[:, None] >= program.ends).sum(axis=1)
+    rows = np.arange(len(program))
+    codes = program.codes[rows, idx]
+    start = np.where(idx > 0, program.ends[rows, np.maximum(idx - 1, 0)], 0.0)
+    return codes, [t - (phase_t - start).min(), t + program.time_to_change(t).min()]
+
+
+@pytest.mark.parametrize("scale", [1.0, 0.7])
+def test_a_batch_of_light_lookups_equals_each_lookup_alone(scale):
+    """`look_up` of many clocks at once (a vector env's worlds) gives each clock the bits of
+    its own lookup, and `LightProgram.states` those of the one-clock reference."""
+    program = LightProgram(four_way().lights, scale)
+    rng = np.random.default_rng(0)
+    ends = program.ends[np.isfinite(program.ends)]
+    times = np.concatenate([np.arange(0.0, 2 * program.cycle.max(), 0.1), ends, ends - 1e-9])
+    times = np.round(times + rng.uniform(0, 1e-3, len(times)) * (rng.random(len(times)) < 0.5), 9)
+    current = np.empty((len(times), len(program)), np.int8)
+    valid = np.empty((len(times), 2))
+    look_up(program.ends, program.codes, program.cycle, program.offset, times, current, valid)
+    for k, t in enumerate(times.tolist()):
+        codes, interval = _states_reference(program, t)
+        assert np.array_equal(current[k], codes), t
+        assert valid[k].tolist() == interval, t
+        alone = LightProgram(four_way().lights, scale)
+        assert np.array_equal(alone.states(t), codes), t
+        assert alone._valid.tolist() == interval, t
 
 
 # ---------------------------------------------------------------------------- collisions
