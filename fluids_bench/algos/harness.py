@@ -10,7 +10,8 @@ timer and the evaluation protocol of one run:
 - evaluation: the learner and (once, up front) the supervisor are rolled out on the same
   `eval_episodes` seeds; normalised performance is their ratio after `return_floor`;
   success and collisions are summarised too where the env reports them
-  (`evaluation`);
+  (`evaluation`). Without workers, on an id with a vector env (FLUIDS), the episodes are
+  stepped `EVAL_BATCH` at a time (`vector_rollout`), with the same summary;
 - compute: `fit_seconds` (fitting) and the wall clock of everything but evaluation
   (collection, labelling, fitting), see `IterationRecord`;
 - execution: the rollouts an algorithm asks for together (`Harness.collect_many`, an
@@ -47,7 +48,7 @@ from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
 from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
-from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
+from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories, summarise
 from fluids_bench.algos.learners.protocol import (
     Learner,
     LearnerPolicy,
@@ -57,7 +58,8 @@ from fluids_bench.algos.learners.protocol import (
 )
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
-from fluids_bench.algos.rollout import rollout
+from fluids_bench.algos.rollout import actor_rng, rollout
+from fluids_bench.algos.vector_rollout import EpisodeEnd, has_vector_env, run_vector_episodes
 from fluids_bench.core.parallel import TaskSession, worker_env
 from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.supervisor import has_supervisor
@@ -66,6 +68,9 @@ from fluids_bench.registration import ENV_SPECS
 SEED_BOUND = 2**31 - 1
 ProgressCallback = Callable[[IterationRecord], None]
 TIMING_FIELDS = ("train_seconds", "wall_seconds")  # the only fields that differ between reruns
+# evaluation episodes stepped together on the id's vector env (FLUIDS) when the run has no
+# workers; 1: one by one
+EVAL_BATCH = 32
 
 
 @dataclass(frozen=True)
@@ -309,12 +314,54 @@ class Harness:
         self._evaluations += 1
         summary = None if self.store is None else self.store.load(name)
         if summary is None:
-            episodes = self._rollouts(actor, self.eval_seeds)
-            summary = evaluate_trajectories(episodes, self._reports_success)
+            if self._batched(actor):
+                summary = self._evaluate_batched(actor)
+            else:
+                episodes = self._rollouts(actor, self.eval_seeds)
+                summary = evaluate_trajectories(episodes, self._reports_success)
             if self.store is not None:
                 self.store.save(name, summary)
         self._reports_success = summary.success_rate is not None
         return summary
+
+    def _batched(self, actor: Actor) -> bool:
+        """Whether an evaluation of `actor` steps its episodes together on the id's vector
+        env: in this process (no workers), an id with one, `EVAL_BATCH` > 1, and an actor
+        without state between steps (the supervisor, a learner)."""
+        return (
+            self._session.local
+            and EVAL_BATCH > 1
+            and (actor is SUPERVISOR or isinstance(actor, LearnerActor))
+            and has_vector_env(self.config.env_id)
+        )
+
+    def _evaluate_batched(self, actor: Actor) -> Evaluation:
+        """`actor` over the evaluation seeds, `EVAL_BATCH` episodes at a time on the vector
+        env: the same summary as `evaluate_trajectories` of their rollouts (tested)."""
+        seeds = self.eval_seeds
+        refuse_test_seeds(seeds, "the algorithm harness")
+        ends: list[EpisodeEnd | None] = [None] * len(seeds)
+
+        def keep(end: EpisodeEnd) -> None:
+            ends[end.index] = end
+
+        def act(space, observations, labels, rngs):
+            return [
+                actor(o, label, r) for o, label, r in zip(observations, labels, rngs, strict=True)
+            ]
+
+        run_vector_episodes(
+            self.config.env_id, dict(self.config.env_kwargs), seeds, act, actor_rng, keep,
+            batch=EVAL_BATCH, max_steps=self.config.max_steps,
+        )  # fmt: skip
+        done = [e for e in ends if e is not None]
+        counted = [e.collisions for e in done]
+        return summarise(
+            [float(np.sum(np.asarray(e.rewards, dtype=np.float64))) for e in done],
+            [e.info for e in done],
+            None if all(c is None for c in counted) else [c or 0 for c in counted],
+            self._reports_success,
+        )
 
     def evaluate_actor(self, actor: Actor) -> float:
         """Mean return of `actor` over the evaluation seeds."""

@@ -23,7 +23,7 @@ before the next one ends).
 from __future__ import annotations
 
 from collections.abc import Callable, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 import gymnasium as gym
@@ -47,23 +47,25 @@ class EpisodeEnd:
         index: the episode's position in `seeds`.
         seed: its reset seed.
         total_return: the sum of its rewards, added in step order as Python floats.
+        rewards: its rewards, in step order.
         length: its steps.
         terminated: it ended by termination.
         truncated: it ended by the id's time limit (neither: stopped at `max_steps`).
         info: the info of its last step (the reset's if it took none), as the scalar env
             returns it up to number types (numpy scalars where the scalar env has Python ones).
         collisions: the collision events listed in its infos (`info["collisions"]`), reset's
-            included.
+            included; None when no info has the key.
     """
 
     index: int
     seed: int
     total_return: float
+    rewards: list[float]
     length: int
     terminated: bool
     truncated: bool
     info: dict[str, Any]
-    collisions: int
+    collisions: int | None
 
 
 def has_vector_env(env_id: str) -> bool:
@@ -94,9 +96,13 @@ def world_info(info: dict[str, Any], i: int) -> dict[str, Any]:
     return out
 
 
-def _collisions(info: dict[str, Any]) -> int:
-    events = info.get(COLLISIONS_KEY, ())
-    return int(events) if isinstance(events, int | np.integer) else len(events)
+def _count(collisions: int | None, info: dict[str, Any]) -> int | None:
+    """`collisions` plus the events `info` lists (None while no info has the key)."""
+    if COLLISIONS_KEY not in info:
+        return collisions
+    events = info[COLLISIONS_KEY]
+    new = int(events) if isinstance(events, int | np.integer) else len(events)
+    return (collisions or 0) + new
 
 
 @dataclass
@@ -108,7 +114,8 @@ class _Episode:
     info: dict[str, Any]
     total: float = 0.0
     length: int = 0
-    collisions: int = 0
+    collisions: int | None = None
+    rewards: list[float] = field(default_factory=list)
 
 
 class _Batch:
@@ -207,7 +214,7 @@ def _fill(batch, pending, rng_for, on_end, max_steps, worlds) -> None:
                 continue
             episode.observation = _row(observations, w)
             episode.info = world_info(info, w)
-            episode.collisions += _collisions(episode.info)
+            episode.collisions = _count(episode.collisions, episode.info)
             if max_steps is not None and max_steps <= 0:
                 _end(batch, w, False, False, on_end)
                 again.append(w)
@@ -238,9 +245,11 @@ def _step(batch, act, pending, rng_for, on_end, max_steps) -> None:
             continue
         episode.observation = _row(observations, w)
         episode.info = world_info(info, w)
-        episode.total += float(rewards[w])
+        reward = float(rewards[w])
+        episode.total += reward
+        episode.rewards.append(reward)
         episode.length += 1
-        episode.collisions += _collisions(episode.info)
+        episode.collisions = _count(episode.collisions, episode.info)
         stop = max_steps is not None and episode.length >= max_steps
         if terminated[w] or truncated[w] or stop:
             _end(batch, w, bool(terminated[w]), bool(truncated[w]), on_end)
@@ -254,8 +263,8 @@ def _end(batch, w, terminated, truncated, on_end) -> None:
     batch.episodes[w] = None
     on_end(
         EpisodeEnd(
-            episode.index, episode.seed, episode.total, episode.length, terminated, truncated,
-            episode.info, episode.collisions,
+            episode.index, episode.seed, episode.total, episode.rewards, episode.length,
+            terminated, truncated, episode.info, episode.collisions,
         )
     )  # fmt: skip
 
