@@ -11,7 +11,8 @@ timer and the evaluation protocol of one run:
   `eval_episodes` seeds; normalised performance is their ratio after `return_floor`;
   success and collisions are summarised too where the env reports them
   (`evaluation`). Without workers, on an id with a vector env (FLUIDS), the episodes are
-  stepped `EVAL_BATCH` at a time (`vector_rollout`), with the same summary;
+  stepped `EVAL_BATCH` at a time (`vector_rollout`), with the same summary; so are the
+  rollouts an algorithm asks for together (the same trajectories, infos up to number types);
 - compute: `fit_seconds` (fitting) and the wall clock of everything but evaluation
   (collection, labelling, fitting), see `IterationRecord`;
 - execution: the rollouts an algorithm asks for together (`Harness.collect_many`, an
@@ -44,7 +45,7 @@ import numpy as np
 from gymnasium import spaces
 
 import fluids_bench  # noqa: F401  (registers the suite's env ids)
-from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
+from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor, stateless
 from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
@@ -59,7 +60,12 @@ from fluids_bench.algos.learners.protocol import (
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
 from fluids_bench.algos.rollout import actor_rng, rollout
-from fluids_bench.algos.vector_rollout import EpisodeEnd, has_vector_env, run_vector_episodes
+from fluids_bench.algos.vector_rollout import (
+    EpisodeEnd,
+    has_vector_env,
+    run_vector_episodes,
+    trajectory,
+)
 from fluids_bench.core.parallel import TaskSession, worker_env
 from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.supervisor import has_supervisor
@@ -232,7 +238,20 @@ class Harness:
             for i, s in enumerate(seeds)
             if results[i] is None
         ]
-        if self._session.local:  # in this process, on the harness's own env
+        if tasks and self._session.local and self._batched(actor):  # B at a time
+            by_index = {task.index: task for task in tasks}
+
+            def finished(end: EpisodeEnd) -> None:
+                done(by_index[end.index], trajectory(end))
+
+            order = [task.index for task in tasks]
+            run_vector_episodes(
+                self.config.env_id, dict(self.config.env_kwargs), [seeds[i] for i in order],
+                self._batch_actor(actor), actor_rng,
+                lambda end: finished(dataclasses.replace(end, index=order[end.index])),
+                batch=EVAL_BATCH, max_steps=self.config.max_steps, record=True,
+            )  # fmt: skip
+        elif self._session.local:  # in this process, on the harness's own env
             for task in tasks:
                 done(task, rollout(self.env, actor, task.seed, task.max_steps))
         else:
@@ -325,15 +344,25 @@ class Harness:
         return summary
 
     def _batched(self, actor: Actor) -> bool:
-        """Whether an evaluation of `actor` steps its episodes together on the id's vector
-        env: in this process (no workers), an id with one, `EVAL_BATCH` > 1, and an actor
-        without state between steps (the supervisor, a learner)."""
+        """Whether the rollouts of `actor` step together on the id's vector env: in this
+        process (no workers), an id with one, `EVAL_BATCH` > 1, and one of the project's
+        actors (each a function of the observation, the label and the episode's generator,
+        with no state between steps)."""
         return (
             self._session.local
             and EVAL_BATCH > 1
-            and (actor is SUPERVISOR or isinstance(actor, LearnerActor))
+            and stateless(actor)
             and has_vector_env(self.config.env_id)
         )
+
+    @staticmethod
+    def _batch_actor(actor: Actor):
+        def act(space, observations, labels, rngs):
+            return [
+                actor(o, label, r) for o, label, r in zip(observations, labels, rngs, strict=True)
+            ]
+
+        return act
 
     def _evaluate_batched(self, actor: Actor) -> Evaluation:
         """`actor` over the evaluation seeds, `EVAL_BATCH` episodes at a time on the vector

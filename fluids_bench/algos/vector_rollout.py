@@ -29,6 +29,7 @@ from typing import Any
 import gymnasium as gym
 import numpy as np
 
+from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
 COLLISIONS_KEY = "collisions"
@@ -66,6 +67,35 @@ class EpisodeEnd:
     truncated: bool
     info: dict[str, Any]
     collisions: int | None
+    recorded: _Record | None = None  # with `record=True`: every step's data
+
+
+@dataclass
+class _Record:
+    """An episode's observations (T + 1), actions, labels (T) and infos (T + 1)."""
+
+    observations: list[Any] = field(default_factory=list)
+    actions: list[Any] = field(default_factory=list)
+    labels: list[Any] = field(default_factory=list)
+    infos: list[dict[str, Any]] = field(default_factory=list)
+
+
+def trajectory(end: EpisodeEnd) -> Trajectory:
+    """The `Trajectory` of an episode run with `record=True`: the one `rollout` records for
+    its seed, with infos equal up to number types (numpy scalars for Python ones)."""
+    if end.recorded is None:
+        raise ValueError("trajectory: the episode was run without record=True")
+    r = end.recorded
+    return Trajectory(
+        observations=np.stack(r.observations),
+        actions=np.asarray(r.actions),
+        labels=np.asarray(r.labels),
+        rewards=np.asarray(end.rewards, dtype=np.float64),
+        infos=r.infos,
+        terminated=end.terminated,
+        truncated=end.truncated,
+        seed=end.seed,
+    )
 
 
 def has_vector_env(env_id: str) -> bool:
@@ -116,12 +146,14 @@ class _Episode:
     length: int = 0
     collisions: int | None = None
     rewards: list[float] = field(default_factory=list)
+    recorded: _Record | None = None
 
 
 class _Batch:
     """A vector env of `n` worlds and the episode each world holds (None: a throwaway)."""
 
-    def __init__(self, env_id: str, kwargs: dict[str, Any], n: int) -> None:
+    def __init__(self, env_id: str, kwargs: dict[str, Any], n: int, record: bool) -> None:
+        self.record = record
         self.env = gym.make_vec(
             env_id, n, vectorization_mode="vector_entry_point", autoreset_mode="Disabled",
             **kwargs,
@@ -162,6 +194,7 @@ def run_vector_episodes(
     *,
     batch: int = DEFAULT_BATCH,
     max_steps: int | None = None,
+    record: bool = False,
 ) -> None:
     """Run one episode per seed of `seeds` on `env_id`'s vector env, B worlds at a time.
 
@@ -175,13 +208,14 @@ def run_vector_episodes(
         on_end: called with each finished episode, as it finishes.
         batch: the most worlds stepped together (B).
         max_steps: stop an episode after this many steps (None: at its end).
+        record: keep every step's data in `EpisodeEnd.recorded` (see `trajectory`).
     """
     if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
         raise ValueError(f"batch is {batch!r}; allowed: a positive integer")
     pending = list(enumerate(int(s) for s in seeds))[::-1]  # popped from the end, in order
     if not pending:
         return
-    current = _Batch(env_id, dict(env_kwargs), min(batch, len(pending)))
+    current = _Batch(env_id, dict(env_kwargs), min(batch, len(pending)), record)
     try:
         _fill(current, pending, rng_for, on_end, max_steps, range(current.n))
         while any(e is not None for e in current.episodes):
@@ -201,6 +235,8 @@ def _fill(batch, pending, rng_for, on_end, max_steps, worlds) -> None:
             if pending:
                 index, seed = pending.pop()
                 batch.episodes[w] = _Episode(index, seed, rng_for(seed), None, {})
+                if batch.record:
+                    batch.episodes[w].recorded = _Record()
                 seeds[w] = seed
             else:
                 batch.episodes[w] = None
@@ -215,6 +251,9 @@ def _fill(batch, pending, rng_for, on_end, max_steps, worlds) -> None:
             episode.observation = _row(observations, w)
             episode.info = world_info(info, w)
             episode.collisions = _count(episode.collisions, episode.info)
+            if episode.recorded is not None:
+                episode.recorded.observations.append(episode.observation)
+                episode.recorded.infos.append(episode.info)
             if max_steps is not None and max_steps <= 0:
                 _end(batch, w, False, False, on_end)
                 again.append(w)
@@ -238,6 +277,9 @@ def _step(batch, act, pending, rng_for, on_end, max_steps) -> None:
     ended = []
     for w in range(batch.n):
         episode = batch.episodes[w]
+        if episode is not None and episode.recorded is not None:
+            episode.recorded.actions.append(actions[w])
+            episode.recorded.labels.append(batch.labels[w])
         batch.labels[w] = batch.label(info, w)
         if episode is None:
             if terminated[w] or truncated[w]:
@@ -250,6 +292,9 @@ def _step(batch, act, pending, rng_for, on_end, max_steps) -> None:
         episode.rewards.append(reward)
         episode.length += 1
         episode.collisions = _count(episode.collisions, episode.info)
+        if episode.recorded is not None:
+            episode.recorded.observations.append(episode.observation)
+            episode.recorded.infos.append(episode.info)
         stop = max_steps is not None and episode.length >= max_steps
         if terminated[w] or truncated[w] or stop:
             _end(batch, w, bool(terminated[w]), bool(truncated[w]), on_end)
@@ -264,7 +309,7 @@ def _end(batch, w, terminated, truncated, on_end) -> None:
     on_end(
         EpisodeEnd(
             episode.index, episode.seed, episode.total, episode.rewards, episode.length,
-            terminated, truncated, episode.info, episode.collisions,
+            terminated, truncated, episode.info, episode.collisions, episode.recorded,
         )
     )  # fmt: skip
 
@@ -275,7 +320,7 @@ def _shrink(batch: _Batch, env_id, env_kwargs, pending) -> _Batch:
     live = [w for w, e in enumerate(batch.episodes) if e is not None]
     if pending or batch.n == 1 or len(live) > batch.n // 2:
         return batch
-    smaller = _Batch(env_id, dict(env_kwargs), len(live))
+    smaller = _Batch(env_id, dict(env_kwargs), len(live), batch.record)
     try:
         for new, old in enumerate(live):
             smaller.env.restore(new, batch.env.snapshot(old))
