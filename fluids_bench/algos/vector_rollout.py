@@ -33,7 +33,7 @@ from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 
 COLLISIONS_KEY = "collisions"
-DEFAULT_BATCH = 32  # worlds stepped together (docs/performance.md's measurements)
+DEFAULT_BATCH = 32  # worlds stepped together (docs/benchmarks/performance.md)
 
 # (the env's single action space, then the observations, supervisor labels and generators of
 # the episodes that act this step, one entry each) -> their actions, one each

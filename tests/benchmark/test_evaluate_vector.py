@@ -93,27 +93,27 @@ def test_an_object_with_act_runs_alone():
 def test_evaluate_batched_equals_one_by_one_and_resumes(tmp_path):
     suite = SUITE.select(episodes=2, tasks=["fluids"])  # 4 sets x 2 seeds x 3 policies
 
-    def run(out, batch):
+    def run(out, batch, workers=1):
         return evaluate(
-            "benchmark_policies:fluids_predict", suite, out, progress=False, plots=False,
-            batch=batch, name="predict",
+            "benchmark_policies:fluids_predict", suite, tmp_path / out, progress=False,
+            plots=False, batch=batch, name="predict", workers=workers,
         )  # fmt: skip
 
-    cards = [run(tmp_path / "one", 1), run(tmp_path / "batched", 3)]
-    logs = [
-        {p: sorted((tmp_path / d / "episodes" / f"{p}.jsonl").read_text().splitlines())
-         for p in ("predict", "random", "supervisor")}
-        for d in ("one", "batched")
-    ]  # fmt: skip
-    assert logs[0] == logs[1] and len(logs[0]["predict"]) == 8
-    assert json.dumps(cards[0]["tasks"], sort_keys=True) == json.dumps(
-        cards[1]["tasks"], sort_keys=True
-    )
-    again = run(tmp_path / "batched", 3)  # every row is there: nothing runs
-    assert (tmp_path / "batched" / "episodes" / "predict.jsonl").read_text().count("\n") == 8
-    assert json.dumps(again["tasks"], sort_keys=True) == json.dumps(
-        cards[1]["tasks"], sort_keys=True
-    )
+    def logs(out):
+        folder = tmp_path / out / "episodes"
+        return {p: sorted((folder / f"{p}.jsonl").read_text().splitlines())
+                for p in ("predict", "random", "supervisor")}  # fmt: skip
+
+    def tasks(card):
+        return json.dumps(card["tasks"], sort_keys=True)  # (a resumed card's keys: sorted)
+
+    one, batched = run("one", 1), run("batched", 3)
+    assert logs("one") == logs("batched") and len(logs("one")["predict"]) == 8
+    assert tasks(one) == tasks(batched)
+    again = run("batched", 3)  # every row is there: nothing runs
+    assert len(logs("batched")["predict"]) == 8 and tasks(again) == tasks(one)
+    workers = run("workers", 3, workers=2)  # chunks of up to 3 episodes per worker task
+    assert logs("workers") == logs("one") and tasks(workers) == tasks(one)
 
 
 def test_bad_batch_is_refused(tmp_path):
