@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.algos.vector_rollout import DEFAULT_BATCH, has_vector_env, run_vector_episodes
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY, supervisor_action
 
 BUILT_INS = ("random", "supervisor")
@@ -262,8 +263,27 @@ def harness_eval_seeds(config: Any) -> list[int]:
     return [int(s) for s in draws]
 
 
-def random_return(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> float:
-    """The random policy's mean return over `seeds` (whole episodes)."""
+def random_return(
+    env_id: str, env_kwargs: dict[str, Any], seeds: list[int], batch: int = DEFAULT_BATCH
+) -> float:
+    """The random policy's mean return over `seeds` (whole episodes), stepped `batch` at a
+    time on the id's vector env where it has one (the same sum, in the same order)."""
+    if batch == 1 or not has_vector_env(env_id) or not seeds:
+        return _random_return_alone(env_id, env_kwargs, seeds)
+    ends: dict[int, list[float]] = {}
+    run_vector_episodes(
+        env_id, env_kwargs, seeds,
+        lambda space, observations, labels, rngs: [random_action(space, r) for r in rngs],
+        actor_rng, lambda end: ends.__setitem__(end.index, end.rewards), batch=batch,
+    )  # fmt: skip
+    total = 0.0
+    for i in range(len(seeds)):
+        for reward in ends[i]:
+            total += reward
+    return total / len(seeds)
+
+
+def _random_return_alone(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> float:
     import gymnasium as gym
 
     env = gym.make(env_id, **env_kwargs)

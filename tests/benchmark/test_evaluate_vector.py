@@ -119,3 +119,11 @@ def test_evaluate_batched_equals_one_by_one_and_resumes(tmp_path):
 def test_bad_batch_is_refused(tmp_path):
     with pytest.raises(ValueError, match="batch is 0"):
         evaluate("random", SUITE.select(episodes=1, tasks=["fluids"]), tmp_path, batch=0)
+
+
+def test_random_return_batched_is_the_sum_one_by_one():
+    from fluids_bench.benchmark.policies import random_return
+
+    kwargs, seeds = {"num_cars": 2, "num_pedestrians": 1}, [5, 6, 7, 8]
+    alone = random_return("FLUIDS-v0", kwargs, seeds, batch=1)
+    assert random_return("FLUIDS-v0", kwargs, seeds, batch=3) == alone
