@@ -238,7 +238,7 @@ class Harness:
             for i, s in enumerate(seeds)
             if results[i] is None
         ]
-        if tasks and self._session.local and self._batched(actor):  # B at a time
+        if len(tasks) > 1 and self._session.local and self._batched(actor):  # B at a time
             by_index = {task.index: task for task in tasks}
 
             def finished(end: EpisodeEnd) -> None:
@@ -333,7 +333,7 @@ class Harness:
         self._evaluations += 1
         summary = None if self.store is None else self.store.load(name)
         if summary is None:
-            if self._batched(actor):
+            if len(self.eval_seeds) > 1 and self._batched(actor):
                 summary = self._evaluate_batched(actor)
             else:
                 episodes = self._rollouts(actor, self.eval_seeds)

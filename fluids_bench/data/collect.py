@@ -168,7 +168,13 @@ def collect(
             bar.update(1)
             bar.set_postfix(pairs=pairs, refresh=False)
 
-        if tasks and backend == "process" and workers == 1 and batch > 1 and has_vector_env(env_id):
+        if (
+            len(tasks) > 1
+            and backend == "process"
+            and workers == 1
+            and batch > 1
+            and has_vector_env(env_id)
+        ):
             _collect_batched(tasks, actor, done, batch)
         else:
             run_tasks(
