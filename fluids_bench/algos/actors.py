@@ -109,3 +109,12 @@ class MixtureActor:
         if rng.random() < self.beta:
             return label
         return self.other(observation, label, rng)
+
+
+def stateless(actor: Actor) -> bool:
+    """Whether `actor` is one of this module's actors (its action a function of the
+    observation, the label and the generator alone), so that episodes may share it step by
+    step (`fluids_bench.algos.vector_rollout`)."""
+    if actor is SUPERVISOR or isinstance(actor, LearnerActor | NoisySupervisorActor):
+        return True
+    return isinstance(actor, MixtureActor) and stateless(actor.other)

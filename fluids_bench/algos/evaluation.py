@@ -59,20 +59,35 @@ def evaluate_trajectories(
     """Summarise evaluation episodes. Success is reported when one of them ends with
     `info["is_success"]`, or when `reports_success` says the env does (an earlier
     evaluation saw it: then a batch where every episode timed out scores 0, not None)."""
-    returns = [t.total_return for t in trajectories]
-    reports_success = reports_success or any(SUCCESS_KEY in t.infos[-1] for t in trajectories)
     reports_collisions = any(COLLISIONS_KEY in info for t in trajectories for info in t.infos)
-    success_rate = success_se = collisions = None
+    return summarise(
+        [t.total_return for t in trajectories],
+        [t.infos[-1] for t in trajectories],
+        [_collision_count(t) for t in trajectories] if reports_collisions else None,
+        reports_success,
+    )
+
+
+def summarise(
+    returns: Sequence[float],
+    last_infos: Sequence[dict],
+    collisions: Sequence[int] | None,
+    reports_success: bool = False,
+) -> Evaluation:
+    """`evaluate_trajectories` from each episode's return, last info and collision count
+    (None where the env reports no collisions): what an evaluation keeps of its episodes."""
+    reports_success = reports_success or any(SUCCESS_KEY in info for info in last_infos)
+    success_rate = success_se = mean_collisions = None
     if reports_success:
-        successes = [float(bool(t.infos[-1].get(SUCCESS_KEY, False))) for t in trajectories]
+        successes = [float(bool(info.get(SUCCESS_KEY, False))) for info in last_infos]
         success_rate, success_se = float(np.mean(successes)), standard_error(successes)
-    if reports_collisions:
-        collisions = float(np.mean([_collision_count(t) for t in trajectories]))
+    if collisions is not None:
+        mean_collisions = float(np.mean(collisions))
     return Evaluation(
-        episodes=len(trajectories),
+        episodes=len(returns),
         mean_return=float(np.mean(returns)),
         return_se=standard_error(returns),
         success_rate=success_rate,
         success_se=success_se,
-        collisions=collisions,
+        collisions=mean_collisions,
     )

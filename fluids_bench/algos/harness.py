@@ -10,7 +10,9 @@ timer and the evaluation protocol of one run:
 - evaluation: the learner and (once, up front) the supervisor are rolled out on the same
   `eval_episodes` seeds; normalised performance is their ratio after `return_floor`;
   success and collisions are summarised too where the env reports them
-  (`evaluation`);
+  (`evaluation`). Without workers, on an id with a vector env (FLUIDS), the episodes are
+  stepped `EVAL_BATCH` at a time (`vector_rollout`), with the same summary; so are the
+  rollouts an algorithm asks for together (the same trajectories, infos up to number types);
 - compute: `fit_seconds` (fitting) and the wall clock of everything but evaluation
   (collection, labelling, fitting), see `IterationRecord`;
 - execution: the rollouts an algorithm asks for together (`Harness.collect_many`, an
@@ -43,11 +45,11 @@ import numpy as np
 from gymnasium import spaces
 
 import fluids_bench  # noqa: F401  (registers the suite's env ids)
-from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
+from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor, stateless
 from fluids_bench.algos.checkpoint import Checkpoint
 from fluids_bench.algos.config import RunConfig
 from fluids_bench.algos.dataset import Dataset, Trajectory, split_pairs
-from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories
+from fluids_bench.algos.evaluation import Evaluation, evaluate_trajectories, summarise
 from fluids_bench.algos.learners.protocol import (
     Learner,
     LearnerPolicy,
@@ -57,7 +59,13 @@ from fluids_bench.algos.learners.protocol import (
 )
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.results import IterationRecord, RunResult
-from fluids_bench.algos.rollout import rollout
+from fluids_bench.algos.rollout import actor_rng, rollout
+from fluids_bench.algos.vector_rollout import (
+    EpisodeEnd,
+    has_vector_env,
+    run_vector_episodes,
+    trajectory,
+)
 from fluids_bench.core.parallel import TaskSession, worker_env
 from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.supervisor import has_supervisor
@@ -66,6 +74,9 @@ from fluids_bench.registration import ENV_SPECS
 SEED_BOUND = 2**31 - 1
 ProgressCallback = Callable[[IterationRecord], None]
 TIMING_FIELDS = ("train_seconds", "wall_seconds")  # the only fields that differ between reruns
+# evaluation episodes stepped together on the id's vector env (FLUIDS) when the run has no
+# workers; 1: one by one
+EVAL_BATCH = 32
 
 
 @dataclass(frozen=True)
@@ -227,7 +238,20 @@ class Harness:
             for i, s in enumerate(seeds)
             if results[i] is None
         ]
-        if self._session.local:  # in this process, on the harness's own env
+        if len(tasks) > 1 and self._session.local and self._batched(actor):  # B at a time
+            by_index = {task.index: task for task in tasks}
+
+            def finished(end: EpisodeEnd) -> None:
+                done(by_index[end.index], trajectory(end))
+
+            order = [task.index for task in tasks]
+            run_vector_episodes(
+                self.config.env_id, dict(self.config.env_kwargs), [seeds[i] for i in order],
+                self._batch_actor(actor), actor_rng,
+                lambda end: finished(dataclasses.replace(end, index=order[end.index])),
+                batch=EVAL_BATCH, max_steps=self.config.max_steps, record=True,
+            )  # fmt: skip
+        elif self._session.local:  # in this process, on the harness's own env
             for task in tasks:
                 done(task, rollout(self.env, actor, task.seed, task.max_steps))
         else:
@@ -309,12 +333,64 @@ class Harness:
         self._evaluations += 1
         summary = None if self.store is None else self.store.load(name)
         if summary is None:
-            episodes = self._rollouts(actor, self.eval_seeds)
-            summary = evaluate_trajectories(episodes, self._reports_success)
+            if len(self.eval_seeds) > 1 and self._batched(actor):
+                summary = self._evaluate_batched(actor)
+            else:
+                episodes = self._rollouts(actor, self.eval_seeds)
+                summary = evaluate_trajectories(episodes, self._reports_success)
             if self.store is not None:
                 self.store.save(name, summary)
         self._reports_success = summary.success_rate is not None
         return summary
+
+    def _batched(self, actor: Actor) -> bool:
+        """Whether the rollouts of `actor` step together on the id's vector env: in this
+        process (no workers), an id with one, `EVAL_BATCH` > 1, and one of the project's
+        actors (each a function of the observation, the label and the episode's generator,
+        with no state between steps)."""
+        return (
+            self._session.local
+            and EVAL_BATCH > 1
+            and stateless(actor)
+            and has_vector_env(self.config.env_id)
+        )
+
+    @staticmethod
+    def _batch_actor(actor: Actor):
+        def act(space, observations, labels, rngs):
+            return [
+                actor(o, label, r) for o, label, r in zip(observations, labels, rngs, strict=True)
+            ]
+
+        return act
+
+    def _evaluate_batched(self, actor: Actor) -> Evaluation:
+        """`actor` over the evaluation seeds, `EVAL_BATCH` episodes at a time on the vector
+        env: the same summary as `evaluate_trajectories` of their rollouts (tested)."""
+        seeds = self.eval_seeds
+        refuse_test_seeds(seeds, "the algorithm harness")
+        ends: list[EpisodeEnd | None] = [None] * len(seeds)
+
+        def keep(end: EpisodeEnd) -> None:
+            ends[end.index] = end
+
+        def act(space, observations, labels, rngs):
+            return [
+                actor(o, label, r) for o, label, r in zip(observations, labels, rngs, strict=True)
+            ]
+
+        run_vector_episodes(
+            self.config.env_id, dict(self.config.env_kwargs), seeds, act, actor_rng, keep,
+            batch=EVAL_BATCH, max_steps=self.config.max_steps,
+        )  # fmt: skip
+        done = [e for e in ends if e is not None]
+        counted = [e.collisions for e in done]
+        return summarise(
+            [float(np.sum(np.asarray(e.rewards, dtype=np.float64))) for e in done],
+            [e.info for e in done],
+            None if all(c is None for c in counted) else [c or 0 for c in counted],
+            self._reports_success,
+        )
 
     def evaluate_actor(self, actor: Actor) -> float:
         """Mean return of `actor` over the evaluation seeds."""

@@ -11,13 +11,26 @@ from __future__ import annotations
 
 import json
 import os
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 
-from fluids_bench.benchmark.policies import PolicySource, actor_rng, build_actor
+from fluids_bench.algos.vector_rollout import (
+    DEFAULT_BATCH,
+    EpisodeEnd,
+    has_vector_env,
+    run_vector_episodes,
+)
+from fluids_bench.benchmark.policies import (
+    PolicySource,
+    actor_rng,
+    batch_actor,
+    batchable,
+    build_actor,
+)
 from fluids_bench.core.jsonl import read_rows
 
 SUCCESS_KEY = "is_success"
@@ -86,10 +99,7 @@ def _json_number(value: Any) -> Any:
 def run_episode(job: EpisodeJob, task: Any = None) -> dict[str, Any]:
     """Run `job` to its end (termination or the id's time limit); its row."""
     env = _env(job.env_id, job.env_kwargs_json)
-    actor_key = (job.policy, job.task)
-    if actor_key not in _ACTORS:
-        _ACTORS[actor_key] = build_actor(_SOURCES[actor_key], task or job.task)
-    actor = _ACTORS[actor_key]
+    actor = _actor(job, task)
     rng = actor_rng(job.seed)
     obs, info = env.reset(seed=job.seed)
     total, steps = 0.0, 0
@@ -99,6 +109,20 @@ def run_episode(job: EpisodeJob, task: Any = None) -> dict[str, Any]:
         obs, reward, terminated, truncated, info = env.step(action)
         total += float(reward)
         steps += 1
+    return episode_row(job, total, steps, terminated, info)
+
+
+def _actor(job: EpisodeJob, task: Any) -> Any:
+    key = (job.policy, job.task)
+    if key not in _ACTORS:
+        _ACTORS[key] = build_actor(_SOURCES[key], task or job.task)
+    return _ACTORS[key]
+
+
+def episode_row(
+    job: EpisodeJob, total: float, steps: int, terminated: bool, info: dict[str, Any]
+) -> dict[str, Any]:
+    """The log row of `job`'s episode: its return, length, end and last info's results."""
     row: dict[str, Any] = {
         "policy": job.policy,
         "task": job.task,
@@ -115,6 +139,46 @@ def run_episode(job: EpisodeJob, task: Any = None) -> dict[str, Any]:
         if key in info:
             row[key] = _json_number(info[key])
     return row
+
+
+def vector_group(job: EpisodeJob, task: Any = None) -> tuple[str, str, str, str] | None:
+    """The jobs that may share one vector env as `job` (same policy, task, id and kwargs), or
+    None when `job` runs alone: its id has no vector env, or its policy cannot act on a batch
+    (an object with `act`, which may keep state from step to step)."""
+    if not has_vector_env(job.env_id):
+        return None
+    if not batchable(_SOURCES[(job.policy, job.task)], _actor(job, task)):
+        return None
+    return (job.policy, job.task, job.env_id, job.env_kwargs_json)
+
+
+def run_vector_jobs(
+    jobs: list[EpisodeJob],
+    task: Any,
+    on_row: Callable[[dict[str, Any]], None],
+    batch: int = DEFAULT_BATCH,
+) -> None:
+    """Run `jobs` (one `vector_group`) on their id's vector env, `batch` worlds at a time;
+    each row, equal to `run_episode`'s, goes to `on_row` as its episode ends."""
+    first = jobs[0]
+    act = batch_actor(_SOURCES[(first.policy, first.task)], _actor(first, task))
+
+    def end(episode: EpisodeEnd) -> None:
+        job = jobs[episode.index]
+        on_row(episode_row(job, episode.total_return, episode.length, episode.terminated,
+                           episode.info))  # fmt: skip
+
+    run_vector_episodes(
+        first.env_id, json.loads(first.env_kwargs_json), [j.seed for j in jobs], act, actor_rng,
+        end, batch=batch,
+    )  # fmt: skip
+
+
+def run_vector_chunk(jobs: list[EpisodeJob], task: Any, batch: int) -> list[dict[str, Any]]:
+    """`run_vector_jobs` in a worker process: the rows, in the order the episodes ended."""
+    rows: list[dict[str, Any]] = []
+    run_vector_jobs(jobs, task, rows.append, batch)
+    return rows
 
 
 class EpisodeLog:

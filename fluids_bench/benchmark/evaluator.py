@@ -1,7 +1,9 @@
 """`evaluate(policy, suite)`: a policy on the suite's test and OOD sets, resumable, to a scorecard.
 
 The policy, the random policy and the supervisor each run every episode of every set (the
-references normalise the score on the same episodes). Episodes run on `workers` processes
+references normalise the score on the same episodes). A policy's FLUIDS episodes are stepped
+`batch` at a time on the id's vector env where the policy can act on a batch, each row the
+same as its episode run alone. Episodes run on `workers` processes
 (the project's pool, [`process_pool`][fluids_bench.core.parallel.process_pool]) or here; each
 finished episode is appended at once to `OUT/episodes/<policy>.jsonl`, so Ctrl-C keeps them
 and a rerun of the same evaluation runs only the missing ones (the reference logs are shared by
@@ -19,6 +21,7 @@ from concurrent.futures import as_completed
 from pathlib import Path
 from typing import Any
 
+from fluids_bench.algos.vector_rollout import DEFAULT_BATCH
 from fluids_bench.benchmark import scorecard as scorecards
 from fluids_bench.benchmark.episodes import (
     EpisodeJob,
@@ -26,6 +29,9 @@ from fluids_bench.benchmark.episodes import (
     init_worker,
     kwargs_json,
     run_episode,
+    run_vector_chunk,
+    run_vector_jobs,
+    vector_group,
 )
 from fluids_bench.benchmark.policies import BUILT_INS, PolicySource, ensure_learner, resolve
 from fluids_bench.benchmark.suite import SUITE, Suite, Task
@@ -158,14 +164,39 @@ def _check_picklable(sources: dict[tuple[str, str], PolicySource]) -> None:
             ) from exc
 
 
+def _groups(
+    pending: list[tuple[EpisodeJob, Task]], batch: int
+) -> tuple[list[tuple[list[EpisodeJob], Task]], list[tuple[EpisodeJob, Task]]]:
+    """The jobs stepped together on a vector env (by `vector_group`) and those run alone
+    (all of them with `batch=1`)."""
+    if batch == 1:
+        return [], list(pending)
+    groups: dict[tuple[str, str, str, str], tuple[list[EpisodeJob], Task]] = {}
+    alone = []
+    for job, task in pending:
+        key = vector_group(job, task)
+        if key is None:
+            alone.append((job, task))
+        else:
+            groups.setdefault(key, ([], task))[0].append(job)
+    return list(groups.values()), alone
+
+
 def run_jobs(
     jobs: list[tuple[EpisodeJob, Task]],
     sources: dict[tuple[str, str], PolicySource],
     logs: dict[str, EpisodeLog],
     workers: int,
     progress: bool,
+    batch: int = DEFAULT_BATCH,
 ) -> None:
-    """Run the jobs not yet in their logs, appending each row as it finishes."""
+    """Run the jobs not yet in their logs, appending each row as it finishes.
+
+    The episodes of one policy on one env (id and kwargs) are stepped `batch` at a time on
+    the id's vector env where it has one and the policy can act on a batch (each row equal to
+    its scalar episode's); the others run one by one. With `workers`, each worker runs chunks
+    of up to `batch` such episodes (their rows are written when the chunk ends) or single
+    episodes."""
     from tqdm import tqdm
 
     pending = [(job, task) for job, task in jobs if not logs[job.policy].done(job)]
@@ -177,22 +208,35 @@ def run_jobs(
             return
         for key in {(job.policy, job.task) for job, _ in pending}:
             ensure_learner(sources[key])  # a train result's learner, rebuilt only if needed
+
+        def keep(row: dict[str, Any]) -> None:
+            logs[row["policy"]].append(row)
+            bar.update(1)
+
+        init_worker(sources)  # here too: which jobs share a vector env
+        groups, alone = _groups(pending, batch)
         if workers == 1:
-            init_worker(sources)
-            for job, task in pending:
-                logs[job.policy].append(run_episode(job, task))
-                bar.update(1)
+            for group, task in groups:
+                run_vector_jobs(group, task, keep, batch)
+            for job, task in alone:
+                keep(run_episode(job, task))
             return
         from fluids_bench.core.parallel import process_pool
 
         _check_picklable(sources)
         preload = ("fluids_bench", "fluids_bench.benchmark.episodes")
         with process_pool(workers, "forkserver", preload, init_worker, (sources,)) as pool:
-            futures = [pool.submit(run_episode, job, task) for job, task in pending]
+            futures = []
+            for group, task in groups:  # chunks that keep every worker busy
+                size = min(batch, -(-len(group) // workers))
+                for start in range(0, len(group), size):
+                    chunk = group[start : start + size]
+                    futures.append(pool.submit(run_vector_chunk, chunk, task, batch))
+            futures += [pool.submit(run_episode, job, task) for job, task in alone]
             for future in as_completed(futures):
-                row = future.result()
-                logs[row["policy"]].append(row)
-                bar.update(1)
+                result = future.result()
+                for row in result if isinstance(result, list) else [result]:
+                    keep(row)
 
 
 def evaluate(
@@ -206,6 +250,7 @@ def evaluate(
     plots: bool = True,
     scorecard: str | os.PathLike[str] | None = None,
     command: str | None = None,
+    batch: int = DEFAULT_BATCH,
 ) -> dict[str, Any]:
     """Evaluate `policy` on `suite`'s test and OOD sets and write its scorecard.
 
@@ -221,6 +266,9 @@ def evaluate(
         plots: write the scorecard's plot, `OUT/scorecard_<name>.png`.
         scorecard: the scorecard's path (default `OUT/scorecard_<name>.json`).
         command: the command line recorded in the scorecard.
+        batch: episodes stepped together on an id's vector env (FLUIDS), where the policy
+            can act on a batch (random, the supervisor, SB3 models, learners, `predict`-only
+            objects); 1 runs every episode alone. The rows are the same either way.
 
     Returns:
         The scorecard (also written to `scorecard`).
@@ -229,6 +277,8 @@ def evaluate(
 
     if isinstance(workers, bool) or not isinstance(workers, int) or workers < 1:
         raise ValueError(f"workers is {workers!r}; allowed: a positive integer")
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise ValueError(f"batch is {batch!r}; allowed: a positive integer")
     if not isinstance(suite, Suite):
         raise ValueError(f"suite is {type(suite).__name__}; allowed: a fluids_bench Suite")
     name, suite, per_task = _assign(policy, suite, name)
@@ -241,7 +291,7 @@ def evaluate(
     out = Path(out)
     logs = {p: EpisodeLog(out / "episodes" / f"{p}.jsonl") for p in {name, *REFERENCES}}
     jobs = _jobs(name, suite, observation)
-    run_jobs(jobs, sources, logs, workers, progress)
+    run_jobs(jobs, sources, logs, workers, progress, batch)
 
     by_set: dict[tuple[str, str, str], list[dict[str, Any]]] = {}
     for job, _ in jobs:

@@ -27,6 +27,7 @@ from typing import Any
 import numpy as np
 from gymnasium import spaces
 
+from fluids_bench.algos.vector_rollout import DEFAULT_BATCH, has_vector_env, run_vector_episodes
 from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY, supervisor_action
 
 BUILT_INS = ("random", "supervisor")
@@ -60,6 +61,8 @@ class _Act:
     """`act(obs)` of any policy object: its `act`, or `predict` on a batch of one."""
 
     def __init__(self, policy: Any) -> None:
+        # a predict-only policy acts on batches: stateless, so episodes may share its calls
+        self.predicts = not hasattr(policy, "act")
         if hasattr(policy, "act"):
             self._fn = policy.act
         elif hasattr(policy, "predict"):
@@ -107,6 +110,30 @@ def _supervisor(obs: Any, info: dict[str, Any], env: Any, rng: Any) -> Any:
     if SUPERVISOR_ACTION_KEY in info:
         return info[SUPERVISOR_ACTION_KEY]
     return supervisor_action(env)
+
+
+def batchable(source: PolicySource, actor: Any) -> bool:
+    """Whether episodes of `source` (acting as `actor`, `build_actor`'s) may be stepped
+    together on a vector env: random, the supervisor, SB3 models, learners (train results and
+    checkpoints) and policies with only `predict`; not an object with `act`, which may keep
+    state from one step of its episode to the next."""
+    if source.kind in ("random", "supervisor", "sb3", "learner"):
+        return True
+    return isinstance(actor, _Act) and actor.predicts
+
+
+def batch_actor(source: PolicySource, actor: Any) -> Any:
+    """`(space, observations, labels, rngs) -> actions` of the episodes stepped together
+    (`fluids_bench.algos.vector_rollout.BatchActor`): each episode's action is the one
+    `actor` gives it alone (a policy is called on one observation at a time, as in a
+    scalar episode, so its actions are the same bit for bit)."""
+    if source.kind == "random":
+        return lambda space, observations, labels, rngs: [random_action(space, r) for r in rngs]
+    if source.kind == "supervisor":
+        return lambda space, observations, labels, rngs: labels
+    return lambda space, observations, labels, rngs: [
+        actor(obs, {}, None, rng) for obs, rng in zip(observations, rngs, strict=True)
+    ]
 
 
 def actor_rng(seed: int) -> np.random.Generator:
@@ -236,8 +263,27 @@ def harness_eval_seeds(config: Any) -> list[int]:
     return [int(s) for s in draws]
 
 
-def random_return(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> float:
-    """The random policy's mean return over `seeds` (whole episodes)."""
+def random_return(
+    env_id: str, env_kwargs: dict[str, Any], seeds: list[int], batch: int = DEFAULT_BATCH
+) -> float:
+    """The random policy's mean return over `seeds` (whole episodes), stepped `batch` at a
+    time on the id's vector env where it has one (the same sum, in the same order)."""
+    if batch == 1 or not has_vector_env(env_id) or not seeds:
+        return _random_return_alone(env_id, env_kwargs, seeds)
+    ends: dict[int, list[float]] = {}
+    run_vector_episodes(
+        env_id, env_kwargs, seeds,
+        lambda space, observations, labels, rngs: [random_action(space, r) for r in rngs],
+        actor_rng, lambda end: ends.__setitem__(end.index, end.rewards), batch=batch,
+    )  # fmt: skip
+    total = 0.0
+    for i in range(len(seeds)):
+        for reward in ends[i]:
+            total += reward
+    return total / len(seeds)
+
+
+def _random_return_alone(env_id: str, env_kwargs: dict[str, Any], seeds: list[int]) -> float:
     import gymnasium as gym
 
     env = gym.make(env_id, **env_kwargs)

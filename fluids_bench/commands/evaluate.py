@@ -50,6 +50,11 @@ def add_parser(subparsers: argparse._SubParsersAction[argparse.ArgumentParser]) 
     parser.add_argument("--out", type=Path, default=Path("out/evaluate"), help="output folder")
     parser.add_argument("--scorecard", type=Path, default=None, help="scorecard path (.json)")
     parser.add_argument("--workers", type=int, default=1, help="processes (default 1: here)")
+    parser.add_argument(
+        "--batch", type=int, default=32,
+        help="FLUIDS episodes stepped together on the vector env where the policy acts on a "
+        "batch (same rows; 1: one by one; default 32)",
+    )  # fmt: skip
     parser.add_argument("--no-progress", action="store_true", help="hide the progress bar")
     parser.add_argument("--no-plots", action="store_true", help="write no PNG")
     parser.set_defaults(func=main)
@@ -88,6 +93,7 @@ def main(args: argparse.Namespace) -> int:
         args.out,
         name=args.name,
         workers=args.workers,
+        batch=args.batch,
         progress=not args.no_progress,
         plots=not args.no_plots,
         scorecard=args.scorecard,

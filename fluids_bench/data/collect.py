@@ -16,6 +16,9 @@ from a generator derived from that seed only, each worker keeps one env per (id,
 every episode starts from a full reset, and results come back ordered by episode index. So the
 same arguments give identical data whatever the backend and the number of workers.
 
+Batched: with `workers=1`, an id with a vector env (FLUIDS) steps `batch` episodes at a time
+on it (`fluids_bench.algos.vector_rollout`), each the trajectory it gets alone.
+
 Backends: `"process"` (default) runs `workers` processes of a
 `fluids_bench.core.parallel.process_pool` started with `start_method` (`"forkserver"`,
 whose server imports this module once, or `"spawn"`; never `fork`), or in this process when
@@ -38,7 +41,14 @@ from fluids_bench.algos.actors import SUPERVISOR, Actor, LearnerActor
 from fluids_bench.algos.dataset import Trajectory
 from fluids_bench.algos.noise import isotropic_actor
 from fluids_bench.algos.policies import Policy
-from fluids_bench.algos.rollout import rollout
+from fluids_bench.algos.rollout import actor_rng, rollout
+from fluids_bench.algos.vector_rollout import (
+    DEFAULT_BATCH,
+    EpisodeEnd,
+    has_vector_env,
+    run_vector_episodes,
+    trajectory,
+)
 from fluids_bench.core.parallel import BACKENDS, START_METHODS, run_tasks, worker_env
 from fluids_bench.core.splits import refuse_test_seeds
 from fluids_bench.core.validation import check_choice, check_float, check_int
@@ -113,6 +123,7 @@ def collect(
     progress: bool = True,
     skip: Iterable[int] = (),
     on_episode: Callable[[int, Trajectory], None] | None = None,
+    batch: int = DEFAULT_BATCH,
 ) -> list[Trajectory]:
     """Collect `episodes` episodes of `env_id`; episode `i` uses seed `seed + i`.
 
@@ -121,11 +132,15 @@ def collect(
     `skip`: indices of episodes not to run (finished by an earlier, interrupted run; they are
     left out of the returned list). `on_episode(i, trajectory)` is called in this process as
     each episode finishes (completion order), e.g. to write it to disk at once.
+    `batch`: with `workers=1`, episodes of an id with a vector env (FLUIDS) are stepped
+    `batch` at a time on it, each the trajectory it gets alone (infos up to number types:
+    numpy scalars where the scalar env gives Python ones); 1: one by one.
     """
     check_int("collect", "episodes", episodes, 1)
     check_int("collect", "seed", seed, 0)
     refuse_test_seeds(range(seed, seed + episodes), "collect")
     check_int("collect", "workers", workers, 1)
+    check_int("collect", "batch", batch, 1)
     if max_steps is not None:
         check_int("collect", "max_steps", max_steps, 1)
     check_choice("collect", "backend", backend, BACKENDS)
@@ -153,14 +168,47 @@ def collect(
             bar.update(1)
             bar.set_postfix(pairs=pairs, refresh=False)
 
-        run_tasks(
-            run_episode,
-            tasks,
-            actor,
-            done,
-            backend=backend,
-            workers=workers,
-            address=address,
-            start_method=start_method,
-        )
+        if (
+            len(tasks) > 1
+            and backend == "process"
+            and workers == 1
+            and batch > 1
+            and has_vector_env(env_id)
+        ):
+            _collect_batched(tasks, actor, done, batch)
+        else:
+            run_tasks(
+                run_episode,
+                tasks,
+                actor,
+                done,
+                backend=backend,
+                workers=workers,
+                address=address,
+                start_method=start_method,
+            )
     return [results[i] for i in todo]
+
+
+def _collect_batched(
+    tasks: list[EpisodeTask],
+    spec: ActorSpec,
+    done: Callable[[EpisodeTask, tuple[int, Trajectory]], None],
+    batch: int,
+) -> None:
+    """`tasks` in this process, `batch` at a time on their id's vector env: each
+    trajectory is `run_episode`'s (infos up to number types), handed to `done` as it ends."""
+    first = tasks[0]
+    actor = spec.build(worker_env(first.env_id, first.env_kwargs).action_space)
+
+    def act(space, observations, labels, rngs):
+        return [actor(o, label, r) for o, label, r in zip(observations, labels, rngs, strict=True)]
+
+    def finished(end: EpisodeEnd) -> None:
+        task = tasks[end.index]
+        done(task, (task.index, trajectory(end)))
+
+    run_vector_episodes(
+        first.env_id, first.env_kwargs, [t.seed for t in tasks], act, actor_rng, finished,
+        batch=batch, max_steps=first.max_steps, record=True,
+    )  # fmt: skip

@@ -33,3 +33,23 @@ def make() -> Counter:
 def make_for(task) -> BatchOnly:
     assert task.name == "gridworld"
     return BatchOnly()
+
+
+class FluidsPredict:
+    """A FLUIDS-v4 policy with predict(batch) only: a fixed map of the observation into the
+    action box (episodes of different lengths, actions that vary with the state)."""
+
+    def predict(self, observations: np.ndarray) -> np.ndarray:
+        observations = np.asarray(observations, dtype=np.float64)
+        return np.clip(np.sin(observations[:, :10] * 3.0), -1.0, 1.0).astype(np.float32)
+
+
+class FluidsAct:
+    """The same map with act(obs): a policy that may keep state, run one episode at a time."""
+
+    def act(self, observation: np.ndarray) -> np.ndarray:
+        return FluidsPredict().predict(np.asarray(observation)[None])[0]
+
+
+def fluids_predict() -> FluidsPredict:
+    return FluidsPredict()

@@ -159,3 +159,19 @@ def test_ray_backend_connects_to_a_given_address(monkeypatch):
     with pytest.raises(ConnectionError):
         collect("DAG-v0", 1, backend="ray", address="ray://head:10001", progress=False)
     assert calls == [{"address": "ray://head:10001"}]
+
+
+@pytest.mark.parametrize("actor", [ActorSpec(), ActorSpec("noise", noise_std=0.3)])
+def test_batched_collection_is_the_one_by_one_collection(actor):
+    """`batch` episodes at a time on FLUIDS' vector env (worlds refilled, the last episodes in
+    smaller envs): the trajectories of `batch=1`, with the same infos (up to number types)."""
+    kwargs = {"num_cars": 2, "num_pedestrians": 1}
+    runs = [
+        collect("FLUIDS-v0", 5, env_kwargs=kwargs, actor=actor, seed=30, max_steps=steps,
+                progress=False, batch=batch)
+        for batch, steps in ((3, 60), (1, 60))
+    ]  # fmt: skip
+    _assert_same(*runs)
+    for a, b in zip(*runs, strict=True):
+        assert [sorted(i) for i in a.infos] == [sorted(i) for i in b.infos]
+        assert [i.get("is_success") for i in a.infos] == [i.get("is_success") for i in b.infos]
