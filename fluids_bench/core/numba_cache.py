@@ -39,11 +39,11 @@ from typing import Any
 
 PACKAGE = Path(__file__).resolve().parents[1]
 VERSIONED = ("numba", "llvmlite", "numpy")  # distributions whose versions key the cache
-# what a cold compile of the FLUIDS kernels takes on one core: 72-81 CPU-s measured with numba
-# 0.68 (FLUIDS-v1 and v4, reset and 50 steps; the vector env 99: its batch kernels too;
+# what a cold compile of the FLUIDS kernels takes on one core: 64-75 CPU-s measured with numba
+# 0.68 (FLUIDS-v1 and v4, reset and 50 steps; the vector env 83: its batch kernels too;
 # scripts/benchmarks/bench_compile.py, docs/results/bench_compile.json); more wall time on a
 # loaded machine
-COLD_COMPILE_S = 75
+COLD_COMPILE_S = 70
 COMPILE_MESSAGE = "fluids-bench: compiling FLUIDS kernels, once, ~{seconds} s (cached in {where})"
 _FLUIDS = "fluids_bench.tasks.fluids"
 

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee
 from fluids_bench.tasks.fluids.sim.layout.compiled import CAR, Layout
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 
@@ -184,7 +185,7 @@ def committed_crosswalks(world, front: np.ndarray, turning_out: np.ndarray | Non
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@callee
 def committed_to(
     state, s, offset, front, is_car, active, route, entered, turning_out, car_enter
 ):  # pragma: no cover (compiled)

@@ -20,6 +20,8 @@ import math
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import kernel
+
 
 @njit(cache=True, nogil=True, inline="always")
 def wrap_angle(angle: float) -> float:  # pragma: no cover (compiled)
@@ -27,7 +29,7 @@ def wrap_angle(angle: float) -> float:  # pragma: no cover (compiled)
     return (angle + math.pi) % (2 * math.pi) - math.pi
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def advance(state, controls, is_car, params, dt, active):  # pragma: no cover (compiled)
     """One step of every `active` agent, in place (the arrays as for `integrate`)."""
     for i in range(state.shape[0]):

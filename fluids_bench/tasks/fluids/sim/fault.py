@@ -46,8 +46,8 @@ from __future__ import annotations
 import functools
 
 import numpy as np
-from numba import njit
 
+from fluids_bench.core.compiled import kernel
 from fluids_bench.tasks.fluids.sim.crosswalks import crosswalks_of, record_yield_step
 from fluids_bench.tasks.fluids.sim.kernels import record_fault_step
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
@@ -85,7 +85,7 @@ def turns_across(start: np.ndarray, turning: np.ndarray, ra, rb):
     return opposite & turning[ra] & ~turning[rb]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _record_step(
     s, offset, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red, step,
     state, ring, slot, yield_check, route, active, is_car, car_enter, prev_at, prev_occupied,
@@ -106,7 +106,7 @@ def _record_step(
         )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def record_steps(
     stepping, s, offset, front, enter, light_of, prev_lights, lights, stop, entry_step, ran_red,
     steps, state, ring, slots, yield_check, route, active, is_car, car_enter, prev_at,

@@ -18,10 +18,11 @@ import math
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee, kernel
 from fluids_bench.tasks.fluids.sim.dynamics import advance, wrap_angle
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def progress_into(
     state,
     s,
@@ -64,7 +65,7 @@ def progress_into(
         heading_error[i] = wrap_angle(state[i, 2] - h)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def surely_on_road(
     state, nearest, offsets, samples, radius, path_z, clearance
 ):  # pragma: no cover (compiled)
@@ -97,7 +98,7 @@ def surely_on_road_into(
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def touching_pairs(state, active, reach2, offsets, radius):  # pragma: no cover (compiled)
     """Pairs (a, b), a < b, of active agents whose covering circles meet: first their
     circumscribed circles (`reach2` (N, N), the squared sum of their radii; negative for pairs
@@ -146,7 +147,7 @@ def any_touching(state, active, reach2, offsets, radius):  # pragma: no cover (c
     return False
 
 
-@njit(cache=True, nogil=True)
+@callee
 def mark_arrived(s, path_len, length, tolerance, active, reached):  # pragma: no cover
     """In place: each active agent whose front is within `tolerance` (m) of its path's end
     (`s >= path_len - length / 2 - tolerance`) has reached it and is no longer active."""
@@ -156,7 +157,7 @@ def mark_arrived(s, path_len, length, tolerance, active, reached):  # pragma: no
             active[i] = False
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mark_entered(s, offset, front, route, enter_s, active, entered, step):  # pragma: no cover
     """In place: `entered[i] = step` for each active agent on a route whose front has reached
     its route's `enter_s` and that had not entered before (`World.entered`)."""
@@ -189,7 +190,7 @@ def record_fault_step(
             ring[slot, i, j] = state[i, j]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def advance_world(
     state, controls, is_car, params, dt, active, s, offset, path_z, path_heading, path_len,
     clearance, spacing, lo, hi, nearest, lateral, heading_error, front, route, enter_s, entered,
@@ -221,7 +222,7 @@ def advance_world(
     return candidates or any_touching(state, active, reach2, circle_offsets, circle_radius)
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def advance_worlds(
     stepping, state, controls, is_car, params, dt, active, s, offset, path_z, path_heading,
     path_len, clearance, spacing, lo, hi, nearest, lateral, heading_error, front, route,

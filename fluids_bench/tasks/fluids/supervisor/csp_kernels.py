@@ -21,6 +21,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee, kernel
+
 
 @njit(cache=True, nogil=True, inline="always")
 def _hide(dom, dlen, hid, hlen, v, value):  # pragma: no cover (compiled)
@@ -86,7 +88,7 @@ def _check(
     return True
 
 
-@njit(cache=True, nogil=True)
+@callee
 def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
     """The first solution of the planner's CSP as python-constraint2's
     `OptimizedBacktrackingSolver` (forward checking on) finds it.
@@ -179,7 +181,7 @@ def solve(order, allowed, first, second, bad):  # pragma: no cover (compiled)
         depth += 1
 
 
-@njit(cache=True, nogil=True)
+@callee
 def priority_order(agents, s, offset, front, route, enter_s):  # pragma: no cover (compiled)
     """Positions in `agents` in the order the CSP assigns them (right of way first): agents
     whose front is in or past their route's shared zone (`enter_s`) first, the furthest in
@@ -248,7 +250,7 @@ def _binds(choice, pairs, conflict):  # pragma: no cover (compiled)
     return False
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
     """The CSP's solution written into `choice` (`solve`; variables: the agents in
     some pair, in the `priority` order, added in ascending position as their domains);
@@ -282,7 +284,7 @@ def _solve_into(choice, priority, allowed, pairs, conflict):  # pragma: no cover
     return found
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
     """Each agent's candidate (A,): its fastest allowed one, unless a binding constraint
     (`pairs` (P, 2) positions, `conflict` (P, K, K)) clashes there; then the CSP's solution
@@ -293,7 +295,7 @@ def choose(priority, allowed, pairs, conflict):  # pragma: no cover (compiled)
     return choice, _solve_into(choice, priority, allowed, pairs, conflict)
 
 
-@njit(cache=True, nogil=True)
+@callee
 def plan_choice(
     agents, s, offset, front, route, enter_s, allowed, pairs, conflict
 ):  # pragma: no cover (compiled)

@@ -24,6 +24,7 @@ import math
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee
 from fluids_bench.tasks.fluids.sim.dynamics import wrap_angle
 from fluids_bench.tasks.fluids.supervisor.kernels import (
     boxes_apart,
@@ -35,7 +36,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
 )
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _relative(state, f, ld):  # pragma: no cover (compiled)
     """Agent `ld`'s position in agent `f`'s frame (along, across; m) and whether the two
     head within 45° of each other (world indices)."""
@@ -58,7 +59,7 @@ def _aligned(state, f, ld):  # pragma: no cover (compiled)
     return abs(wrap_angle(state[ld, 2] - state[f, 2])) < math.pi / 4
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _mark_conflicts(samples, offs, box, i, j, of_second, reach2, thresh2, out):  # pragma: no cover
     """For each candidate c with `out[c]` False, set it where agent `i` at c (agent `j`
     if `of_second`: conflict[p, :, c].any()) comes too close to the other at any of its
@@ -119,7 +120,7 @@ def _clear_row_if_all(forbid, a):  # pragma: no cover (compiled)
         forbid[a, k] = False
 
 
-@njit(cache=True, nogil=True)
+@callee
 def defensive_forbid(
     agents, wild, targets, hold_lines,
     state, s, offset, front, is_car, entered, route, max_speed, brake_limit,
@@ -219,7 +220,7 @@ def defensive_forbid(
     return forbid
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _follow_supervised(
     agents, wild, state, s0, v0, is_car, s_def, path_c64, path_dir, inv_spacing, now_x,
     now_y, bound, offs_a, radius_a, crossing, ints, floats,
@@ -285,7 +286,7 @@ def _follow_supervised(
     return forbid
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _slowest_ahead(ag, s, offset, route, is_car, max_speed, curvature, speed_limit, look,
                    lateral_accel, spacing):  # fmt: skip  # pragma: no cover (compiled)
     """The lowest speed agent `ag` is allowed over the next `look` path samples of its
@@ -303,7 +304,7 @@ def _slowest_ahead(ag, s, offset, route, is_car, max_speed, curvature, speed_lim
     return min(max_speed[ag], slowest)
 
 
-@njit(cache=True, nogil=True)
+@callee
 def _give_way(
     agents, wild, targets, hold_lines, first, second, s0, v0, s, offset, front, is_car,
     entered, route, max_speed, across, curvature, speed_limit, fractions, path_c64,

@@ -17,6 +17,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee, kernel
+
 
 @njit(cache=True, nogil=True, inline="always")
 def swept_box(px, py, now_x, now_y, bound, i):  # pragma: no cover (compiled)
@@ -85,7 +87,7 @@ def path_samples_into(
                 ux[a, k, t], uy[a, k, t] = path_dir[agent, i].real, path_dir[agent, i].imag
 
 
-@njit(cache=True, nogil=True)
+@callee
 def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma: no cover
     """(px, py, ux, uy): `path_samples_into` into new arrays, whose rows not in
     `rows` are left unset (no caller reads them; zeroing them cost more than sampling)."""
@@ -96,7 +98,7 @@ def path_samples(path_c64, path_dir, agents, proj, rows, inv_spacing):  # pragma
     return px, py, ux, uy
 
 
-@njit(cache=True, nogil=True)
+@callee
 def swept_boxes(px, py, now_x, now_y, bound, rows):  # pragma: no cover (compiled)
     """(A, 4) `swept_box` of each agent in `rows` (zeros elsewhere)."""
     box = np.zeros((px.shape[0], 4))
@@ -164,7 +166,7 @@ def candidates_apart(cbox, i, a, j, b, reach):  # pragma: no cover (compiled)
     )
 
 
-@njit(cache=True, nogil=True)
+@callee
 def projected_arc_lengths(
     s0, v0, targets, decay, steps, every, dt, max_accel, max_decel, gain
 ):  # pragma: no cover (compiled)
@@ -208,7 +210,7 @@ def projected_arc_lengths(
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def lookahead_points(
     path_z, s, state, path_len, min_ahead, ahead_time, spacing
 ):  # pragma: no cover
@@ -225,7 +227,7 @@ def lookahead_points(
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def mark_off_route(
     lateral, heading_error, active, is_car, max_lateral, max_heading, out
 ):  # pragma: no cover (compiled)
@@ -273,7 +275,7 @@ def pid_controls_into(
         out[i, 1] = min(max(accel * gain[i], low[i]), high[i])
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def pid_controls(
     state, aim, is_car, target_speed, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
     low, high,
@@ -288,7 +290,7 @@ def pid_controls(
     return out, err, integ, v_int
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def pid_follow(
     path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
     steer_int, speed_int, dt, gains, limits, gain, low, high,
@@ -301,7 +303,7 @@ def pid_follow(
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def pid_follow_into(
     path_z, s, path_len, min_ahead, ahead_time, spacing, state, is_car, target_speed, steer_prev,
     steer_int, speed_int, dt, gains, limits, gain, low, high, out, memory,
@@ -315,7 +317,7 @@ def pid_follow_into(
     )  # fmt: skip
 
 
-@njit(cache=True, nogil=True)
+@callee
 def hold_then_brake_into(
     out, rows, s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
@@ -349,7 +351,7 @@ def hold_then_brake_into(
                     out[rows[r], k, m // every - 1] = s0[rows[r]] + travelled[r * n_cand + k]
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def hold_then_brake(
     s0, v0, targets, hold, steps, every, dt, max_accel, decel, gain
 ):  # pragma: no cover (compiled)
@@ -386,7 +388,7 @@ def positions_now(agents, state, route, enter_s, is_car, s, offset, front):  # p
     return now_x, now_y, crossing
 
 
-@njit(cache=True, nogil=True)
+@callee
 def plan_conflicts(
     agents, s_proj, first, second, d_now,
     state, s, offset, front, is_car, route, enter_s,
@@ -448,7 +450,7 @@ def plan_conflicts(
     return out, kept
 
 
-@njit(cache=True, nogil=True)
+@callee
 def allowed_speeds(
     agents, s, offset, route, is_car, max_speed, curvature, speed_limit, look, lateral_accel,
     spacing,
@@ -471,7 +473,7 @@ def allowed_speeds(
     return out
 
 
-@njit(cache=True, nogil=True)
+@callee
 def circle_gaps(agents, state, is_car, offs):  # pragma: no cover (compiled)
     """The planner's candidate pairs and how far apart their footprint circles are now.
 

@@ -18,9 +18,9 @@ check against the scalar env.
 from __future__ import annotations
 
 import numpy as np
-from numba import njit
 from numba.typed import List
 
+from fluids_bench.core.compiled import kernel
 from fluids_bench.tasks.fluids.supervisor.csp_kernels import plan_choice
 from fluids_bench.tasks.fluids.supervisor.defensive_kernels import defensive_forbid
 from fluids_bench.tasks.fluids.supervisor.kernels import (
@@ -32,7 +32,7 @@ from fluids_bench.tasks.fluids.supervisor.kernels import (
 from fluids_bench.tasks.fluids.supervisor.stop_line_kernels import stop_lines
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def plan_head(
     agents, uncontrolled, fractions,
     state, s, offset, front, is_car, active, width, route, entered, max_speed, brake_limit,
@@ -94,7 +94,7 @@ def plan_head(
     return targets, s_proj, allowed, first, second, gaps
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def plan_tail(
     agents, targets, s_proj, allowed, first, second, gap_abs,
     state, s, offset, front, is_car, route, enter_s,
@@ -127,7 +127,7 @@ def plan_tail(
     return solved
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def plan_head_worlds(
     due, uncontrolled, fractions,
     state, s, offset, front, is_car, active, width, route, entered, max_speed, brake_limit,
@@ -174,7 +174,7 @@ def plan_head_worlds(
     return heads, stacked, starts
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def plan_tail_worlds(
     due, heads, gap_abs, starts,
     state, s, offset, front, is_car, route, enter_s,

@@ -19,6 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import callee
 from fluids_bench.tasks.fluids.sim.crosswalks import committed_to, crosswalk_occupied
 from fluids_bench.tasks.fluids.sim.lights import CAUTION, STOP
 
@@ -40,7 +41,7 @@ def _time_to_change(light, t, ends, cycle, offset):  # pragma: no cover (compile
     return nxt - phase_t
 
 
-@njit(cache=True, nogil=True)
+@callee
 def stop_lines(
     agents, front_a, s_proj,
     state, s, offset, front, is_car, active, width, route, entered, max_speed, uncontrolled,

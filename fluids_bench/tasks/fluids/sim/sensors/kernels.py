@@ -26,6 +26,7 @@ import math
 import numpy as np
 from numba import njit
 
+from fluids_bench.core.compiled import kernel
 from fluids_bench.tasks.fluids.sim.crosswalks import crosswalk_occupied
 from fluids_bench.tasks.fluids.sim.layout.compiled import PEDESTRIAN
 
@@ -33,7 +34,7 @@ from fluids_bench.tasks.fluids.sim.layout.compiled import PEDESTRIAN
 EGO, GOAL, PER_AGENT, LIGHT = 5, 3, 7, 5
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _minimum(a, b):  # pragma: no cover (compiled)
     """`np.minimum(a, b)`: NaN if either is NaN, `b` on a tie (so min(-0.0, 0.0) is 0.0)."""
     if a != a:
@@ -43,7 +44,7 @@ def _minimum(a, b):  # pragma: no cover (compiled)
     return a if a < b else b
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def _maximum(a, b):  # pragma: no cover (compiled)
     """`np.maximum(a, b)`: NaN if either is NaN, `b` on a tie."""
     if a != a:
@@ -170,7 +171,7 @@ def qlidar_cast(
     return out
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def qlidar_noise(reading, noise, dropped, max_range, speed_bound):  # pragma: no cover (compiled)
     """Apply drawn noise to a quasi-LIDAR `reading` (m, 4), in place: `noise` (m, 3) is added
     to distance (then clipped to [0, max_range]), angle (wrapped to [-π, π)) and speed (clipped
@@ -190,7 +191,7 @@ def qlidar_noise(reading, noise, dropped, max_range, speed_bound):  # pragma: no
             )  # nothing
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def fill_explicit(
     out,
     state,
@@ -253,7 +254,7 @@ def fill_explicit(
         out[base + 3] = 1.0
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def qlidar_segments(
     out, x, y, th, v, cos_k, sin_k, seg_a, seg_e, seg_angle, seg_label
 ):  # pragma: no cover (compiled)
@@ -288,7 +289,7 @@ def qlidar_segments(
             out[k, 3] = -0.0 - v
 
 
-@njit(cache=True, nogil=True)
+@kernel
 def qlidar_v1_extras(
     out,
     state,
