@@ -186,6 +186,7 @@ DRIVERS = {
     "follow_waypoints", "hypot",
 }  # fmt: skip
 BOUNDS = {"low", "high", "lo", "hi"}
+TARGETS = {"targets", "target_speed", "speeds"}  # the velocity plan's target speeds
 
 
 def _called(node: ast.AST) -> str | None:
@@ -208,7 +209,7 @@ def action_code(source: str, filename: str) -> list[str]:
         elif _called(node) in DRIVERS:
             what = f"the supervisor's loops driven by hand ({_called(node)})"
         elif isinstance(node, ast.Assign) and any(
-            isinstance(t, ast.Subscript) and _name(t.value) == "targets" for t in node.targets
+            isinstance(t, ast.Subscript) and _name(t.value) in TARGETS for t in node.targets
         ):
             what = "a target speed replaced"
         elif isinstance(node, ast.Compare) and "enter_s" in _names(node):
@@ -229,7 +230,7 @@ def test_the_core_holds_the_decoding_the_scan_looks_for():
     path = FLUIDS / "core" / "actions.py"
     found = "\n".join(action_code(path.read_text(encoding="utf-8"), "actions.py"))
     for what in (
-        "(an action's scale)", "a clip by hand", "driven by hand (pid_follow_worlds)",
+        "(an action's scale)", "a clip by hand", "driven by hand (pid_follow_into)",
         "driven by hand (follow_route)", "driven by hand (hypot)", "a target speed replaced",
         "the junction test",
     ):  # fmt: skip

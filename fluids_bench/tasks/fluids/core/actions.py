@@ -1,4 +1,4 @@
-"""What the agents do for actions at every level, decoded on B worlds' rows: the one place this lives.
+"""Actions at every level decoded into what the agents do, on B worlds' rows: written once.
 
 A row is one acting agent of one world: a world's ego (`FluidsEnv` is B = 1, the vector env has
 one row per world whose ego drives) or one controlled car of the multi-agent env (B = 1, one row
@@ -15,8 +15,10 @@ loops' memory for them:
 * velocity: the agent's target speed replaces the supervisor's, then the PID as above;
 * control: the agent's `[steer, force]` (`denormalise`), the others the supervisor's proposal.
 
-The same float operations in the same order on every row, whichever face calls, so a world's
-step has the same bits in the scalar, vector and multi-agent envs.
+Each level is one compiled call over the B worlds (`behavior_worlds`, `control_worlds`,
+`velocity_worlds`, `trajectory_worlds`), so B = 1 pays no batch overhead. The same float
+operations in the same order on every row, whichever face calls, so a world's step has the
+same bits in the scalar, vector and multi-agent envs.
 """
 
 from __future__ import annotations
@@ -30,8 +32,12 @@ import numpy as np
 from numba import njit
 
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
-from fluids_bench.tasks.fluids.supervisor.batch import PID_MEMORY, pid_follow_worlds
-from fluids_bench.tasks.fluids.supervisor.kernels import lookahead_points, pid_controls_into
+from fluids_bench.tasks.fluids.supervisor.batch import PID_MEMORY
+from fluids_bench.tasks.fluids.supervisor.kernels import (
+    lookahead_points,
+    pid_controls_into,
+    pid_follow_into,
+)
 
 ACTION_SCALES = ("physical", "normalized")
 WAYPOINT_BOUND = 50.0  # m: trajectory-level waypoints lie in ±this in the car's frame
@@ -127,11 +133,6 @@ class Pilots:
         return cls(supervisor.targets[None], supervisor.proposed[None],
                    supervisor._memory[None], memory, [supervisor])  # fmt: skip
 
-    def commit(self, mask: np.ndarray, memory: np.ndarray) -> None:
-        """`PIDController.commit` of `memory` (B, 3, N) for each world where `mask`."""
-        for k, rows in enumerate(self.memory):
-            rows[mask] = memory[mask, k]
-
 
 class OneWorld:
     """One world's arrays as B = 1 rows, read as a `WorldBatch`'s (`world["s"]`: (1, N))."""
@@ -156,14 +157,15 @@ def act(
     out: np.ndarray,
 ) -> np.ndarray:
     """Write the controls (B, N, 2) of every world where `going` into `out` with each row's
-    action in place of the supervisor's at `level`, and commit its PID memory for them.
+    action in place of the supervisor's at `level`, and commit its PID memory for them (one
+    compiled call at every level, whatever B).
 
     Args:
         level: the action level.
         world_of: each row's world (R,), ascending; only worlds where `going`.
         agent_of: each row's agent (R,).
         values: each row's action, checked, clipped and in physical units ((R, k) floats;
-            (R,) integers at the behaviour level).
+            (R,) or (R, 1) integers at the behaviour level).
         going: the worlds that step (B,) bool.
         worlds: the worlds' rows (a `WorldBatch`, or `OneWorld`).
         pilots: their supervisors' rows (`Pilots`).
@@ -173,95 +175,189 @@ def act(
         The rows whose route changed (indices into the rows; behaviour level only): each
         face updates its route length for them.
     """
+    proposal = (pilots.proposed, pilots.next_memory, *pilots.memory, out)
+    if not len(world_of):  # the supervisor's proposal everywhere
+        propose_worlds(going, *proposal)
+        return _NONE
     if level == "behavior":
-        changed = choose_movements(world_of, agent_of, values, worlds, pilots)
-        out[going] = pilots.proposed[going]  # the proposal, made after any change of route
-        pilots.commit(going, pilots.next_memory)
-        return changed
-    acting = np.zeros(len(going), dtype=np.bool_)
-    acting[world_of] = True
-    # at the control level every world's PID memory is that of its proposal
-    proposal = going & ~acting if level in ("velocity", "trajectory") else going
-    out[proposal] = pilots.proposed[proposal]
-    pilots.commit(proposal, pilots.next_memory)
-    if not len(world_of):
-        return _NONE
+        return choose_movements(world_of, agent_of, values, going, worlds, pilots, out)
     if level == "control":
-        out[world_of, agent_of] = denormalise(worlds.worlds[0].scene.car, values)
+        car = worlds.worlds[0].scene.car
+        control_worlds(
+            going, world_of, agent_of, values, car.max_steer, car.max_force,
+            car.max_brake_force, *proposal,
+        )  # fmt: skip
         return _NONE
-    memory = np.empty_like(pilots.next_memory)
     sup, w = pilots.supervisors[0], worlds.worlds[0]
-    pid = sup.pid
-    targets = pilots.targets
+    pid, cfg = sup.pid, sup.config.pid
+    follow = (
+        worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead, pid.ahead_time,
+        PATH_SPACING, worlds["state"], pid.is_car, pilots.targets, w.dt, pid._gains,
+        pid._limits, pid.gain, pid.low, pid.high,
+    )  # fmt: skip
     if level == "velocity":
-        targets = targets.copy()
-        targets[world_of, agent_of] = values[:, 0]
-        pid_follow_worlds(
-            acting, worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead,
-            pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, targets, *pilots.memory,
-            w.dt, pid._gains, pid._limits, pid.gain, pid.low, pid.high, out, memory,
+        velocity_worlds(going, world_of, agent_of, values, *follow, *proposal)
+    else:  # trajectory: waypoints (R, W, 2)
+        waypoints = values.reshape(len(values), -1, 2)
+        trajectory_worlds(
+            going, world_of, agent_of, waypoints, cfg.lookahead_min, cfg.lookahead_time,
+            *follow, *proposal,
         )  # fmt: skip
-    else:  # trajectory
-        cfg = sup.config.pid
-        waypoints = np.ascontiguousarray(values).reshape(len(values), -1, 2)
-        follow_waypoints(
-            acting, world_of, agent_of, waypoints, cfg.lookahead_min, cfg.lookahead_time,
-            worlds["path_z"], worlds["s"], worlds["path_len"], pid.min_ahead, pid.ahead_time,
-            PATH_SPACING, worlds["state"], pid.is_car, targets, *pilots.memory, w.dt,
-            pid._gains, pid._limits, pid.gain, pid.low, pid.high, out, memory,
-        )  # fmt: skip
-    pilots.commit(acting, memory)
     return _NONE
 
 
 _NONE = np.zeros(0, dtype=np.int64)
 
 
-def choose_movements(world_of, agent_of, movements, worlds, pilots: Pilots) -> np.ndarray:
+def choose_movements(world_of, agent_of, movements, going, worlds, pilots: Pilots, out):
     """Each row's behaviour action: the route of that movement (modulo its lane's count) of
     the agent's entry lane, taken where it differs from the current one and the agent has not
-    reached the junction nor left its route's path. Where one is taken (a rare event) the
-    agent follows it and its world's supervisor plans and proposes again. Returns the rows
-    whose route changed."""
-    if not len(world_of):
-        return _NONE
-    movements = np.asarray(movements).reshape(len(world_of)).astype(np.int64)
+    reached the junction nor left its route's path; every world where `going` drives its
+    supervisor's proposal (`behavior_worlds`). Where a route changes (a rare event) the agent
+    follows it and its world's supervisor plans and proposes again, which that world then
+    drives. Returns the rows whose route changed."""
     first = worlds.worlds[0]
     routes, table = first.layout.routes, Movements.of(first.layout)
-    route = worlds["route"][world_of, agent_of]
-    s, offset = worlds["s"][world_of, agent_of], worlds["offset"][world_of, agent_of]
-    lane = routes.entry[route]
-    new = table.routes[lane, movements % table.counts[lane]]
-    front = first.length[agent_of] / 2
-    change = (new != route) & ~(s + offset + front >= routes.enter_s[route]) & (offset == 0)
-    rows = change.nonzero()[0]
+    new = np.empty(len(world_of), dtype=np.int64)
+    proposal = (pilots.proposed, pilots.next_memory, *pilots.memory, out)
+    rows = behavior_worlds(
+        going, world_of, agent_of, np.asarray(movements, dtype=np.int64).reshape(-1),
+        worlds["route"], worlds["s"], worlds["offset"], first.length, routes.entry,
+        table.routes, table.counts, routes.enter_s, new, *proposal,
+    ).nonzero()[0]  # fmt: skip
+    if not len(rows):
+        return rows
     for r in rows.tolist():
         worlds.worlds[world_of[r]].follow_route(int(agent_of[r]), int(new[r]))
-    for b in np.unique(world_of[rows]).tolist():
+    again = np.zeros(len(going), dtype=np.bool_)
+    again[world_of[rows]] = True
+    for b in again.nonzero()[0].tolist():
         pilots.supervisors[b].prepare(worlds.worlds[b])
+    propose_worlds(again, *proposal)
     return rows
 
 
+# ------------------------------------------------------------------ compiled, on B worlds' rows
 @njit(cache=True, nogil=True)
-def follow_waypoints(
-    acting, world_of, agent_of, waypoints, lookahead_min, lookahead_time, path_z, s, path_len,
-    min_ahead, ahead_time, spacing, state, is_car, targets, steer_prev, steer_int, speed_int, dt,
-    gains, limits, gain, low, high, out, memory,
+def behavior_worlds(
+    going, world_of, agent_of, movements, route, s, offset, length, entry, lane_routes, counts,
+    enter_s, new, proposed, next_memory, steer_prev, steer_int, speed_int, out,
 ):  # fmt: skip  # pragma: no cover (compiled)
-    """Where `acting[b]`: the controls (into `out[b]`) and next PID memory (`memory[b]`)
-    of world `b` with each of its rows' agent steering to the first of its trajectory-level
-    `waypoints[r]` (W, 2; its own frame) at least its look-ahead away (else the last) and
-    every other agent to its look-ahead point, all toward `targets[b]` (the C library's
-    hypot, cos and sin, as `math`'s). Rows are sorted by world."""
+    """Where each row's movement changes its agent's route (to `new[r]`): it differs from
+    the current one, the agent's front is short of the junction and it is on its route's
+    path. Every world where `going` and no route changes drives its proposal (`_propose`;
+    the others plan again first)."""
+    change = np.zeros(len(world_of), dtype=np.bool_)
+    again = np.zeros(len(going), dtype=np.bool_)
+    for r in range(len(world_of)):
+        b, i = world_of[r], agent_of[r]
+        now = route[b, i]
+        lane = entry[now]
+        new[r] = lane_routes[lane, movements[r] % counts[lane]]
+        front = length[i] / 2
+        change[r] = (
+            new[r] != now and not (s[b, i] + offset[b, i] + front >= enter_s[now])
+        ) and offset[b, i] == 0
+        if change[r]:
+            again[b] = True
+    for b in range(len(going)):
+        if going[b] and not again[b]:
+            _propose(b, proposed, next_memory, steer_prev, steer_int, speed_int, out)
+    return change
+
+
+@njit(cache=True, nogil=True)
+def _propose(b, proposed, next_memory, steer_prev, steer_int, speed_int, out):  # pragma: no cover
+    """World `b` drives its supervisor's proposal; its PID memory is the proposal's."""
+    out[b] = proposed[b]
+    steer_prev[b], steer_int[b], speed_int[b] = (
+        next_memory[b, 0],
+        next_memory[b, 1],
+        next_memory[b, 2],
+    )
+
+
+@njit(cache=True, nogil=True)
+def propose_worlds(
+    going, proposed, next_memory, steer_prev, steer_int, speed_int, out
+):  # pragma: no cover (compiled)
+    """`_propose` for every world where `going`."""
+    for b in range(len(going)):
+        if going[b]:
+            _propose(b, proposed, next_memory, steer_prev, steer_int, speed_int, out)
+
+
+@njit(cache=True, nogil=True)
+def control_worlds(
+    going, world_of, agent_of, values, max_steer, max_force, max_brake_force, proposed,
+    next_memory, steer_prev, steer_int, speed_int, out,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Every world where `going` drives its proposal, each row's agent its control-level
+    action `[a, b]` in `[-1, 1]`: steering `a · max_steer`, force `b · max_force` (`b ≥ 0`)
+    or `b · max_brake_force`."""
+    propose_worlds(going, proposed, next_memory, steer_prev, steer_int, speed_int, out)
+    for r in range(len(world_of)):
+        b, i = world_of[r], agent_of[r]
+        steer, force = values[r, 0], values[r, 1]
+        out[b, i, 0] = steer * max_steer
+        out[b, i, 1] = force * (max_force if force >= 0 else max_brake_force)
+
+
+@njit(cache=True, nogil=True)
+def velocity_worlds(
+    going, world_of, agent_of, values, path_z, s, path_len, min_ahead, ahead_time, spacing,
+    state, is_car, targets, dt, gains, limits, gain, low, high, proposed, next_memory,
+    steer_prev, steer_int, speed_int, out,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Every world where `going`: with rows (sorted by world), its PID toward the
+    supervisor's `targets` with each row's agent's target speed its action `values[r, 0]`
+    (m/s), and that PID's memory committed; without, its proposal."""
+    memory = np.empty((3, targets.shape[1]))
     r = 0
-    for b in range(len(acting)):
-        if not acting[b]:
+    for b in range(len(going)):
+        if not going[b]:
+            continue
+        while r < len(world_of) and world_of[r] < b:
+            r += 1
+        if r == len(world_of) or world_of[r] != b:
+            _propose(b, proposed, next_memory, steer_prev, steer_int, speed_int, out)
+            continue
+        speeds = targets[b].copy()
+        while r < len(world_of) and world_of[r] == b:
+            speeds[agent_of[r]] = values[r, 0]
+            r += 1
+        pid_follow_into(
+            path_z[b], s[b], path_len[b], min_ahead, ahead_time, spacing, state[b], is_car,
+            speeds, steer_prev[b], steer_int[b], speed_int[b], dt, gains, limits, gain, low,
+            high, out[b], memory,
+        )  # fmt: skip
+        steer_prev[b], steer_int[b], speed_int[b] = memory[0], memory[1], memory[2]
+
+
+@njit(cache=True, nogil=True)
+def trajectory_worlds(
+    going, world_of, agent_of, waypoints, lookahead_min, lookahead_time, path_z, s, path_len,
+    min_ahead, ahead_time, spacing, state, is_car, targets, dt, gains, limits, gain, low, high,
+    proposed, next_memory, steer_prev, steer_int, speed_int, out,
+):  # fmt: skip  # pragma: no cover (compiled)
+    """Every world where `going`: with rows (sorted by world), its PID toward the
+    supervisor's `targets`, each row's agent steering to the first of its trajectory-level
+    `waypoints[r]` (W, 2; m, its own frame) at least its look-ahead away (else the last),
+    every other agent to its look-ahead point, and that PID's memory committed (the C
+    library's hypot, cos and sin, as `math`'s); without rows, its proposal."""
+    memory = np.empty((3, targets.shape[1]))
+    r = 0
+    for b in range(len(going)):
+        if not going[b]:
+            continue
+        while r < len(world_of) and world_of[r] < b:
+            r += 1
+        if r == len(world_of) or world_of[r] != b:
+            _propose(b, proposed, next_memory, steer_prev, steer_int, speed_int, out)
             continue
         aim = lookahead_points(
             path_z[b], s[b], state[b], path_len[b], min_ahead, ahead_time, spacing
         )
-        while r < len(world_of) and world_of[r] < b:
-            r += 1
         while r < len(world_of) and world_of[r] == b:
             i = agent_of[r]
             ahead = max(lookahead_min, lookahead_time * state[b, i, 3])
@@ -277,5 +373,6 @@ def follow_waypoints(
             r += 1
         pid_controls_into(
             state[b], aim, is_car, targets[b], steer_prev[b], steer_int[b], speed_int[b], dt,
-            gains, limits, gain, low, high, out[b], memory[b, 0], memory[b, 1], memory[b, 2],
+            gains, limits, gain, low, high, out[b], memory[0], memory[1], memory[2],
         )  # fmt: skip
+        steer_prev[b], steer_int[b], speed_int[b] = memory[0], memory[1], memory[2]
