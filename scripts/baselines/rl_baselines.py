@@ -118,12 +118,12 @@ def _physical(env: gym.Env, action) -> np.ndarray:
     a = np.asarray(action, dtype=np.float64).reshape(-1)[:1]
     u = env.unwrapped
     if getattr(u, "action_level", None) == "velocity":
-        from fluids_bench.tasks.fluids import levels
+        from fluids_bench.tasks.fluids.core import actions
 
         space = env.action_space
         a = np.clip(a, space.low, space.high)
         if u.action_scale == "normalized":
-            a = levels.to_physical("velocity", u.world, a)
+            a = actions.to_physical("velocity", u.world, a)
     return a
 
 

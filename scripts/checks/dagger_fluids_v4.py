@@ -50,6 +50,7 @@ from fluids_bench.core.jsonl import read_rows
 from fluids_bench.core.provenance import relative_paths
 from fluids_bench.core.splits import split_seeds
 from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.core import actions
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "quality"))
@@ -86,7 +87,7 @@ class RecoveryProbe:
         self.states += 1
         if self.inner.world.recovering[0]:
             self.recovering += 1
-            gap = np.max(np.abs(replanned_label(self.inner) - label)) * levels.WAYPOINT_BOUND
+            gap = np.max(np.abs(replanned_label(self.inner) - label)) * actions.WAYPOINT_BOUND
             self.differs += bool(gap > RECOVERY_TOLERANCE)
         return self.policy.act(observation)
 

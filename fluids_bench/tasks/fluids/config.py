@@ -31,7 +31,7 @@ from fluids_bench.core.validation import (
     finite_float,
     unknown_arguments,
 )
-from fluids_bench.tasks.fluids.levels import ACTION_SCALES
+from fluids_bench.tasks.fluids.core.actions import ACTION_SCALES
 from fluids_bench.tasks.fluids.observations import ObservationConfig
 from fluids_bench.tasks.fluids.sim.config import LAYOUTS
 from fluids_bench.tasks.fluids.supervisor.stack import LEVELS

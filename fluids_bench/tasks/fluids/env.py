@@ -12,6 +12,7 @@ from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
+from fluids_bench.tasks.fluids.core import actions as decode
 from fluids_bench.tasks.fluids.core import infos, rules
 from fluids_bench.tasks.fluids.core.rules import Judged
 from fluids_bench.tasks.fluids.observations import Observer
@@ -23,6 +24,9 @@ from fluids_bench.tasks.fluids.sim.fault import FaultTracker
 from fluids_bench.tasks.fluids.sim.spawn import spawn
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
+
+# the rows `decode.act` decodes: the ego of the one world (none once it arrived), which steps
+_EGO, _NO_ROW, _GOING = np.zeros(1, np.int64), np.zeros(0, np.int64), np.ones(1, np.bool_)
 
 
 class FluidsEnv(SnapshotMixin, gym.Env):
@@ -304,21 +308,24 @@ class FluidsEnv(SnapshotMixin, gym.Env):
 
     def _act(self, action):
         """The first part of `_step_valid`: every agent's controls (N, 2) with the ego's
-        `action` at its level, the supervisor's loops advanced as if they were executed. Then
-        the world steps under them (alone, or with others in a
-        `WorldBatch`), `_judge` takes the
-        new collisions, the supervisor plans and proposes its next controls unless the episode
-        ended (alone, or in a
-        `SupervisorBatch`)
-        `_report` returns the step's reward, termination and info, and the world is
-        observed (alone, or in one call for a batch)."""
-        w, sup = self.world, self.supervisor
+        `action` at its level, the supervisor filling the levels below and its PID loops'
+        memory advanced as if they were executed (`core.actions.act` on this world as one
+        row, as the vector env does for its B worlds). Then the world steps under them (alone,
+        or with others in a `WorldBatch`), `_judge` takes the new collisions, the supervisor
+        plans and proposes its next controls unless the episode ended (alone, or in a
+        `SupervisorBatch`), `_report` returns the step's reward, termination and info, and
+        the world is observed (alone, or in one call for a batch)."""
+        w = self.world
         # after the ego arrived ("all" mode) the others drive on and the action is ignored
-        chosen = {0: action} if w.active[0] else {}
-        controls, memory, changed = levels.controls(self.action_level, w, sup, chosen)
-        if changed:
+        rows = _EGO if w.active[0] else _NO_ROW
+        out = np.empty((1, w.n, 2))
+        changed = decode.act(
+            self.action_level, rows, rows, np.reshape(action, (1, -1))[: len(rows)], _GOING,
+            decode.OneWorld(w), decode.Pilots.of_one(self.supervisor), out,
+        )  # fmt: skip
+        if len(changed):
             self._route_length = float(rules.route_length(w.path_len[0], self._last_s))
-        return sup.commit(controls, memory)
+        return out[0]
 
     def _judge(self, events) -> Judged:
         """After the world stepped with `events`: faults and termination (`_ended`).

@@ -22,6 +22,7 @@ from fluids_bench.core.validation import as_seed
 from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import MULTI_AGENT
+from fluids_bench.tasks.fluids.core import actions as decode
 from fluids_bench.tasks.fluids.core import rules
 from fluids_bench.tasks.fluids.core.infos import agent_info
 from fluids_bench.tasks.fluids.core.rules import Rules
@@ -37,6 +38,7 @@ from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 WHERE = "FluidsParallelEnv"
 STATE_PER_AGENT = 6  # x, y, cos θ, sin θ, v, active
 STATE_PER_LIGHT = 3  # one-hot of go / caution / stop
+_GOING = np.ones(1, np.bool_)  # `decode.act`'s one world, which steps
 
 AgentObserver = Callable[[World, np.random.Generator, int], Any]
 
@@ -371,8 +373,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
             if agent_name(i) in actions
         }
         w, sup = self.world, self.supervisor
-        controls, memory = self._controls(chosen)
-        events = sup.execute(w, controls, memory)
+        events = w.step(self._controls(chosen))
         self.faults.update()
         self._cycles += 1
 
@@ -486,15 +487,21 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return levels.label(self.supervisor, self.world, self.action_level, i, self.action_scale)
 
     # ------------------------------------------------------------------ helpers
-    def _controls(self, chosen: dict[int, Any]) -> tuple[np.ndarray, tuple | None]:
-        """Every agent's controls with the chosen agents' actions at `action_level`, the rest
-        supervised, and the PID memory to commit (None: the supervisor's own)."""
-        controls, memory, changed = levels.controls(
-            self.action_level, self.world, self.supervisor, chosen
-        )
-        for i in changed:
-            self._route_length[i] = rules.route_length(self.world.path_len[i], self._last_s[i])
-        return controls, memory
+    def _controls(self, chosen: dict[int, Any]) -> np.ndarray:
+        """Every agent's controls (N, 2) with the chosen agents' actions at `action_level`,
+        the rest supervised (`decode.act`, one row per chosen agent); the PID memory is
+        committed for them."""
+        w = self.world
+        agents = np.fromiter(chosen, np.int64, len(chosen))
+        values = np.array([np.reshape(v, -1) for v in chosen.values()])
+        out = np.empty((1, w.n, 2))
+        changed = decode.act(
+            self.action_level, np.zeros_like(agents), agents, values, _GOING,
+            decode.OneWorld(w), decode.Pilots.of_one(self.supervisor), out,
+        )  # fmt: skip
+        for i in agents[changed].tolist():
+            self._route_length[i] = rules.route_length(w.path_len[i], self._last_s[i])
+        return out[0]
 
     def _validate(self, action, agent: str):
         return levels.validate(

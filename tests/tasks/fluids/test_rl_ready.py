@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 import fluids_bench  # noqa: F401  (registers the ids)
-from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.core import actions
 
 
 def test_velocity_label_is_the_physical_label_normalised():
@@ -19,9 +19,9 @@ def test_velocity_label_is_the_physical_label_normalised():
     for _ in range(30):
         # same target speed in both: the physical label, and its normalised form
         a1 = i1["supervisor_action"]
-        a2 = levels.to_normalized("velocity", v2.unwrapped.world, a1.astype(np.float64))
+        a2 = actions.to_normalized("velocity", v2.unwrapped.world, a1.astype(np.float64))
         assert np.allclose(i2["supervisor_action"], a2, atol=1e-6)
-        back = levels.to_physical("velocity", v2.unwrapped.world, a2)
+        back = actions.to_physical("velocity", v2.unwrapped.world, a2)
         assert np.allclose(back, a1, atol=1e-5)
         *_, i1 = v1.step(a1)
         *_, i2 = v2.step(i2["supervisor_action"])

@@ -9,6 +9,12 @@ or computes a reward: the reward constants, comparisons against the rule options
 (`failure_penalty`, route lengths and progress), tests of who a collision involves, and infos
 built by hand (dicts with the info's fields: `core/infos.py` builds them). The last tests show
 the scan finds each of these in a re-implementation.
+
+A second scan (`action_code`) finds action decoding outside `core/actions.py`: arithmetic on the
+car's limits or the action scales (denormalising a control, rescaling a normalised action),
+clips written by hand, the supervisor's loops driven with an action (its PID, its look-ahead
+points, a target speed replaced, its memory committed), a waypoint's distance, and a movement
+chosen by hand (a route followed, the junction test).
 """
 
 from __future__ import annotations
@@ -168,4 +174,110 @@ def test_a_re_implementation_in_a_new_module_is_found(tmp_path):
         path = tmp_path / "face.py"
         path.write_text(source, encoding="utf-8")
         found = rule_code(path.read_text(encoding="utf-8"), "face.py")
+        assert any(what in line for line in found), (what, found)
+
+
+# ---------------------------------------------------------------------------- action decoding
+SCALES = {"max_steer", "max_force", "max_brake_force", "max_speed", "WAYPOINT_BOUND"}
+# the supervisor's loops and the world's route switch, driven with an action
+DRIVERS = {
+    "lookahead_points", "pid_follow", "pid_follow_into", "pid_follow_worlds", "pid_controls",
+    "pid_controls_into", "commit", "execute", "commit_proposals", "follow", "follow_route",
+    "follow_waypoints", "hypot",
+}  # fmt: skip
+BOUNDS = {"low", "high", "lo", "hi"}
+TARGETS = {"targets", "target_speed", "speeds"}  # the velocity plan's target speeds
+
+
+def _called(node: ast.AST) -> str | None:
+    return _name(node.func) if isinstance(node, ast.Call) else None
+
+
+def action_code(source: str, filename: str) -> list[str]:
+    """`filename:line: what` for each piece of action decoding in `source`."""
+    found = []
+    for node in ast.walk(ast.parse(source, filename)):
+        what = None
+        if isinstance(node, ast.BinOp) and _names(node) & SCALES:
+            what = f"arithmetic on {sorted(_names(node) & SCALES)[0]} (an action's scale)"
+        elif _called(node) == "min" and any(_called(a) == "max" for a in node.args):
+            what = "a clip by hand (min of max)"
+        elif _called(node) == "where" and any(
+            isinstance(a, ast.Compare) and _names(a) & BOUNDS for a in node.args
+        ):
+            what = "a clip by hand (where against bounds)"
+        elif _called(node) in DRIVERS:
+            what = f"the supervisor's loops driven by hand ({_called(node)})"
+        elif isinstance(node, ast.Assign) and any(
+            isinstance(t, ast.Subscript) and _name(t.value) in TARGETS for t in node.targets
+        ):
+            what = "a target speed replaced"
+        elif isinstance(node, ast.Compare) and "enter_s" in _names(node):
+            what = "a movement chosen by hand (the junction test)"
+        if what is not None:
+            found.append(f"{filename}:{node.lineno}: {what}")
+    return sorted(set(found))
+
+
+def test_no_face_decodes_an_action():
+    found = []
+    for path in face_modules():
+        found += action_code(path.read_text(encoding="utf-8"), path.relative_to(FLUIDS).as_posix())
+    assert not found, "action decoding outside fluids_bench/tasks/fluids/core:\n" + "\n".join(found)
+
+
+def test_the_core_holds_the_decoding_the_scan_looks_for():
+    path = FLUIDS / "core" / "actions.py"
+    found = "\n".join(action_code(path.read_text(encoding="utf-8"), "actions.py"))
+    for what in (
+        "(an action's scale)", "a clip by hand", "driven by hand (pid_follow_into)",
+        "driven by hand (follow_route)", "driven by hand (hypot)", "a target speed replaced",
+        "the junction test",
+    ):  # fmt: skip
+        assert what in found, what
+
+
+# the decoding each face had before it called the core (from the start of issue 48's item 1)
+DECODING = {
+    "(an action's scale)": (
+        "def denormalise(world, action):\n    car = world.scene.car\n"
+        "    f = action[1] * (car.max_force if action[1] >= 0 else car.max_brake_force)\n"
+        "    return np.array([action[0] * car.max_steer, f])\n"
+    ),
+    "a clip by hand (min of max)": (
+        "def clip(values, low, high):\n"
+        "    return [min(max(v, lo), hi) for v, lo, hi in zip(values, low, high)]\n"
+    ),
+    "a clip by hand (where against bounds)": (
+        "def clip(values, low, high):\n    values = np.where(low > values, low, values)\n"
+        "    return np.where(high < values, high, values)\n"
+    ),
+    "a target speed replaced": (
+        "def act(sup, w, a):\n    targets = sup.targets.copy()\n    targets[0] = float(a[0])\n"
+        "    return sup.pid.controls(w, targets)\n"
+    ),
+    "driven by hand (lookahead_points)": (
+        "def act(sup, w, aim0):\n    aim = sup.pid.lookahead_points(w)\n    aim[0] = aim0\n"
+        "    return sup.pid.controls(w, sup.targets, aim)\n"
+    ),
+    "driven by hand (hypot)": (
+        "def aim(pts, ahead):\n    return np.flatnonzero(np.hypot(*pts.T) >= ahead)\n"
+    ),
+    "driven by hand (commit_proposals)": "def act(sups, mask):\n    sups.commit_proposals(mask)\n",
+    "driven by hand (follow_route)": (
+        "def choose(envs, i, new):\n    envs[i].world.follow_route(0, int(new[i]))\n"
+    ),
+    "the junction test": (
+        "def change(s, offset, front, routes, route):\n"
+        "    return ~(s + offset + front >= routes.enter_s[route]) & (offset == 0)\n"
+    ),
+}
+
+
+def test_a_re_implemented_decoding_is_found(tmp_path):
+    """Each kind of action decoding, written into a module of its own, fails the scan."""
+    for what, source in DECODING.items():
+        path = tmp_path / "face.py"
+        path.write_text(source, encoding="utf-8")
+        found = action_code(path.read_text(encoding="utf-8"), "face.py")
         assert any(what in line for line in found), (what, found)

@@ -6,4 +6,6 @@ No face restates a rule (`tests/tasks/fluids/test_rules_written_once.py` fails i
 
 * `rules`: what an agent did in a step (collision, rule broken, arrival, success, failure,
   termination) and its reward, for every `reward_version`.
+* `actions`: what the agents do for actions at every level and scale (the supervisor filling
+  the levels below), and the scale maps between physical and normalised actions.
 """

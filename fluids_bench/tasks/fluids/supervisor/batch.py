@@ -11,17 +11,13 @@ in every world in one call and runs the velocity planner of every world due to p
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 from numba import njit
 
 from fluids_bench.tasks.fluids.sim.batch import Rows, WorldBatch
 from fluids_bench.tasks.fluids.sim.layout.geometry import PATH_SPACING
 from fluids_bench.tasks.fluids.supervisor.kernels import (
-    lookahead_points,
     mark_off_route,
-    pid_controls,
     pid_follow_into,
 )
 from fluids_bench.tasks.fluids.supervisor.plan_kernels import plan_head_worlds, plan_tail_worlds
@@ -61,41 +57,6 @@ def pid_follow_worlds(
                 targets[b], steer_prev[b], steer_int[b], speed_int[b], dt, gains, limits, gain,
                 low, high, out[b], memory[b],
             )  # fmt: skip
-
-
-@njit(cache=True, nogil=True)
-def waypoints_follow_worlds(
-    mask, waypoints, lookahead_min, lookahead_time, path_z, s, path_len, min_ahead, ahead_time,
-    spacing, state, is_car, targets, steer_prev, steer_int, speed_int, dt, gains, limits, gain,
-    low, high, out, memory,
-):  # fmt: skip  # pragma: no cover (compiled)
-    """Where `mask[b]`: the controls (into `out[b]`) and next PID memory (`memory[b]`)
-    of world `b` with its ego steering to its trajectory-level `waypoints[b]` (W, 2; the
-    ego's frame) and every other agent to its look-ahead point, as `levels.controls` at the
-    trajectory level (`levels.waypoints_aim`: the first waypoint at least the look-ahead
-    away, else the last; the C library's hypot, cos and sin, as `math`'s)."""
-    for b in range(len(mask)):
-        if not mask[b]:
-            continue
-        aim = lookahead_points(
-            path_z[b], s[b], state[b], path_len[b], min_ahead, ahead_time, spacing
-        )
-        ahead = max(lookahead_min, lookahead_time * state[b, 0, 3])
-        k = waypoints.shape[1] - 1
-        for j in range(waypoints.shape[1]):
-            if math.hypot(waypoints[b, j, 0], waypoints[b, j, 1]) >= ahead:
-                k = j
-                break
-        px, py = waypoints[b, k, 0], waypoints[b, k, 1]
-        x, y, th = state[b, 0, 0], state[b, 0, 1], state[b, 0, 2]
-        aim[0, 0] = x + math.cos(th) * px - math.sin(th) * py
-        aim[0, 1] = y + math.sin(th) * px + math.cos(th) * py
-        controls, err, integ, v_int = pid_controls(
-            state[b], aim, is_car, targets[b], steer_prev[b], steer_int[b], speed_int[b], dt,
-            gains, limits, gain, low, high,
-        )  # fmt: skip
-        out[b] = controls
-        memory[b, 0], memory[b, 1], memory[b, 2] = err, integ, v_int
 
 
 class SupervisorBatch:
@@ -200,27 +161,6 @@ class SupervisorBatch:
             pid.ahead_time, PATH_SPACING, worlds["state"], pid.is_car, targets,
             rows["steer_prev"], rows["steer_int"], rows["speed_int"], w.dt, pid._gains,
             pid._limits, pid.gain, pid.low, pid.high, out, memory,
-        )  # fmt: skip
-
-    def follow_waypoints(
-        self,
-        mask: np.ndarray,
-        worlds: WorldBatch,
-        waypoints: np.ndarray,
-        out: np.ndarray,
-        memory: np.ndarray,
-    ) -> None:
-        """As `follow` toward the supervisors' targets, with each ego (where `mask`)
-        steering to its trajectory-level `waypoints` (B, W, 2; metres, its own frame)
-        instead of its look-ahead point."""
-        sup, w, rows = self.supervisors[0], worlds.worlds[0], self.memory
-        pid, cfg = sup.pid, sup.config.pid
-        waypoints_follow_worlds(
-            mask, waypoints, cfg.lookahead_min, cfg.lookahead_time, worlds["path_z"],
-            worlds["s"], worlds["path_len"], pid.min_ahead, pid.ahead_time, PATH_SPACING,
-            worlds["state"], pid.is_car, self.plans["targets"], rows["steer_prev"],
-            rows["steer_int"], rows["speed_int"], w.dt, pid._gains, pid._limits, pid.gain,
-            pid.low, pid.high, out, memory,
         )  # fmt: skip
 
     def commit_proposals(self, mask: np.ndarray) -> None:

@@ -35,22 +35,3 @@ def current_movement(world: World, agent: int) -> int:
     """Index of `agent`'s current route among its entry lane's movements (what it drives now,
     which a behaviour-level learner may have chosen; not the supervisor's label)."""
     return movement_of(world, int(world.route[agent]))
-
-
-def choose_movement(world: World, agent: int, movement: int) -> bool:
-    """Switch `agent` to movement `movement` (taken modulo the lane's count) if it has not
-    reached the junction yet; returns whether its route changed. The entry lane is shared by all
-    of its movements, so the car keeps its place and progress."""
-    routes = world.layout.routes
-    route = int(world.route[agent])
-    options = world.layout.routes_from_entry(int(routes.entry[route]))
-    new = int(options[int(movement) % len(options)])
-    front = world.length[agent] / 2
-    if (
-        new == route
-        or world.route_s[agent] + front >= routes.enter_s[route]
-        or world.offset[agent] != 0
-    ):
-        return False
-    world.follow_route(agent, new)
-    return True

@@ -158,9 +158,3 @@ class DrivingSupervisor:
         steer, force = control.tolist()  # Python floats: same arithmetic, less overhead
         force /= car.max_force if force >= 0 else car.max_brake_force
         return np.array([min(max(steer / car.max_steer, -1.0), 1.0), min(max(force, -1.0), 1.0)])
-
-    @staticmethod
-    def denormalise(world: World, action: np.ndarray) -> np.ndarray:
-        car = world.scene.car
-        f = action[1] * (car.max_force if action[1] >= 0 else car.max_brake_force)
-        return np.array([action[0] * car.max_steer, f])

@@ -28,11 +28,12 @@ from fluids_bench.core.supervisor import SUPERVISOR_ACTION_KEY
 from fluids_bench.core.validation import as_seed, check_int, fail, is_int, unknown_arguments
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
+from fluids_bench.tasks.fluids.core import actions as decode
 from fluids_bench.tasks.fluids.core import rules
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
-from fluids_bench.tasks.fluids.vector.act import act_batch, label_batch
+from fluids_bench.tasks.fluids.vector.act import label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.bounds import check_num_envs
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
@@ -126,7 +127,7 @@ class FluidsVectorEnv(VectorEnv):
     before the next:
 
     1. the controls of every world, at every action level (array operations and, at the
-       trajectory level, one compiled call: `act_batch`);
+       velocity and trajectory levels, one compiled call: `core.actions.act`, every face's);
     2. the clocks advance (one lookup in the clock's ticks), the lights are looked up again
        where a light changed (one call for all those worlds), and one compiled call moves
        every world
@@ -370,11 +371,24 @@ class FluidsVectorEnv(VectorEnv):
 
     def _act_all(self, actions, stepping, worlds, supervisors) -> None:
         """Every stepping world's controls into `worlds.controls`, in array operations for
-        all worlds at every level (`act_batch`; the batch is checked)."""
-        act_batch(
-            self.envs, actions, stepping, self._bound_arrays, worlds, supervisors,
-            self._act_scratch,
+        all worlds at every level (`decode.act`, one row per world whose ego drives: after
+        arriving, in "all" mode, its action is ignored; the batch is checked)."""
+        first = self.envs[0]
+        rows = (stepping & worlds["active"][:, 0]).nonzero()[0]
+        values = actions[rows]
+        if self._bound_arrays is not None:  # Box: clipped, in physical units
+            values = values.reshape(len(rows), *self._bound_arrays[0].shape).astype(np.float64)
+            values = decode.clip(values, *self._bound_arrays)
+            if first.action_scale == "normalized":
+                values = decode.to_physical(first.action_level, first.world, values)
+        pilots = decode.Pilots.of_batch(supervisors)
+        changed = decode.act(
+            first.action_level, rows, np.zeros_like(rows), values, stepping, worlds, pilots,
+            worlds.controls,
         )  # fmt: skip
+        for i in rows[changed].tolist():  # a behaviour action changed the ego's route
+            env = self.envs[i]
+            env._route_length = float(rules.route_length(env.world.path_len[0], env._last_s))
 
     def _autoreset(self, stepping, terminated, truncated, infos) -> None:
         """Reset the worlds that ended on the previous step (next-step autoreset) or, with
