@@ -242,12 +242,7 @@ def fluids_ood_ratio(suffix: str = "") -> str:
 # evaluator reuses logged episodes): the revision that computed their FLUIDS episodes. Checked
 # against git by tests/docs/test_separation.py (the provenance revision of the card's oldest
 # committed version with the same FLUIDS driving scores).
-EPISODES_FROM = {
-    "scorecard_cnn_dagger.json": "3d2f5ce7b0a2c4feca415036bdb91f7d44419a6c",
-    "scorecard_mlp_bc.json": "0a2b6d15a67b7f279a9164b40dfee09382cab680",
-    "scorecard_mlp_dagger.json": "43f1cfef935a47606880a8f279ba042def7c0a46",
-    "scorecard_mlp_dart.json": "b71bbe2c1188c716f1dcc7a2ef55b1fec9fe6d27",
-}
+EPISODES_FROM: dict[str, str] = {}  # none now: the neural cards' FLUIDS episodes were rerun
 
 
 def _git(*args: str) -> subprocess.CompletedProcess | None:
