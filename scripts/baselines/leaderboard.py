@@ -423,12 +423,18 @@ def run_rl(suite: Suite, args: argparse.Namespace, command: str) -> None:
         if rl_up_to_date(card, suite, sources):
             print(f"{name}: {card} is up to date")
             continue
-        evaluate(
-            sources, suite, args.out, name=name, workers=args.workers,
-            progress=not args.no_progress, plots=not args.no_plots, scorecard=card,
-            command=command,
-        )  # fmt: skip
-        print(f"{name}: wrote {card}")
+        evaluate_card(sources, name, card, suite, args, command)
+
+
+def evaluate_card(
+    sources: Any, name: str, card: Path, suite: Suite, args: argparse.Namespace, command: str
+) -> None:
+    """Evaluate `sources` (a policy per task) as `name` on `suite`, writing `card`."""
+    evaluate(
+        sources, suite, args.out, name=name, workers=args.workers,
+        progress=not args.no_progress, plots=not args.no_plots, scorecard=card, command=command,
+    )  # fmt: skip
+    print(f"{name}: wrote {card}")
 
 
 def run_baseline(baseline: str, suite: Suite, args: argparse.Namespace, command: str) -> None:
@@ -463,12 +469,7 @@ def run_baseline(baseline: str, suite: Suite, args: argparse.Namespace, command:
             sources[task.name].spec = sources[task.name].extras["train_result"] = str(
                 paths[task.name]
             )
-        evaluate(
-            sources, suite, args.out, name=name, workers=args.workers,
-            progress=not args.no_progress, plots=not args.no_plots, scorecard=card,
-            command=command,
-        )  # fmt: skip
-        print(f"{name}: wrote {card}")
+        evaluate_card(sources, name, card, suite, args, command)
 
 
 def main(argv: list[str] | None = None) -> int:
