@@ -270,7 +270,7 @@ def profile(n: int, batch_steps: int, kwargs: dict) -> dict:
     in_infos = (("vector/infos.py", "step_infos"), ("vector/infos.py", "<listcomp>"))
     # labels: read from the rows (asked of each env only where its episode just ended)
     labels = _cum(stats, ENV, "supervisor_action", in_infos, required=False) + _cum(
-        stats, "vector/act.py", "label_batch", IN_STEP, required=False
+        stats, "core/labels.py", "label_rows", IN_STEP, required=False
     )
     # the phases of a vector step (FluidsVectorEnv's docstring), each for all worlds
     parts = {

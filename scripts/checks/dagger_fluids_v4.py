@@ -49,8 +49,7 @@ from fluids_bench.benchmark.metrics import interval
 from fluids_bench.core.jsonl import read_rows
 from fluids_bench.core.provenance import relative_paths
 from fluids_bench.core.splits import split_seeds
-from fluids_bench.tasks.fluids import levels
-from fluids_bench.tasks.fluids.core import actions
+from fluids_bench.tasks.fluids.core import actions, labels
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "quality"))
@@ -72,7 +71,7 @@ def replanned_label(inner) -> np.ndarray:
     world._update_progress()
     supervisor = DrivingSupervisor(world, inner.supervisor_config)
     supervisor.prepare(world)
-    return levels.label(supervisor, world, inner.action_level, 0, inner.action_scale)
+    return labels.label(supervisor, world, inner.action_level, 0, inner.action_scale)
 
 
 class RecoveryProbe:

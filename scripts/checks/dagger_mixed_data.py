@@ -20,7 +20,7 @@ import numpy as np
 from fluids_bench.algos.actors import SUPERVISOR, LearnerActor
 from fluids_bench.algos.learners.sklearn import PolicySpec, fit_policy
 from fluids_bench.algos.rollout import rollout
-from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.core import labels
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 
@@ -34,7 +34,7 @@ def route_label(inner):
     w._update_progress()
     sup = DrivingSupervisor(w, inner.supervisor_config)
     sup.prepare(w)
-    return levels.label(sup, w, inner.action_level, 0, inner.action_scale)
+    return labels.label(sup, w, inner.action_level, 0, inner.action_scale)
 
 
 class Rec:

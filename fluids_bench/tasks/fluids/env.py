@@ -13,7 +13,7 @@ from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
 from fluids_bench.tasks.fluids.core import actions as decode
-from fluids_bench.tasks.fluids.core import infos, rules
+from fluids_bench.tasks.fluids.core import infos, labels, rules
 from fluids_bench.tasks.fluids.core.rules import Judged
 from fluids_bench.tasks.fluids.observations import Observer
 from fluids_bench.tasks.fluids.scenario import (
@@ -411,7 +411,7 @@ class FluidsEnv(SnapshotMixin, gym.Env):
     # ------------------------------------------------------------------ supervisor protocol
     def supervisor_action(self):
         """The supervisor's action for the ego at `action_level` in the current state."""
-        return levels.label(self.supervisor, self.world, self.action_level, 0, self.action_scale)
+        return labels.label(self.supervisor, self.world, self.action_level, 0, self.action_scale)
 
     # ------------------------------------------------------------------ snapshots
     # the world (agents, lights, time and step count), the supervisor's memory (the velocity

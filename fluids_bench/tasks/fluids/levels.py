@@ -1,9 +1,10 @@
 """Acting at a level of FLUIDS' supervisor hierarchy, for any set of controlled cars: the
-action space of each level, validation of one action and the supervisor's label as an action.
+action space of each level and validation of one action.
 
 Shared by the single-agent env (the ego) and the multi-agent env (every controlled car). What
 the agents then do for the actions (every face's decoding) is
-`fluids_bench.tasks.fluids.core.actions`.
+`fluids_bench.tasks.fluids.core.actions`; the supervisor's label as an action is
+`fluids_bench.tasks.fluids.core.labels`.
 """
 
 from __future__ import annotations
@@ -17,7 +18,6 @@ from fluids_bench.core.actions import check_box_action, check_discrete_action
 from fluids_bench.tasks.fluids.core import actions
 from fluids_bench.tasks.fluids.sim.world import World
 from fluids_bench.tasks.fluids.supervisor.behavior import movement_count
-from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 
 def action_space(level: str, world: World, waypoints: int, scale: str = "physical") -> spaces.Space:
@@ -62,21 +62,3 @@ def clip(level: str, values, bounds: tuple, world=None, scale="physical") -> np.
     flat), in physical units, as `validate` returns it."""
     out = actions.clip(np.asarray(values, dtype=np.float64), *bounds)
     return actions.to_physical(level, world, out) if scale == "normalized" else out
-
-
-def label(
-    supervisor: DrivingSupervisor, world: World, level: str, agent: int, scale: str = "physical"
-):
-    """The supervisor's label for `agent` at `level`, typed like an action of that level
-    (with `scale="normalized"`, in the normalised action's units)."""
-    value = supervisor.label(world, level, agent)
-    if level == "behavior":
-        return int(value)
-    if scale == "normalized" and level in ("velocity", "trajectory"):
-        value = actions.to_normalized(
-            level, world, np.atleast_1d(np.asarray(value, dtype=np.float64))
-        )
-        return value.astype(np.float32)
-    if level == "velocity":
-        return np.array([value], dtype=np.float32)
-    return np.asarray(value, dtype=np.float32)

@@ -23,7 +23,7 @@ from fluids_bench.tasks.fluids import driving_score as scoring
 from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import MULTI_AGENT
 from fluids_bench.tasks.fluids.core import actions as decode
-from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core import labels, rules
 from fluids_bench.tasks.fluids.core.infos import agent_info
 from fluids_bench.tasks.fluids.core.rules import Rules
 from fluids_bench.tasks.fluids.observations import OBS_BOUND, Observer
@@ -484,7 +484,7 @@ class FluidsParallelEnv(SnapshotMixin, ParallelEnv):
         return self._label(self._index[agent])
 
     def _label(self, i: int):
-        return levels.label(self.supervisor, self.world, self.action_level, i, self.action_scale)
+        return labels.label(self.supervisor, self.world, self.action_level, i, self.action_scale)
 
     # ------------------------------------------------------------------ helpers
     def _controls(self, chosen: dict[int, Any]) -> np.ndarray:

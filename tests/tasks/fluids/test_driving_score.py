@@ -12,7 +12,7 @@ import pytest
 import fluids_bench  # noqa: F401
 from fluids_bench.registration import make_parallel_env
 from fluids_bench.tasks.fluids import driving_score as scoring
-from fluids_bench.tasks.fluids import levels
+from fluids_bench.tasks.fluids.core import labels
 from fluids_bench.tasks.fluids.supervisor.stack import DrivingSupervisor
 
 KEYS = set(scoring.INFO_KEYS)
@@ -210,7 +210,7 @@ def _fresh_label(env):
     world = copy.deepcopy(inner.world)
     fresh = DrivingSupervisor(world, inner.supervisor_config)
     fresh.prepare(world)
-    return levels.label(fresh, world, inner.action_level, 0, inner.action_scale)
+    return labels.label(fresh, world, inner.action_level, 0, inner.action_scale)
 
 
 @pytest.mark.parametrize("driver", ["random", "noisy"])
@@ -251,7 +251,7 @@ def test_multi_agent_labels_equal_a_fresh_supervisors():
         fresh.prepare(world)
         for agent in env.agents:
             i = int(agent.split("_")[1])
-            label = levels.label(fresh, world, env.action_level, i, env.action_scale)
+            label = labels.label(fresh, world, env.action_level, i, env.action_scale)
             assert np.array_equal(label, infos[agent]["supervisor_action"]), agent
             checked += 1
         actions = {

@@ -8,4 +8,5 @@ No face restates a rule (`tests/tasks/fluids/test_rules_written_once.py` fails i
   termination) and its reward, for every `reward_version`.
 * `actions`: what the agents do for actions at every level and scale (the supervisor filling
   the levels below), and the scale maps between physical and normalised actions.
+* `labels`: the supervisor's label of an agent at every level and scale, typed like an action.
 """

@@ -80,13 +80,6 @@ def denormalise(car, values: np.ndarray) -> np.ndarray:
     return np.column_stack([values[:, 0] * car.max_steer, force])
 
 
-def normalise(car, controls: np.ndarray) -> np.ndarray:
-    """Car controls (R, 2) `[ψ, F]` as control-level actions in `[-1, 1]` (a label)."""
-    steer, force = controls[:, 0], controls[:, 1]
-    force = force / np.where(force >= 0, car.max_force, car.max_brake_force)
-    return clip(np.column_stack([steer / car.max_steer, force]), -1.0, 1.0)
-
-
 @dataclass(frozen=True)
 class Movements:
     """A layout's movements as tables: the route of each movement of each entry lane (E, M;
@@ -139,7 +132,8 @@ class Pilots:
 
 
 class OneWorld:
-    """One world's arrays as B = 1 rows, read as a `WorldBatch`'s (`world["s"]`: (1, N))."""
+    """One world's arrays as B = 1 rows, read as a `WorldBatch`'s (`world["s"]`: (1, N)); or
+    one supervisor's, read as a `SupervisorBatch`'s `plans` (`core.labels`)."""
 
     __slots__ = ("worlds",)
 

@@ -3,8 +3,9 @@
 Each step, `DrivingSupervisor.prepare` reads the true world state (never an observation),
 plans any needed recovery paths, runs the velocity planner at its rate and proposes controls for
 every agent. The env then overrides what the ego's chosen level decides and executes with
-`DrivingSupervisor.execute`. The labels of every level for any agent come from the same
-proposal, so the label is what the supervisor would do in the current state.
+`DrivingSupervisor.execute`. The labels of every level for any agent are read from its plan and
+proposal (`fluids_bench.tasks.fluids.core.labels`), so the label is what the supervisor would do
+in the current state.
 """
 
 from __future__ import annotations
@@ -15,13 +16,8 @@ import numpy as np
 
 from fluids_bench.tasks.fluids.sim.config import check_range
 from fluids_bench.tasks.fluids.sim.world import World
-from fluids_bench.tasks.fluids.supervisor.behavior import movement_of
 from fluids_bench.tasks.fluids.supervisor.control import PIDConfig, PIDController
-from fluids_bench.tasks.fluids.supervisor.trajectory import (
-    RecoveryPlanner,
-    off_route,
-    waypoints_ego_frame,
-)
+from fluids_bench.tasks.fluids.supervisor.trajectory import RecoveryPlanner, off_route
 from fluids_bench.tasks.fluids.supervisor.velocity import VelocityPlanner, VelocityPlannerConfig
 
 LEVELS = ("behavior", "trajectory", "velocity", "control")
@@ -135,26 +131,3 @@ class DrivingSupervisor:
         """One fully supervised step (every agent follows the supervisor)."""
         self.prepare(world)
         return self.execute(world)
-
-    # ------------------------------------------------------------------ labels
-    def label(self, world: World, level: str, agent: int = 0):
-        """What the supervisor does for `agent` at `level` in the current (prepared) state."""
-        if level == "behavior":
-            return movement_of(world, int(self.behavior_routes[agent]))
-        if level == "trajectory":
-            return waypoints_ego_frame(
-                world, agent, self.config.waypoints, self.config.waypoint_spacing
-            )
-        if level == "velocity":
-            return float(self.targets[agent])
-        if level == "control":
-            return self.normalise(world, self.proposed[agent])
-        raise ValueError(f"level is {level!r}; allowed: {list(LEVELS)}")
-
-    @staticmethod
-    def normalise(world: World, control: np.ndarray) -> np.ndarray:
-        """Car controls [ψ, F] as the control-level action in [-1, 1]²."""
-        car = world.scene.car
-        steer, force = control.tolist()  # Python floats: same arithmetic, less overhead
-        force /= car.max_force if force >= 0 else car.max_brake_force
-        return np.array([min(max(steer / car.max_steer, -1.0), 1.0), min(max(force, -1.0), 1.0)])

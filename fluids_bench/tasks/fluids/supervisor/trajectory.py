@@ -56,17 +56,6 @@ def _ompl():
     return ob
 
 
-def waypoints_ego_frame(world: World, agent: int, count: int, spacing: float) -> np.ndarray:
-    """The next `count` points of `agent`'s path, `spacing` m apart, in its own frame
-    (x forward, y left), flattened to (2 * count,)."""
-    s = world.s[agent] + spacing * np.arange(1, count + 1)
-    pts, _ = world.path_points(np.minimum(s, world.path_len[agent]), np.full(count, agent))
-    x, y, th, _ = world.state[agent]
-    d = pts - [x, y]
-    c, si = np.cos(th), np.sin(th)
-    return np.column_stack([c * d[:, 0] + si * d[:, 1], -si * d[:, 0] + c * d[:, 1]]).ravel()
-
-
 def off_route(world: World) -> np.ndarray:
     """Indices of the active cars too far from their paths, by position or heading."""
     lateral, herr = world.tracking_error()

@@ -30,10 +30,10 @@ from fluids_bench.tasks.fluids import levels
 from fluids_bench.tasks.fluids.config import SINGLE_AGENT
 from fluids_bench.tasks.fluids.core import actions as decode
 from fluids_bench.tasks.fluids.core import rules
+from fluids_bench.tasks.fluids.core.labels import label_rows
 from fluids_bench.tasks.fluids.env import FluidsEnv
 from fluids_bench.tasks.fluids.sim.batch import FaultBatch, Rows, WorldBatch
 from fluids_bench.tasks.fluids.supervisor.batch import SupervisorBatch
-from fluids_bench.tasks.fluids.vector.act import label_batch
 from fluids_bench.tasks.fluids.vector.actions import check_batch
 from fluids_bench.tasks.fluids.vector.bounds import check_num_envs
 from fluids_bench.tasks.fluids.vector.infos import batch_infos, step_infos
@@ -327,9 +327,9 @@ class FluidsVectorEnv(VectorEnv):
         self._observe(stepping, index, worlds, worlds.lights)
         self._autoreset(stepping, terminated, truncated, infos)
         if batched_infos:  # the labels of the worlds whose supervisor just proposed
-            label_batch(
-                self.envs, going, worlds, supervisors, self._labels,
-                self._act_scratch.get("movements"),
+            self._labels[going] = label_rows(
+                first.action_level, first.action_scale, (going, 0), worlds, supervisors.plans,
+                first.supervisor.config, self._act_scratch.get("movements"),
             )  # fmt: skip
             labels = (self._labels, going)
             info = step_infos(self.envs, worlds, faults, worlds.lights, infos, events, labels)

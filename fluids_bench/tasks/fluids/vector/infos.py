@@ -84,7 +84,7 @@ def step_infos(
     `WorldBatch` and `FaultBatch`, `lights`
     each world's light states (B, L) and `events` each world's new collisions. `labels`:
     (labels (B, ...), mask) with the label of each world where the mask is set (from
-    `act.label_batch`); the other worlds' labels come from their envs."""
+    `core.labels.label_rows`); the other worlds' labels come from their envs."""
     n, w = len(envs), envs[0].world
     out: dict[str, Any] = {}
     if labels is None:
