@@ -15,6 +15,10 @@ car's limits or the action scales (denormalising a control, rescaling a normalis
 clips written by hand, the supervisor's loops driven with an action (its PID, its look-ahead
 points, a target speed replaced, its memory committed), a waypoint's distance, and a movement
 chosen by hand (a route followed, the junction test).
+
+A third scan (`label_code`) finds the supervisor's labels computed outside `core/labels.py`: its
+plan read by hand (the routes it drew, its target speeds, its proposed controls), a movement
+looked up, waypoints in an agent's frame, a label normalised.
 """
 
 from __future__ import annotations
@@ -129,7 +133,7 @@ def face_modules() -> list[Path]:
 
 def test_no_face_judges_a_step_or_computes_a_reward():
     faces = face_modules()
-    assert {"env.py", "multi_agent.py", "vector/env.py", "vector/act.py"} <= {
+    assert {"env.py", "multi_agent.py", "vector/env.py", "levels.py"} <= {
         p.relative_to(FLUIDS).as_posix() for p in faces
     }
     found = []
@@ -280,4 +284,95 @@ def test_a_re_implemented_decoding_is_found(tmp_path):
         path = tmp_path / "face.py"
         path.write_text(source, encoding="utf-8")
         found = action_code(path.read_text(encoding="utf-8"), "face.py")
+        assert any(what in line for line in found), (what, found)
+
+
+# ----------------------------------------------------------------------------------- labels
+# the supervisor's plan, read by hand: a label's makings (core/labels.py reads them)
+PLAN = {"behavior_routes", "targets", "proposed"}
+# the label's maps: a movement, a waypoint in the agent's frame, a scale, a control normalised
+LABELLERS = {"movement_of", "waypoints_ego_frame", "path_points", "to_normalized", "normalise"}
+
+
+def label_code(source: str, filename: str) -> list[str]:
+    """`filename:line: what` for each piece of a label computed in `source`."""
+    found = []
+    for node in ast.walk(ast.parse(source, filename)):
+        what = None
+        if isinstance(node, ast.Attribute) and node.attr in PLAN:
+            what = f"the supervisor's plan read by hand ({node.attr})"
+        elif (
+            isinstance(node, ast.Subscript)
+            and isinstance(node.slice, ast.Constant)
+            and node.slice.value in PLAN
+        ):
+            what = f"the supervisor's plan read by hand ({node.slice.value})"
+        elif isinstance(node, ast.Attribute) and node.attr == "of_route":
+            what = "a movement looked up by hand (of_route)"
+        elif _called(node) in LABELLERS:
+            what = f"a label computed by hand ({_called(node)})"
+        elif isinstance(node, ast.BinOp) and "waypoint_spacing" in _names(node):
+            what = "a label computed by hand (arithmetic on waypoint_spacing)"
+        if what is not None:
+            found.append(f"{filename}:{node.lineno}: {what}")
+    return sorted(set(found))
+
+
+def test_no_face_computes_a_label():
+    found = []
+    for path in face_modules():
+        found += label_code(path.read_text(encoding="utf-8"), path.relative_to(FLUIDS).as_posix())
+    assert not found, "labels computed outside fluids_bench/tasks/fluids/core:\n" + "\n".join(found)
+
+
+def test_the_core_holds_the_labels_the_scan_looks_for():
+    path = FLUIDS / "core" / "labels.py"
+    found = "\n".join(label_code(path.read_text(encoding="utf-8"), "labels.py"))
+    for what in (
+        "read by hand (behavior_routes)", "read by hand (targets)", "read by hand (proposed)",
+        "(of_route)", "by hand (waypoints_ego_frame)", "by hand (to_normalized)",
+        "by hand (normalise)", "on waypoint_spacing",
+    ):  # fmt: skip
+        assert what in found, what
+
+
+# the labels each face computed before it called the core (from the start of issue 48's item 1:
+# `levels.label`, the vector env's `label_batch`, `DrivingSupervisor.label`)
+LABELLING = {
+    "(behavior_routes)": (
+        "def label(sups, going, movements):\n"
+        '    return movements.of_route[sups.plans["behavior_routes"][going, 0]]\n'
+    ),
+    "(of_route)": "def label(table, routes, going):\n    return table.of_route[routes[going, 0]]\n",
+    "(targets)": "def label(sup, agent):\n    return np.array([sup.targets[agent]], np.float32)\n",
+    "(proposed)": (
+        "def label(sup, agent):\n    steer, force = sup.proposed[agent].tolist()\n"
+        "    return np.array([steer, force])\n"
+    ),
+    "by hand (movement_of)": "def label(w, routes, i):\n    return movement_of(w, int(routes[i]))\n",
+    "by hand (to_normalized)": (
+        "def label(level, world, value):\n"
+        "    return actions.to_normalized(level, world, np.atleast_1d(value)).astype(np.float32)\n"
+    ),
+    "by hand (normalise)": "def label(car, controls):\n    return actions.normalise(car, controls)\n",
+    "by hand (waypoints_ego_frame)": (
+        "def label(worlds, going, first):\n"
+        "    return waypoints_ego_frame(worlds, going, first.supervisor.config)\n"
+    ),
+    "by hand (path_points)": (
+        "def label(world, s, agent, n):\n    return world.path_points(s, np.full(n, agent))[0]\n"
+    ),
+    "on waypoint_spacing": (
+        "def ahead(worlds, mask, config):\n"
+        '    return worlds["s"][mask, 0][:, None] + config.waypoint_spacing * np.arange(1, 6)\n'
+    ),
+}
+
+
+def test_a_re_implemented_label_is_found(tmp_path):
+    """Each kind of label, written into a module of its own, fails the scan."""
+    for what, source in LABELLING.items():
+        path = tmp_path / "face.py"
+        path.write_text(source, encoding="utf-8")
+        found = label_code(path.read_text(encoding="utf-8"), "face.py")
         assert any(what in line for line in found), (what, found)
