@@ -230,7 +230,6 @@ class FluidsVectorEnv(VectorEnv):
         self._bound_arrays = (
             tuple(np.asarray(b, dtype=np.float64) for b in self._bounds) if self._bounds else None
         )
-        self._act_scratch: dict[str, np.ndarray] = {}
         behavior = self.envs[0].action_level == "behavior"  # Discrete: integer labels
         self._labels = np.zeros(
             (self.num_envs, *self.envs[0].action_space.shape),
@@ -329,7 +328,7 @@ class FluidsVectorEnv(VectorEnv):
         if batched_infos:  # the labels of the worlds whose supervisor just proposed
             self._labels[going] = label_rows(
                 first.action_level, first.action_scale, (going, 0), worlds, supervisors.plans,
-                first.supervisor.config, self._act_scratch.get("movements"),
+                first.supervisor.config,
             )  # fmt: skip
             labels = (self._labels, going)
             info = step_infos(self.envs, worlds, faults, worlds.lights, infos, events, labels)
